@@ -1,0 +1,57 @@
+//! The large entries, kept exactly in compressed sparse rows.
+
+use alloc::borrow::Cow;
+use alloc::vec::Vec;
+
+/// Entries of the transfer matrix too large to quantise, stored exactly (CSR). Their places in
+/// the blocks hold zero, so a gather adds both parts without double counting.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SparseRows<'a> {
+    /// `n + 1` offsets into `cols`; row `i` owns `cols[row_ptr[i]..row_ptr[i+1]]`.
+    pub row_ptr: Cow<'a, [u32]>,
+    /// Column of each entry, strictly increasing within a row.
+    pub cols: Cow<'a, [u32]>,
+    /// `channels` values per entry, interleaved.
+    pub values: Cow<'a, [f32]>,
+}
+
+impl SparseRows<'static> {
+    /// No entries for `n` rows.
+    pub fn empty(n: usize) -> Self {
+        Self {
+            row_ptr: Cow::Owned(alloc::vec![0; n + 1]),
+            cols: Cow::Owned(Vec::new()),
+            values: Cow::Owned(Vec::new()),
+        }
+    }
+}
+
+impl SparseRows<'_> {
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.cols.len()
+    }
+
+    /// The entries of `row`: `(column, values)` pairs.
+    pub fn row(&self, row: usize, channels: usize) -> impl Iterator<Item = (usize, &[f32])> + '_ {
+        let (a, b) = (self.row_ptr[row] as usize, self.row_ptr[row + 1] as usize);
+        self.cols[a..b]
+            .iter()
+            .zip(self.values[a * channels..b * channels].chunks_exact(channels))
+            .map(|(c, v)| (*c as usize, v))
+    }
+
+    /// Bytes the three arrays take.
+    pub fn bytes(&self) -> usize {
+        4 * (self.row_ptr.len() + self.cols.len() + self.values.len())
+    }
+
+    /// Copies borrowed arrays so the value outlives its source bytes.
+    pub fn into_owned(self) -> SparseRows<'static> {
+        SparseRows {
+            row_ptr: Cow::Owned(self.row_ptr.into_owned()),
+            cols: Cow::Owned(self.cols.into_owned()),
+            values: Cow::Owned(self.values.into_owned()),
+        }
+    }
+}

@@ -1,0 +1,236 @@
+//! The stored transfer matrix: layout, per-tile scales, block data and the sparse large entries.
+
+use crate::bc1::Bc1Block;
+use crate::bc4::Bc4Block;
+use crate::half::{f16_is_finite, f16_to_f32};
+use crate::layout::{Format, MatrixLayout, Tile};
+use crate::{DecodeMode, LogScale, RadError, SectionKind, SparseRows};
+use alloc::borrow::Cow;
+use alloc::vec::Vec;
+
+/// A transfer matrix as stored: `M` in the patch numbering of the file (the reordering is
+/// already applied), ready to gather from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferMatrix<'a> {
+    /// Shape and format.
+    pub layout: MatrixLayout,
+    /// One [`LogScale`] per tile and channel ([`MatrixLayout::scale_index`]); empty for the
+    /// float formats.
+    pub scales: Cow<'a, [LogScale]>,
+    /// Block data in the order [`MatrixLayout`] describes.
+    pub blocks: Cow<'a, [u8]>,
+    /// The large entries, exact; zero in the blocks.
+    pub sparse: SparseRows<'a>,
+}
+
+/// Decodes blocks of one matrix to values: holds the decode mode and a 256-entry table per scale.
+#[derive(Clone, Debug)]
+pub struct BlockDecoder {
+    mode: DecodeMode,
+    tables: Vec<[f32; 256]>,
+}
+
+/// The 16 values of one 4×4 block, per channel (row-major in the block). A one-channel matrix
+/// fills only `[0]`.
+pub type BlockValues = [[f32; 16]; 3];
+
+impl<'a> TransferMatrix<'a> {
+    /// Checks everything a gather relies on: counts, sizes, scales, finite non-negative values,
+    /// and the sparse structure. Errors name the section and the index of the first bad item.
+    pub fn validate(&self) -> Result<(), RadError> {
+        let l = &self.layout;
+        let n = l.n();
+        let bad = |section, index: usize, reason| RadError::Invalid { section, index: index as u64, reason };
+        if self.scales.len() != l.scale_count() {
+            return Err(RadError::Count {
+                section: SectionKind::Scales,
+                expected: l.scale_count() as u64,
+                found: self.scales.len() as u64,
+            });
+        }
+        if let Some(i) = self.scales.iter().position(|s| !s.is_valid()) {
+            return Err(bad(SectionKind::Scales, i, "scale not finite and positive"));
+        }
+        if self.blocks.len() as u64 != l.block_bytes() {
+            return Err(RadError::Count {
+                section: SectionKind::Blocks,
+                expected: l.block_bytes(),
+                found: self.blocks.len() as u64,
+            });
+        }
+        match l.format() {
+            Format::F16 => {
+                for (i, h) in self.blocks.chunks_exact(2).enumerate() {
+                    let h = u16::from_le_bytes([h[0], h[1]]);
+                    if !f16_is_finite(h) || (h & 0x8000 != 0 && h != 0x8000) {
+                        return Err(bad(SectionKind::Blocks, i, "f16 entry not finite and non-negative"));
+                    }
+                }
+            }
+            Format::F32 => {
+                for (i, v) in self.blocks.chunks_exact(4).enumerate() {
+                    let v = f32::from_le_bytes([v[0], v[1], v[2], v[3]]);
+                    if !(v.is_finite() && v >= 0.0) {
+                        return Err(bad(SectionKind::Blocks, i, "f32 entry not finite and non-negative"));
+                    }
+                }
+            }
+            _ => {}
+        }
+        let sp = &self.sparse;
+        if sp.row_ptr.len() != n + 1 {
+            return Err(RadError::Count {
+                section: SectionKind::SparseRows,
+                expected: n as u64 + 1,
+                found: sp.row_ptr.len() as u64,
+            });
+        }
+        if sp.row_ptr[0] != 0 {
+            return Err(bad(SectionKind::SparseRows, 0, "first row offset is not 0"));
+        }
+        if let Some(i) = sp.row_ptr.windows(2).position(|w| w[1] < w[0]) {
+            return Err(bad(SectionKind::SparseRows, i + 1, "row offsets decrease"));
+        }
+        if sp.row_ptr[n] as usize != sp.cols.len() {
+            return Err(RadError::Count {
+                section: SectionKind::SparseCols,
+                expected: u64::from(sp.row_ptr[n]),
+                found: sp.cols.len() as u64,
+            });
+        }
+        if sp.values.len() != sp.cols.len() * l.channels() {
+            return Err(RadError::Count {
+                section: SectionKind::SparseValues,
+                expected: (sp.cols.len() * l.channels()) as u64,
+                found: sp.values.len() as u64,
+            });
+        }
+        for row in 0..n {
+            let (a, b) = (sp.row_ptr[row] as usize, sp.row_ptr[row + 1] as usize);
+            for k in a..b {
+                if sp.cols[k] as usize >= n {
+                    return Err(bad(SectionKind::SparseCols, k, "column out of range"));
+                }
+                if k > a && sp.cols[k] <= sp.cols[k - 1] {
+                    return Err(bad(SectionKind::SparseCols, k, "columns not strictly increasing in a row"));
+                }
+            }
+        }
+        if let Some(i) = sp.values.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(bad(SectionKind::SparseValues, i, "value not finite and non-negative"));
+        }
+        Ok(())
+    }
+
+    /// A decoder for this matrix under `mode` (builds the scale tables once).
+    pub fn decoder(&self, mode: DecodeMode) -> BlockDecoder {
+        BlockDecoder { mode, tables: self.scales.iter().map(LogScale::table).collect() }
+    }
+
+    /// Bytes of block data plus sparse arrays plus scales: what a gather reads.
+    pub fn bytes(&self) -> usize {
+        self.blocks.len() + self.sparse.bytes() + self.scales.len() * core::mem::size_of::<LogScale>()
+    }
+
+    /// The whole matrix decoded, row-major, `channels` values per entry interleaved, blocks and
+    /// sparse part added. Allocates `n² · channels` floats: for tests and error measurement.
+    pub fn decode_dense(&self, mode: DecodeMode) -> Vec<f32> {
+        let l = &self.layout;
+        let (n, ch) = (l.n(), l.channels());
+        let mut out = alloc::vec![0f32; n * n * ch];
+        let dec = self.decoder(mode);
+        let mut vals = [[0f32; 16]; 3];
+        for tile in l.tiles() {
+            for br in 0..tile.blocks_high() {
+                for bc in 0..tile.blocks_wide() {
+                    dec.decode(self, &tile, br, bc, &mut vals);
+                    for i in 0..16 {
+                        let (r, c) = (tile.row0 + br * 4 + i / 4, tile.col0 + bc * 4 + i % 4);
+                        if r < n && c < n {
+                            for k in 0..ch {
+                                out[(r * n + c) * ch + k] = vals[k][i];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for r in 0..n {
+            for (c, v) in self.sparse.row(r, ch) {
+                for k in 0..ch {
+                    out[(r * n + c) * ch + k] += v[k];
+                }
+            }
+        }
+        out
+    }
+
+    /// Copies borrowed parts so the matrix outlives its source bytes.
+    pub fn into_owned(self) -> TransferMatrix<'static> {
+        TransferMatrix {
+            layout: self.layout,
+            scales: Cow::Owned(self.scales.into_owned()),
+            blocks: Cow::Owned(self.blocks.into_owned()),
+            sparse: self.sparse.into_owned(),
+        }
+    }
+}
+
+impl BlockDecoder {
+    /// The decode mode in use.
+    pub fn mode(&self) -> DecodeMode {
+        self.mode
+    }
+
+    /// Decodes block (`br`, `bc`) of `tile` into `out[channel][texel]`.
+    ///
+    /// Panics if `m` is not the matrix this decoder was made for (table count differs) or the
+    /// block lies outside the tile: both are programming errors, not bad input, since
+    /// [`TransferMatrix::validate`] has checked the sizes.
+    pub fn decode(&self, m: &TransferMatrix<'_>, tile: &Tile, br: usize, bc: usize, out: &mut BlockValues) {
+        let l = &m.layout;
+        assert_eq!(self.tables.len(), l.scale_count(), "decoder made for another matrix");
+        let bb = l.format().block_bytes();
+        for plane in 0..l.planes() {
+            let off = l.block_offset(tile, plane, br, bc);
+            let raw = &m.blocks[off..off + bb];
+            let table = |ch: usize| &self.tables[l.scale_index(tile.index, ch)];
+            match l.format() {
+                Format::Bc1 => {
+                    let block = Bc1Block(raw.try_into().expect("8 bytes"));
+                    let texels = block.decode(self.mode);
+                    for ch in 0..3 {
+                        let t = table(ch);
+                        for i in 0..16 {
+                            out[ch][i] = t[usize::from(texels[i][ch])];
+                        }
+                    }
+                }
+                Format::Bc4 => {
+                    let codes = Bc4Block(raw.try_into().expect("8 bytes")).decode(self.mode);
+                    let t = table(plane);
+                    for i in 0..16 {
+                        out[plane][i] = t[usize::from(codes[i])];
+                    }
+                }
+                Format::U8 => {
+                    let t = table(plane);
+                    for i in 0..16 {
+                        out[plane][i] = t[usize::from(raw[i])];
+                    }
+                }
+                Format::F16 => {
+                    for i in 0..16 {
+                        out[plane][i] = f16_to_f32(u16::from_le_bytes([raw[2 * i], raw[2 * i + 1]]));
+                    }
+                }
+                Format::F32 => {
+                    for i in 0..16 {
+                        let b = &raw[4 * i..4 * i + 4];
+                        out[plane][i] = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,2 @@
+//! The `radiosity` command line (DESIGN.md, "Command line").
+fn main() {}
