@@ -61,7 +61,10 @@ impl std::error::Error for SurfaceError {}
 
 /// Bytes of a `width × height` surface of 8-byte blocks, or `None` on overflow.
 pub(crate) fn surface_bytes(width: usize, height: usize) -> Option<usize> {
-    width.div_ceil(4).checked_mul(height.div_ceil(4))?.checked_mul(8)
+    width
+        .div_ceil(4)
+        .checked_mul(height.div_ceil(4))?
+        .checked_mul(8)
 }
 
 /// Runs `decode` on each block of a surface and scatters its 16 texels into `out` (row-major,
@@ -78,10 +81,16 @@ pub(crate) fn decode_surface<T: Copy>(
         actual: data.len(),
     })?;
     if data.len() != expected {
-        return Err(SurfaceError::DataLength { expected, actual: data.len() });
+        return Err(SurfaceError::DataLength {
+            expected,
+            actual: data.len(),
+        });
     }
     if out.len() != width * height {
-        return Err(SurfaceError::OutputLength { expected: width * height, actual: out.len() });
+        return Err(SurfaceError::OutputLength {
+            expected: width * height,
+            actual: out.len(),
+        });
     }
     let blocks_wide = width.div_ceil(4);
     for (b, chunk) in data.chunks_exact(8).enumerate() {

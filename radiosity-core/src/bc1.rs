@@ -74,7 +74,11 @@ pub fn expand_565(c: u16) -> [u8; 3] {
     let r = ((c >> 11) & 0x1f) as u8;
     let g = ((c >> 5) & 0x3f) as u8;
     let b = (c & 0x1f) as u8;
-    [(r << 3) | (r >> 2), (g << 2) | (g >> 4), (b << 3) | (b >> 2)]
+    [
+        (r << 3) | (r >> 2),
+        (g << 2) | (g >> 4),
+        (b << 3) | (b >> 2),
+    ]
 }
 
 /// Decodes one BC1 block with the [`DecodeMode::D3d10`] rules: 16 RGBA texels, row-major.
@@ -109,7 +113,10 @@ pub fn decode_bc1_surface(
     // Check the length before allocating: the output is bounded by the input's size.
     let expected = crate::bc::surface_bytes(width, height).unwrap_or(usize::MAX);
     if data.len() != expected {
-        return Err(SurfaceError::DataLength { expected, actual: data.len() });
+        return Err(SurfaceError::DataLength {
+            expected,
+            actual: data.len(),
+        });
     }
     let mut out = alloc::vec![[0u8; 4]; width * height];
     decode_bc1_surface_into(data, width, height, mode, &mut out)?;
@@ -130,13 +137,32 @@ mod tests {
 
     #[test]
     fn modes_differ_only_in_rounding() {
-        // c0 = white (0xffff) > c1 = black: four-colour; indices 0,1,2,3 in texels 0..4.
-        let block = [0xff, 0xff, 0x00, 0x00, 0b11_10_01_00, 0, 0, 0];
+        // c0 = pure red (0xf800) > c1 = pure green (0x07e0): four-colour; texels 0..4 use
+        // indices 0, 1, 2, 3.
+        let block = [0x00, 0xf8, 0xe0, 0x07, 0b11_10_01_00, 0, 0, 0];
         let d = decode_bc1_block(&block);
-        assert_eq!(&d[..4], &[[255; 4], [0, 0, 0, 255], [170, 170, 170, 255], [85, 85, 85, 255]]);
+        // Red falls 255 → 0: (2·255)/3 = 170, 255/3 = 85. Green rises 0 → 255: 85, 170.
+        assert_eq!(
+            &d[..4],
+            &[
+                [255, 0, 0, 255],
+                [0, 255, 0, 255],
+                [170, 85, 0, 255],
+                [85, 170, 0, 255]
+            ]
+        );
         let m = decode_bc1_block_with(&block, DecodeMode::Mesa);
-        // 255 + ((-255·85) >> 8) = 255 − 85 = 170 (floor of −84.66 is −85).
-        assert_eq!(&m[..4], &[[255; 4], [0, 0, 0, 255], [170, 170, 170, 255], [86, 86, 86, 255]]);
+        // Red: 255 + ((−255·85) >> 8) = 255 − 85 = 170 (the shift floors −84.7 to −85), the same.
+        // Green: 0 + ((255·85) >> 8) = 84 and (255·170) >> 8 = 169: one lower than D3D10.
+        assert_eq!(
+            &m[..4],
+            &[
+                [255, 0, 0, 255],
+                [0, 255, 0, 255],
+                [170, 84, 0, 255],
+                [85, 169, 0, 255]
+            ]
+        );
     }
 
     #[test]

@@ -83,7 +83,10 @@ pub fn decode_bc4_surface(
 ) -> Result<alloc::vec::Vec<u8>, SurfaceError> {
     let expected = crate::bc::surface_bytes(width, height).unwrap_or(usize::MAX);
     if data.len() != expected {
-        return Err(SurfaceError::DataLength { expected, actual: data.len() });
+        return Err(SurfaceError::DataLength {
+            expected,
+            actual: data.len(),
+        });
     }
     let mut out = alloc::vec![0u8; width * height];
     decode_bc4_surface_into(data, width, height, mode, &mut out)?;
@@ -97,16 +100,29 @@ mod tests {
     #[test]
     fn eight_value_palette() {
         let b = Bc4Block([255, 0, 0, 0, 0, 0, 0, 0]);
-        assert_eq!(b.palette(DecodeMode::D3d10), [255, 0, 218, 182, 145, 109, 72, 36]);
-        // Mesa: 255 + ((−255·⌊255t/7⌋) >> 8): t=1 → w=36 → 255 − 36 = 219.
-        assert_eq!(b.palette(DecodeMode::Mesa), [255, 0, 219, 182, 146, 109, 73, 37]);
+        assert_eq!(
+            b.palette(DecodeMode::D3d10),
+            [255, 0, 218, 182, 145, 109, 72, 36]
+        );
+        // Mesa: 255 + ((−255·⌊255t/7⌋) >> 8): t=1 → w=36 → 255 − 36 = 219; t=2 → w=72,
+        // ⌊−71.7⌋ = −72 → 183 where D3D10 truncates 1275/7 to 182.
+        assert_eq!(
+            b.palette(DecodeMode::Mesa),
+            [255, 0, 219, 183, 146, 110, 73, 37]
+        );
     }
 
     #[test]
     fn six_value_palette_has_constants() {
         let b = Bc4Block([0, 255, 0, 0, 0, 0, 0, 0]);
-        assert_eq!(b.palette(DecodeMode::D3d10), [0, 255, 51, 102, 153, 204, 0, 255]);
-        assert_eq!(b.palette(DecodeMode::Mesa), [0, 255, 50, 101, 152, 203, 0, 255]);
+        assert_eq!(
+            b.palette(DecodeMode::D3d10),
+            [0, 255, 51, 102, 153, 204, 0, 255]
+        );
+        assert_eq!(
+            b.palette(DecodeMode::Mesa),
+            [0, 255, 50, 101, 152, 203, 0, 255]
+        );
     }
 
     #[test]

@@ -140,8 +140,12 @@ pub enum PatchOrder {
 
 impl PatchOrder {
     /// Every order.
-    pub const ALL: [PatchOrder; 4] =
-        [PatchOrder::Natural, PatchOrder::Random, PatchOrder::Paper, PatchOrder::Spatial];
+    pub const ALL: [PatchOrder; 4] = [
+        PatchOrder::Natural,
+        PatchOrder::Random,
+        PatchOrder::Paper,
+        PatchOrder::Spatial,
+    ];
 
     /// The order with this code.
     pub fn from_u32(v: u32) -> Option<Self> {
@@ -203,12 +207,24 @@ impl<'a> RadFile<'a> {
     /// Checks everything [`RadFile::parse`] checks beyond the byte structure.
     pub fn validate(&self) -> Result<(), RadError> {
         let n = self.n();
-        let bad = |section, index: usize, reason| RadError::Invalid { section, index: index as u64, reason };
+        let bad = |section, index: usize, reason| RadError::Invalid {
+            section,
+            index: index as u64,
+            reason,
+        };
         if self.patches.len() != n {
-            return Err(RadError::Count { section: SectionKind::Patches, expected: n as u64, found: self.patches.len() as u64 });
+            return Err(RadError::Count {
+                section: SectionKind::Patches,
+                expected: n as u64,
+                found: self.patches.len() as u64,
+            });
         }
         if self.order.len() != n {
-            return Err(RadError::Count { section: SectionKind::Order, expected: n as u64, found: self.order.len() as u64 });
+            return Err(RadError::Count {
+                section: SectionKind::Order,
+                expected: n as u64,
+                found: self.order.len() as u64,
+            });
         }
         for (i, p) in self.patches.iter().enumerate() {
             let finite = p.centre.iter().chain(&p.normal).all(|v| v.is_finite())
@@ -216,14 +232,22 @@ impl<'a> RadFile<'a> {
                 && p.reflectance.is_finite()
                 && p.emission.is_finite();
             if !finite {
-                return Err(bad(SectionKind::Patches, i, "patch has a NaN or infinite field"));
+                return Err(bad(
+                    SectionKind::Patches,
+                    i,
+                    "patch has a NaN or infinite field",
+                ));
             }
             if !(p.area > 0.0) {
                 return Err(bad(SectionKind::Patches, i, "patch area is not positive"));
             }
             let len2: f32 = p.normal.iter().map(|v| v * v).sum();
             if (len2 - 1.0).abs() > 1e-3 {
-                return Err(bad(SectionKind::Patches, i, "patch normal is not unit length"));
+                return Err(bad(
+                    SectionKind::Patches,
+                    i,
+                    "patch normal is not unit length",
+                ));
             }
             if p.reflectance.min_channel() < 0.0 || p.reflectance.max_channel() >= 1.0 {
                 return Err(bad(SectionKind::Patches, i, "reflectance outside [0, 1)"));
@@ -242,18 +266,29 @@ impl<'a> RadFile<'a> {
                 return Err(bad(SectionKind::Order, i, "patch index out of range"));
             }
             if seen[o / 64] & (1 << (o % 64)) != 0 {
-                return Err(bad(SectionKind::Order, i, "patch index repeated: not a permutation"));
+                return Err(bad(
+                    SectionKind::Order,
+                    i,
+                    "patch index repeated: not a permutation",
+                ));
             }
             seen[o / 64] |= 1 << (o % 64);
         }
         if self.objects.len() > u32::MAX as usize {
             return Err(bad(SectionKind::Objects, 0, "too many objects"));
         }
-        for (k, v) in [("compression_rmse", self.compression_rmse), ("lighting_error", self.lighting_error)] {
+        for (k, v) in [
+            ("compression_rmse", self.compression_rmse),
+            ("lighting_error", self.lighting_error),
+        ] {
             if let Some(v) = v {
                 if !(v.is_finite() && v >= 0.0) {
                     let _ = k;
-                    return Err(bad(SectionKind::Meta, 0, "error estimate not finite and non-negative"));
+                    return Err(bad(
+                        SectionKind::Meta,
+                        0,
+                        "error estimate not finite and non-negative",
+                    ));
                 }
             }
         }
@@ -286,11 +321,23 @@ impl<'a> RadFile<'a> {
             (SectionKind::Meta, bytemuck::bytes_of(&meta)),
             (SectionKind::Patches, bytemuck::cast_slice(&self.patches)),
             (SectionKind::Order, bytemuck::cast_slice(&self.order)),
-            (SectionKind::Scales, bytemuck::cast_slice(&self.matrix.scales)),
+            (
+                SectionKind::Scales,
+                bytemuck::cast_slice(&self.matrix.scales)
+            ),
             (SectionKind::Blocks, &self.matrix.blocks),
-            (SectionKind::SparseRows, bytemuck::cast_slice(&self.matrix.sparse.row_ptr)),
-            (SectionKind::SparseCols, bytemuck::cast_slice(&self.matrix.sparse.cols)),
-            (SectionKind::SparseValues, bytemuck::cast_slice(&self.matrix.sparse.values)),
+            (
+                SectionKind::SparseRows,
+                bytemuck::cast_slice(&self.matrix.sparse.row_ptr)
+            ),
+            (
+                SectionKind::SparseCols,
+                bytemuck::cast_slice(&self.matrix.sparse.cols)
+            ),
+            (
+                SectionKind::SparseValues,
+                bytemuck::cast_slice(&self.matrix.sparse.values)
+            ),
             (SectionKind::Objects, &objects),
         ];
         if let Some(r) = &self.report {
@@ -335,29 +382,56 @@ impl<'a> RadFile<'a> {
     pub fn parse(bytes: &'a [u8]) -> Result<Self, RadError> {
         let s = read_structure(bytes)?;
         let sec = |k: SectionKind| s.sections[k as usize - 1];
-        let meta_bytes = sec(SectionKind::Meta).ok_or(RadError::MissingSection { kind: SectionKind::Meta })?;
-        expect_len(SectionKind::Meta, meta_bytes, core::mem::size_of::<Meta>() as u64)?;
+        let meta_bytes = sec(SectionKind::Meta).ok_or(RadError::MissingSection {
+            kind: SectionKind::Meta,
+        })?;
+        expect_len(
+            SectionKind::Meta,
+            meta_bytes,
+            core::mem::size_of::<Meta>() as u64,
+        )?;
         let meta: Meta = bytemuck::pod_read_unaligned(meta_bytes);
         if let Some(i) = meta.reserved.iter().position(|r| *r != 0) {
-            return Err(RadError::Invalid { section: SectionKind::Meta, index: i as u64, reason: "reserved field is not zero" });
+            return Err(RadError::Invalid {
+                section: SectionKind::Meta,
+                index: i as u64,
+                reason: "reserved field is not zero",
+            });
         }
-        let format = Format::from_u32(meta.format)
-            .ok_or(RadError::Invalid { section: SectionKind::Meta, index: 0, reason: "unknown matrix format code" })?;
+        let format = Format::from_u32(meta.format).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "unknown matrix format code",
+        })?;
         let layout = MatrixLayout::new(meta.n, meta.channels, format, meta.max_tile)?;
-        let bounces = Bounces::from_u32(meta.bounces)
-            .ok_or(RadError::Invalid { section: SectionKind::Meta, index: 0, reason: "bounces must be at least 1" })?;
-        let patch_order = PatchOrder::from_u32(meta.order)
-            .ok_or(RadError::Invalid { section: SectionKind::Meta, index: 0, reason: "unknown patch order code" })?;
+        let bounces = Bounces::from_u32(meta.bounces).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "bounces must be at least 1",
+        })?;
+        let patch_order = PatchOrder::from_u32(meta.order).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "unknown patch order code",
+        })?;
         for v in [meta.compression_rmse, meta.lighting_error] {
             // Negative means "not measured"; NaN and infinity mean corruption.
             if !v.is_finite() {
-                return Err(RadError::Invalid { section: SectionKind::Meta, index: 0, reason: "error estimate is not finite" });
+                return Err(RadError::Invalid {
+                    section: SectionKind::Meta,
+                    index: 0,
+                    reason: "error estimate is not finite",
+                });
             }
         }
         let (n, ch, nnz) = (meta.n as u64, meta.channels as u64, meta.sparse_nnz as u64);
         let required = |k: SectionKind| sec(k).ok_or(RadError::MissingSection { kind: k });
         let patches = required(SectionKind::Patches)?;
-        expect_len(SectionKind::Patches, patches, n * core::mem::size_of::<Patch>() as u64)?;
+        expect_len(
+            SectionKind::Patches,
+            patches,
+            n * core::mem::size_of::<Patch>() as u64,
+        )?;
         let order = required(SectionKind::Order)?;
         expect_len(SectionKind::Order, order, 4 * n)?;
         let scales = required(SectionKind::Scales)?;
@@ -373,10 +447,12 @@ impl<'a> RadFile<'a> {
         let objects = decode_objects(required(SectionKind::Objects)?, meta.object_count)?;
         let report = match sec(SectionKind::Report) {
             None => None,
-            Some(r) => Some(Cow::Borrowed(core::str::from_utf8(r).map_err(|e| RadError::Invalid {
-                section: SectionKind::Report,
-                index: e.valid_up_to() as u64,
-                reason: "report is not valid UTF-8",
+            Some(r) => Some(Cow::Borrowed(core::str::from_utf8(r).map_err(|e| {
+                RadError::Invalid {
+                    section: SectionKind::Report,
+                    index: e.valid_up_to() as u64,
+                    reason: "report is not valid UTF-8",
+                }
             })?)),
         };
         let file = RadFile {
@@ -386,7 +462,11 @@ impl<'a> RadFile<'a> {
                 layout,
                 scales: cast(scales),
                 blocks: Cow::Borrowed(blocks),
-                sparse: SparseRows { row_ptr: cast(rows), cols: cast(cols), values: cast(values) },
+                sparse: SparseRows {
+                    row_ptr: cast(rows),
+                    cols: cast(cols),
+                    values: cast(values),
+                },
             },
             objects,
             bounces,
@@ -405,7 +485,11 @@ impl<'a> RadFile<'a> {
             patches: Cow::Owned(self.patches.into_owned()),
             order: Cow::Owned(self.order.into_owned()),
             matrix: self.matrix.into_owned(),
-            objects: self.objects.into_iter().map(|o| Cow::Owned(o.into_owned())).collect(),
+            objects: self
+                .objects
+                .into_iter()
+                .map(|o| Cow::Owned(o.into_owned()))
+                .collect(),
             bounces: self.bounces,
             patch_order: self.patch_order,
             compression_rmse: self.compression_rmse,
@@ -444,25 +528,38 @@ fn read_table(bytes: &[u8]) -> Result<(Header, Vec<SectionEntry>), RadError> {
         return Err(RadError::BadMagic);
     }
     if header.version != VERSION {
-        return Err(RadError::UnsupportedVersion { found: header.version });
+        return Err(RadError::UnsupportedVersion {
+            found: header.version,
+        });
     }
     let required = SectionKind::ALL.iter().filter(|k| k.required()).count() as u32;
     if header.section_count < required || header.section_count > SectionKind::ALL.len() as u32 {
-        return Err(RadError::SectionCount { found: header.section_count });
+        return Err(RadError::SectionCount {
+            found: header.section_count,
+        });
     }
     let table_end = 32 + 32 * u64::from(header.section_count);
     if actual < table_end {
-        return Err(RadError::Truncated { needed: table_end, actual });
+        return Err(RadError::Truncated {
+            needed: table_end,
+            actual,
+        });
     }
     let table = &bytes[32..table_end as usize];
     let computed = header_checksum(&header, table);
     if computed != header.checksum {
-        return Err(RadError::HeaderChecksum { stored: header.checksum, computed });
+        return Err(RadError::HeaderChecksum {
+            stored: header.checksum,
+            computed,
+        });
     }
     if header.reserved != 0 {
         return Err(RadError::NonZeroReserved { offset: 28 });
     }
-    let entries: Vec<SectionEntry> = table.chunks_exact(32).map(bytemuck::pod_read_unaligned).collect();
+    let entries: Vec<SectionEntry> = table
+        .chunks_exact(32)
+        .map(bytemuck::pod_read_unaligned)
+        .collect();
     Ok((header, entries))
 }
 
@@ -470,47 +567,79 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
     let (header, entries) = read_table(bytes)?;
     let actual = bytes.len() as u64;
     if actual < header.file_len {
-        return Err(RadError::Truncated { needed: header.file_len, actual });
+        return Err(RadError::Truncated {
+            needed: header.file_len,
+            actual,
+        });
     }
     if actual > header.file_len {
-        return Err(RadError::TrailingBytes { expected: header.file_len, actual });
+        return Err(RadError::TrailingBytes {
+            expected: header.file_len,
+            actual,
+        });
     }
     let mut sections = [None; 10];
     let mut pos = 32 + 32 * u64::from(header.section_count);
     let mut last_kind = 0u32;
     for (i, e) in entries.iter().enumerate() {
         let entry_offset = 32 + 32 * i as u64;
-        let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection { index: i as u32, kind: e.kind })?;
+        let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection {
+            index: i as u32,
+            kind: e.kind,
+        })?;
         if e.kind <= last_kind {
-            return Err(RadError::SectionOrder { index: i as u32, kind });
+            return Err(RadError::SectionOrder {
+                index: i as u32,
+                kind,
+            });
         }
         last_kind = e.kind;
         if e.reserved != 0 {
-            return Err(RadError::NonZeroReserved { offset: entry_offset + 4 });
+            return Err(RadError::NonZeroReserved {
+                offset: entry_offset + 4,
+            });
         }
         if e.reserved2 != 0 {
-            return Err(RadError::NonZeroReserved { offset: entry_offset + 28 });
+            return Err(RadError::NonZeroReserved {
+                offset: entry_offset + 28,
+            });
         }
         let expected = align(pos);
         if e.offset != expected {
-            return Err(RadError::SectionPlacement { kind, offset: e.offset, expected });
+            return Err(RadError::SectionPlacement {
+                kind,
+                offset: e.offset,
+                expected,
+            });
         }
         check_padding(bytes, pos, e.offset)?;
-        let end = e.offset.checked_add(e.len).filter(|end| *end <= actual).ok_or(RadError::Truncated {
-            needed: e.offset.saturating_add(e.len),
-            actual,
-        })?;
+        let end = e
+            .offset
+            .checked_add(e.len)
+            .filter(|end| *end <= actual)
+            .ok_or(RadError::Truncated {
+                needed: e.offset.saturating_add(e.len),
+                actual,
+            })?;
         let data = &bytes[e.offset as usize..end as usize];
         let computed = crc32(data);
         if computed != e.checksum {
-            return Err(RadError::SectionChecksum { kind, offset: e.offset, stored: e.checksum, computed });
+            return Err(RadError::SectionChecksum {
+                kind,
+                offset: e.offset,
+                stored: e.checksum,
+                computed,
+            });
         }
         sections[kind as usize - 1] = Some(data);
         pos = end;
     }
     if align(pos) != header.file_len {
         // The declared length must end exactly at the last section's padding.
-        return Err(RadError::TrailingBytes { expected: align(pos), actual });
+        return Err(RadError::TrailingBytes {
+            expected: align(pos),
+            actual,
+        });
     }
     check_padding(bytes, pos, header.file_len)?;
     for k in SectionKind::ALL {
@@ -526,15 +655,24 @@ fn check_padding(bytes: &[u8], from: u64, to: u64) -> Result<(), RadError> {
     if from >= to {
         return Ok(());
     }
-    match bytes[from as usize..to as usize].iter().position(|b| *b != 0) {
-        Some(i) => Err(RadError::NonZeroPadding { offset: from + i as u64 }),
+    match bytes[from as usize..to as usize]
+        .iter()
+        .position(|b| *b != 0)
+    {
+        Some(i) => Err(RadError::NonZeroPadding {
+            offset: from + i as u64,
+        }),
         None => Ok(()),
     }
 }
 
 fn expect_len(kind: SectionKind, bytes: &[u8], expected: u64) -> Result<(), RadError> {
     if bytes.len() as u64 != expected {
-        return Err(RadError::SectionLength { kind, expected, found: bytes.len() as u64 });
+        return Err(RadError::SectionLength {
+            kind,
+            expected,
+            found: bytes.len() as u64,
+        });
     }
     Ok(())
 }
@@ -568,22 +706,40 @@ fn encode_objects(names: &[Cow<'_, str>]) -> Vec<u8> {
 fn decode_objects(bytes: &[u8], count: u32) -> Result<Vec<Cow<'_, str>>, RadError> {
     let head = 4 * (u64::from(count) + 1);
     if (bytes.len() as u64) < head {
-        return Err(RadError::SectionLength { kind: SectionKind::Objects, expected: head, found: bytes.len() as u64 });
+        return Err(RadError::SectionLength {
+            kind: SectionKind::Objects,
+            expected: head,
+            found: bytes.len() as u64,
+        });
     }
     let (offsets, text) = bytes.split_at(head as usize);
-    let bad = |index: usize, reason| RadError::Invalid { section: SectionKind::Objects, index: index as u64, reason };
-    let text = core::str::from_utf8(text).map_err(|e| bad(e.valid_up_to(), "object names are not valid UTF-8"))?;
-    let offsets: Vec<u32> = offsets.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let bad = |index: usize, reason| RadError::Invalid {
+        section: SectionKind::Objects,
+        index: index as u64,
+        reason,
+    };
+    let text = core::str::from_utf8(text)
+        .map_err(|e| bad(e.valid_up_to(), "object names are not valid UTF-8"))?;
+    let offsets: Vec<u32> = offsets
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
     if offsets[0] != 0 {
         return Err(bad(0, "first name offset is not 0"));
     }
     if offsets[count as usize] as usize != text.len() {
-        return Err(bad(count as usize, "last name offset is not the text length"));
+        return Err(bad(
+            count as usize,
+            "last name offset is not the text length",
+        ));
     }
     let mut names = Vec::with_capacity(count as usize);
     for i in 0..count as usize {
         let (a, b) = (offsets[i] as usize, offsets[i + 1] as usize);
-        let name = text.get(a..b).ok_or(bad(i + 1, "name offset decreasing or not on a character boundary"))?;
+        let name = text.get(a..b).ok_or(bad(
+            i + 1,
+            "name offset decreasing or not on a character boundary",
+        ))?;
         names.push(Cow::Borrowed(name));
     }
     Ok(names)
@@ -595,18 +751,28 @@ fn decode_objects(bytes: &[u8], count: u32) -> Result<Vec<Cow<'_, str>>, RadErro
 /// reach the semantic checks behind the checksums. Sections outside the buffer are skipped.
 pub fn reseal(bytes: &mut [u8]) -> Result<(), RadError> {
     if bytes.len() < 32 {
-        return Err(RadError::Truncated { needed: 32, actual: bytes.len() as u64 });
+        return Err(RadError::Truncated {
+            needed: 32,
+            actual: bytes.len() as u64,
+        });
     }
     let mut header: Header = bytemuck::pod_read_unaligned(&bytes[..32]);
     let count = u64::from(header.section_count).min(SectionKind::ALL.len() as u64);
     let table_end = (32 + 32 * count) as usize;
     if bytes.len() < table_end {
-        return Err(RadError::Truncated { needed: table_end as u64, actual: bytes.len() as u64 });
+        return Err(RadError::Truncated {
+            needed: table_end as u64,
+            actual: bytes.len() as u64,
+        });
     }
     for i in 0..count as usize {
         let at = 32 + 32 * i;
         let mut e: SectionEntry = bytemuck::pod_read_unaligned(&bytes[at..at + 32]);
-        if let Some(end) = e.offset.checked_add(e.len).filter(|end| *end <= bytes.len() as u64) {
+        if let Some(end) = e
+            .offset
+            .checked_add(e.len)
+            .filter(|end| *end <= bytes.len() as u64)
+        {
             e.checksum = crc32(&bytes[e.offset as usize..end as usize]);
             bytes[at..at + 32].copy_from_slice(bytemuck::bytes_of(&e));
         }
@@ -618,17 +784,26 @@ pub fn reseal(bytes: &mut [u8]) -> Result<(), RadError> {
 
 /// The byte range of each section of a structurally valid file, in table order: for tests that
 /// corrupt one section at a time, and for `inspect`.
-pub fn section_ranges(bytes: &[u8]) -> Result<Vec<(SectionKind, core::ops::Range<usize>)>, RadError> {
+pub fn section_ranges(
+    bytes: &[u8],
+) -> Result<Vec<(SectionKind, core::ops::Range<usize>)>, RadError> {
     let (_, entries) = read_table(bytes)?;
     entries
         .iter()
         .enumerate()
         .map(|(i, e)| {
-            let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection { index: i as u32, kind: e.kind })?;
-            let end = e.offset.checked_add(e.len).filter(|end| *end <= bytes.len() as u64).ok_or(RadError::Truncated {
-                needed: e.offset.saturating_add(e.len),
-                actual: bytes.len() as u64,
+            let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection {
+                index: i as u32,
+                kind: e.kind,
             })?;
+            let end = e
+                .offset
+                .checked_add(e.len)
+                .filter(|end| *end <= bytes.len() as u64)
+                .ok_or(RadError::Truncated {
+                    needed: e.offset.saturating_add(e.len),
+                    actual: bytes.len() as u64,
+                })?;
             Ok((kind, e.offset as usize..end as usize))
         })
         .collect()

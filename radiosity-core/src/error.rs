@@ -208,37 +208,77 @@ impl fmt::Display for RadError {
             ),
             BadMagic => f.write_str("not a .rad file (bad magic in the first 8 bytes)"),
             UnsupportedVersion { found } => {
-                write!(f, ".rad version {found} is not supported (this build reads version 1)")
+                write!(
+                    f,
+                    ".rad version {found} is not supported (this build reads version 1)"
+                )
             }
-            SectionCount { found } => write!(f, "section count {found} in the header is impossible"),
+            SectionCount { found } => {
+                write!(f, "section count {found} in the header is impossible")
+            }
             HeaderChecksum { stored, computed } => write!(
                 f,
                 "header checksum mismatch (stored {stored:#010x}, computed {computed:#010x}): header or section table is corrupt"
             ),
-            NonZeroReserved { offset } => write!(f, "reserved field at offset {offset} is not zero"),
+            NonZeroReserved { offset } => {
+                write!(f, "reserved field at offset {offset} is not zero")
+            }
             UnknownSection { index, kind } => {
-                write!(f, "section table entry {index} has unknown section code {kind}")
+                write!(
+                    f,
+                    "section table entry {index} has unknown section code {kind}"
+                )
             }
             SectionOrder { index, kind } => {
-                write!(f, "section {kind} at table entry {index} is duplicated or out of order")
+                write!(
+                    f,
+                    "section {kind} at table entry {index} is duplicated or out of order"
+                )
             }
-            SectionPlacement { kind, offset, expected } => {
-                write!(f, "section {kind} starts at offset {offset}, expected {expected}")
+            SectionPlacement {
+                kind,
+                offset,
+                expected,
+            } => {
+                write!(
+                    f,
+                    "section {kind} starts at offset {offset}, expected {expected}"
+                )
             }
-            SectionChecksum { kind, offset, stored, computed } => write!(
+            SectionChecksum {
+                kind,
+                offset,
+                stored,
+                computed,
+            } => write!(
                 f,
                 "section {kind} at offset {offset} is corrupt (checksum {computed:#010x}, expected {stored:#010x})"
             ),
             NonZeroPadding { offset } => write!(f, "padding byte at offset {offset} is not zero"),
             MissingSection { kind } => write!(f, "required section {kind} is missing"),
-            SectionLength { kind, expected, found } => {
-                write!(f, "section {kind} is {found} bytes, but META calls for {expected}")
+            SectionLength {
+                kind,
+                expected,
+                found,
+            } => {
+                write!(
+                    f,
+                    "section {kind} is {found} bytes, but META calls for {expected}"
+                )
             }
-            Count { section, expected, found } => {
+            Count {
+                section,
+                expected,
+                found,
+            } => {
                 write!(f, "{section} holds {found} items, expected {expected}")
             }
             Layout(e) => write!(f, "META describes an impossible matrix: {e}"),
-            Invalid { section, index, reason } => write!(f, "{section}[{index}]: {reason}"),
+            Invalid {
+                section,
+                index,
+                reason,
+            } => write!(f, "{section}[{index}]: {reason}"),
         }
     }
 }

@@ -29,11 +29,17 @@ pub enum GatherError {
 impl fmt::Display for GatherError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            GatherError::Length { expected, exitance, irradiance } => write!(
+            GatherError::Length {
+                expected,
+                exitance,
+                irradiance,
+            } => write!(
                 f,
                 "gather needs {expected} patches, got exitance of {exitance} and irradiance of {irradiance}"
             ),
-            GatherError::NonFinite { index } => write!(f, "exitance of patch {index} is not finite"),
+            GatherError::NonFinite { index } => {
+                write!(f, "exitance of patch {index} is not finite")
+            }
             GatherError::Backend(why) => write!(f, "gather backend failed: {why}"),
         }
     }
@@ -59,9 +65,17 @@ pub trait Gather {
 }
 
 /// Checks the slices a gather is given; shared by every backend.
-pub fn check_gather_args(n: usize, exitance: &[Rgb], irradiance: &[Rgb]) -> Result<(), GatherError> {
+pub fn check_gather_args(
+    n: usize,
+    exitance: &[Rgb],
+    irradiance: &[Rgb],
+) -> Result<(), GatherError> {
     if exitance.len() != n || irradiance.len() != n {
-        return Err(GatherError::Length { expected: n, exitance: exitance.len(), irradiance: irradiance.len() });
+        return Err(GatherError::Length {
+            expected: n,
+            exitance: exitance.len(),
+            irradiance: irradiance.len(),
+        });
     }
     if let Some(index) = exitance.iter().position(|x| !x.is_finite()) {
         return Err(GatherError::NonFinite { index });
@@ -85,7 +99,11 @@ impl<'m> ReferenceGather<'m> {
     pub fn new(matrix: TransferMatrix<'m>, mode: DecodeMode) -> Self {
         let decoder = matrix.decoder(mode);
         let acc = alloc::vec![[0.0; 3]; matrix.layout.n()];
-        Self { matrix, decoder, acc }
+        Self {
+            matrix,
+            decoder,
+            acc,
+        }
     }
 
     /// The matrix gathered from.

@@ -85,7 +85,11 @@ mod tests {
             let (a, b) = (f16_to_f32(h), f16_to_f32(h + 1));
             let mid = (f64::from(a) + f64::from(b)) / 2.0;
             let even = if h & 1 == 0 { h } else { h + 1 };
-            assert_eq!(f32_to_f16(mid as f32), even, "tie between {h:#06x} and next");
+            assert_eq!(
+                f32_to_f16(mid as f32),
+                even,
+                "tie between {h:#06x} and next"
+            );
             let below = (mid - (mid - f64::from(a)) * 0.01) as f32;
             assert_eq!(f32_to_f16(below), h);
         }

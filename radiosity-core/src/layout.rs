@@ -28,7 +28,13 @@ pub enum Format {
 
 impl Format {
     /// Every format, in the order reports list them.
-    pub const ALL: [Format; 5] = [Format::Bc1, Format::Bc4, Format::U8, Format::F16, Format::F32];
+    pub const ALL: [Format; 5] = [
+        Format::Bc1,
+        Format::Bc4,
+        Format::U8,
+        Format::F16,
+        Format::F32,
+    ];
 
     /// The format with this file code, if any.
     pub fn from_u32(v: u32) -> Option<Format> {
@@ -100,9 +106,14 @@ impl fmt::Display for LayoutError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             LayoutError::Channels(c) => write!(f, "channels must be 1 or 3, not {c}"),
-            LayoutError::Bc1NeedsThreeChannels => f.write_str("bc1 stores RGB and needs 3 channels"),
+            LayoutError::Bc1NeedsThreeChannels => {
+                f.write_str("bc1 stores RGB and needs 3 channels")
+            }
             LayoutError::MaxTile(t) => {
-                write!(f, "max tile {t} is not a positive multiple of 4 up to 65536")
+                write!(
+                    f,
+                    "max tile {t} is not a positive multiple of 4 up to 65536"
+                )
             }
             LayoutError::Empty => f.write_str("the matrix has no rows"),
             LayoutError::TooLarge => f.write_str("matrix too large for 64-bit byte counts"),
@@ -171,7 +182,14 @@ impl MatrixLayout {
         let padded = u64::from(n).div_ceil(4) * 4;
         let tile_size = padded.min(u64::from(max_tile)) as u32;
         let tiles_per_side = padded.div_ceil(u64::from(tile_size)) as u32;
-        let layout = Self { n, channels, format, max_tile, tile_size, tiles_per_side };
+        let layout = Self {
+            n,
+            channels,
+            format,
+            max_tile,
+            tile_size,
+            tiles_per_side,
+        };
         layout.checked_block_bytes().ok_or(LayoutError::TooLarge)?;
         Ok(layout)
     }
@@ -210,11 +228,19 @@ impl MatrixLayout {
     }
     /// Planes per tile: 1 for BC1, else one per channel.
     pub fn planes(&self) -> usize {
-        if self.format == Format::Bc1 { 1 } else { self.channels() }
+        if self.format == Format::Bc1 {
+            1
+        } else {
+            self.channels()
+        }
     }
     /// Log scales stored: one per tile and channel for log formats, none otherwise.
     pub fn scale_count(&self) -> usize {
-        if self.format.is_log() { self.tile_count() * self.channels() } else { 0 }
+        if self.format.is_log() {
+            self.tile_count() * self.channels()
+        } else {
+            0
+        }
     }
     /// Index of the scale of `tile`, `channel`.
     pub fn scale_index(&self, tile: usize, channel: usize) -> usize {
@@ -224,7 +250,9 @@ impl MatrixLayout {
     fn checked_block_bytes(&self) -> Option<u64> {
         let padded = u64::from(self.n).div_ceil(4) * 4;
         let blocks = (padded / 4).checked_mul(padded / 4)?;
-        blocks.checked_mul(self.planes() as u64)?.checked_mul(self.format.block_bytes() as u64)
+        blocks
+            .checked_mul(self.planes() as u64)?
+            .checked_mul(self.format.block_bytes() as u64)
     }
 
     /// Total bytes of block data.
@@ -241,14 +269,25 @@ impl MatrixLayout {
     /// The tile at grid position (`ty`, `tx`).
     pub fn tile(&self, ty: usize, tx: usize) -> Tile {
         let tps = self.tiles_per_side();
-        assert!(ty < tps && tx < tps, "tile ({ty}, {tx}) outside a {tps}×{tps} grid");
+        assert!(
+            ty < tps && tx < tps,
+            "tile ({ty}, {tx}) outside a {tps}×{tps} grid"
+        );
         let (row0, rows) = self.span(ty);
         let (col0, cols) = self.span(tx);
         // Every tile row above holds `padded` columns of `rows_above` rows; tiles to the left in
         // this row hold `col0` columns of `rows` rows.
-        let per_entry_plane = |entries: usize| entries / 16 * self.format.block_bytes() * self.planes();
+        let per_entry_plane =
+            |entries: usize| entries / 16 * self.format.block_bytes() * self.planes();
         let offset = per_entry_plane(row0 * self.padded()) + per_entry_plane(rows * col0);
-        Tile { index: ty * tps + tx, row0, col0, rows, cols, offset }
+        Tile {
+            index: ty * tps + tx,
+            row0,
+            col0,
+            rows,
+            cols,
+            offset,
+        }
     }
 
     /// Every tile in storage order.
@@ -258,7 +297,13 @@ impl MatrixLayout {
     }
 
     /// Byte offset of block (`block_row`, `block_col`) of `plane` within `tile`.
-    pub fn block_offset(&self, tile: &Tile, plane: usize, block_row: usize, block_col: usize) -> usize {
+    pub fn block_offset(
+        &self,
+        tile: &Tile,
+        plane: usize,
+        block_row: usize,
+        block_col: usize,
+    ) -> usize {
         let plane_bytes = tile.blocks_high() * tile.blocks_wide() * self.format.block_bytes();
         tile.offset
             + plane * plane_bytes
@@ -284,7 +329,10 @@ mod tests {
         let mut seen = alloc::vec![0u8; 40 * 40];
         let mut next_offset = 0;
         for t in l.tiles() {
-            assert_eq!(t.offset, next_offset, "tiles are contiguous in storage order");
+            assert_eq!(
+                t.offset, next_offset,
+                "tiles are contiguous in storage order"
+            );
             next_offset += t.blocks_high() * t.blocks_wide() * 8 * 3;
             for r in t.row0..t.row0 + t.rows {
                 for c in t.col0..t.col0 + t.cols {
@@ -301,15 +349,33 @@ mod tests {
         let l = MatrixLayout::new(100, 1, Format::U8, 32).unwrap();
         let (t, br, bc) = l.locate(70, 35);
         assert_eq!((t.row0, t.col0, br, bc), (64, 32, 1, 0));
-        assert_eq!(t.rows, 36); // 100 padded → 100; last tile row 64..100
+        assert_eq!(t.rows, 32);
+        // 100 rows in tiles of 32: the last tile row is 96..100.
+        let (last, br, _) = l.locate(99, 0);
+        assert_eq!((last.row0, last.rows, br), (96, 4, 0));
     }
 
     #[test]
     fn bad_layouts_are_refused() {
-        assert_eq!(MatrixLayout::new(8, 2, Format::U8, 8), Err(LayoutError::Channels(2)));
-        assert_eq!(MatrixLayout::new(8, 1, Format::Bc1, 8), Err(LayoutError::Bc1NeedsThreeChannels));
-        assert_eq!(MatrixLayout::new(8, 1, Format::U8, 6), Err(LayoutError::MaxTile(6)));
-        assert_eq!(MatrixLayout::new(0, 1, Format::U8, 8), Err(LayoutError::Empty));
-        assert_eq!(MatrixLayout::new(u32::MAX, 3, Format::F32, 65536), Err(LayoutError::TooLarge));
+        assert_eq!(
+            MatrixLayout::new(8, 2, Format::U8, 8),
+            Err(LayoutError::Channels(2))
+        );
+        assert_eq!(
+            MatrixLayout::new(8, 1, Format::Bc1, 8),
+            Err(LayoutError::Bc1NeedsThreeChannels)
+        );
+        assert_eq!(
+            MatrixLayout::new(8, 1, Format::U8, 6),
+            Err(LayoutError::MaxTile(6))
+        );
+        assert_eq!(
+            MatrixLayout::new(0, 1, Format::U8, 8),
+            Err(LayoutError::Empty)
+        );
+        assert_eq!(
+            MatrixLayout::new(u32::MAX, 3, Format::F32, 65536),
+            Err(LayoutError::TooLarge)
+        );
     }
 }

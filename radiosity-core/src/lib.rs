@@ -69,8 +69,8 @@ mod bc;
 mod bc1;
 mod bc4;
 mod checksum;
-pub mod container;
 mod color;
+pub mod container;
 mod error;
 mod gather;
 pub mod half;
@@ -83,8 +83,13 @@ mod sparse;
 mod transfer;
 
 pub use bc::{DecodeMode, SurfaceError};
-pub use bc1::{Bc1Block, decode_bc1_block, decode_bc1_block_with, decode_bc1_surface, decode_bc1_surface_into, expand_565};
-pub use bc4::{Bc4Block, decode_bc4_block, decode_bc4_block_with, decode_bc4_surface, decode_bc4_surface_into};
+pub use bc1::{
+    Bc1Block, decode_bc1_block, decode_bc1_block_with, decode_bc1_surface, decode_bc1_surface_into,
+    expand_565,
+};
+pub use bc4::{
+    Bc4Block, decode_bc4_block, decode_bc4_block_with, decode_bc4_surface, decode_bc4_surface_into,
+};
 pub use checksum::{Crc32, crc32};
 pub use color::Rgb;
 pub use container::{Bounces, PatchOrder, RadFile};

@@ -77,8 +77,17 @@ impl Light {
     /// Checks the light's values.
     pub fn validate(&self) -> Result<(), LightError> {
         let (vectors, colour): ([Vec3; 2], Rgb) = match *self {
-            Light::Point { position, intensity } => ([position, Vec3::X], intensity),
-            Light::Spot { position, direction, cone_deg, intensity } => {
+            // [a point, a direction]; Vec3::X stands in where a light has no direction.
+            Light::Point {
+                position,
+                intensity,
+            } => ([position, Vec3::X], intensity),
+            Light::Spot {
+                position,
+                direction,
+                cone_deg,
+                intensity,
+            } => {
                 if !cone_deg.is_finite() {
                     return Err(LightError::NonFinite);
                 }
@@ -87,7 +96,10 @@ impl Light {
                 }
                 ([position, direction], intensity)
             }
-            Light::Directional { direction, irradiance } => ([direction, Vec3::X], irradiance),
+            Light::Directional {
+                direction,
+                irradiance,
+            } => ([Vec3::ZERO, direction], irradiance),
         };
         if !vectors.iter().all(|v| v.is_finite()) || !colour.is_finite() {
             return Err(LightError::NonFinite);
@@ -105,20 +117,49 @@ impl Light {
     /// ray to test. `None` when the light cannot reach the front of the surface at all.
     pub fn irradiance_at(&self, point: Vec3, normal: Vec3) -> Option<(Rgb, ShadowRay)> {
         match *self {
-            Light::Point { position, intensity } => point_light(point, normal, position, intensity, None),
-            Light::Spot { position, direction, cone_deg, intensity } => {
-                point_light(point, normal, position, intensity, Some((direction.normalize(), cone_deg)))
-            }
-            Light::Directional { direction, irradiance } => {
+            Light::Point {
+                position,
+                intensity,
+            } => point_light(point, normal, position, intensity, None),
+            Light::Spot {
+                position,
+                direction,
+                cone_deg,
+                intensity,
+            } => point_light(
+                point,
+                normal,
+                position,
+                intensity,
+                Some((direction.normalize(), cone_deg)),
+            ),
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
                 let to_light = -direction.normalize();
                 let cos = normal.dot(to_light);
-                (cos > 0.0).then(|| (irradiance * cos, ShadowRay { direction: to_light, distance: f32::INFINITY }))
+                (cos > 0.0).then(|| {
+                    (
+                        irradiance * cos,
+                        ShadowRay {
+                            direction: to_light,
+                            distance: f32::INFINITY,
+                        },
+                    )
+                })
             }
         }
     }
 }
 
-fn point_light(point: Vec3, normal: Vec3, position: Vec3, intensity: Rgb, cone: Option<(Vec3, f32)>) -> Option<(Rgb, ShadowRay)> {
+fn point_light(
+    point: Vec3,
+    normal: Vec3,
+    position: Vec3,
+    intensity: Rgb,
+    cone: Option<(Vec3, f32)>,
+) -> Option<(Rgb, ShadowRay)> {
     let d = position - point;
     let r2 = d.length_squared();
     if !(r2 > 0.0) {
@@ -136,14 +177,23 @@ fn point_light(point: Vec3, normal: Vec3, position: Vec3, intensity: Rgb, cone: 
             return None;
         }
     }
-    Some((intensity * (cos / r2), ShadowRay { direction: to_light, distance: r }))
+    Some((
+        intensity * (cos / r2),
+        ShadowRay {
+            direction: to_light,
+            distance: r,
+        },
+    ))
 }
 
 /// First exitance `x = E + ρ∘H_d` for every patch, from direct irradiance `H_d`.
 ///
 /// Panics if the slices differ in length (a programming error).
 pub fn first_exitance(patches: &[Patch], direct: &[Rgb], out: &mut [Rgb]) {
-    assert!(patches.len() == direct.len() && direct.len() == out.len(), "one entry per patch");
+    assert!(
+        patches.len() == direct.len() && direct.len() == out.len(),
+        "one entry per patch"
+    );
     for ((x, p), h) in out.iter_mut().zip(patches).zip(direct) {
         *x = p.emission + p.reflectance * *h;
     }
@@ -153,7 +203,13 @@ pub fn first_exitance(patches: &[Patch], direct: &[Rgb], out: &mut [Rgb]) {
 /// irradiance `H = H_d + y` and radiosity `B = E + ρ∘H`.
 ///
 /// Panics if the slices differ in length (a programming error).
-pub fn finish_frame(patches: &[Patch], direct: &[Rgb], gathered: &[Rgb], irradiance: &mut [Rgb], radiosity: &mut [Rgb]) {
+pub fn finish_frame(
+    patches: &[Patch],
+    direct: &[Rgb],
+    gathered: &[Rgb],
+    irradiance: &mut [Rgb],
+    radiosity: &mut [Rgb],
+) {
     let n = patches.len();
     assert!(
         direct.len() == n && gathered.len() == n && irradiance.len() == n && radiosity.len() == n,
@@ -171,7 +227,10 @@ mod tests {
 
     #[test]
     fn point_light_follows_inverse_square_cosine() {
-        let l = Light::Point { position: Vec3::new(0.0, 2.0, 0.0), intensity: Rgb::splat(8.0) };
+        let l = Light::Point {
+            position: Vec3::new(0.0, 2.0, 0.0),
+            intensity: Rgb::splat(8.0),
+        };
         let (h, ray) = l.irradiance_at(Vec3::ZERO, Vec3::Y).unwrap();
         assert_eq!(h, Rgb::splat(2.0)); // 8 W/sr / 4 m²
         assert_eq!(ray.distance, 2.0);
@@ -179,27 +238,64 @@ mod tests {
         let (h, _) = l.irradiance_at(Vec3::new(2.0, 0.0, 0.0), Vec3::Y).unwrap();
         let expect = 8.0 * (0.5f32).sqrt() / 8.0;
         assert!((h.r - expect).abs() < 1e-6, "{} vs {expect}", h.r);
-        assert!(l.irradiance_at(Vec3::ZERO, -Vec3::Y).is_none(), "back faces get nothing");
+        assert!(
+            l.irradiance_at(Vec3::ZERO, -Vec3::Y).is_none(),
+            "back faces get nothing"
+        );
     }
 
     #[test]
     fn spot_cone_and_directional() {
-        let s = Light::Spot { position: Vec3::Y, direction: -Vec3::Y, cone_deg: 30.0, intensity: Rgb::ONE };
+        let s = Light::Spot {
+            position: Vec3::Y,
+            direction: -Vec3::Y,
+            cone_deg: 30.0,
+            intensity: Rgb::ONE,
+        };
         assert!(s.irradiance_at(Vec3::ZERO, Vec3::Y).is_some());
-        assert!(s.irradiance_at(Vec3::new(1.0, 0.0, 0.0), Vec3::Y).is_none(), "45° is outside 30°");
-        let d = Light::Directional { direction: -Vec3::Y, irradiance: Rgb::splat(3.0) };
+        assert!(
+            s.irradiance_at(Vec3::new(1.0, 0.0, 0.0), Vec3::Y).is_none(),
+            "45° is outside 30°"
+        );
+        let d = Light::Directional {
+            direction: -Vec3::Y,
+            irradiance: Rgb::splat(3.0),
+        };
         let (h, ray) = d.irradiance_at(Vec3::ZERO, Vec3::Y).unwrap();
         assert_eq!((h, ray.distance), (Rgb::splat(3.0), f32::INFINITY));
     }
 
     #[test]
     fn bad_lights_are_refused() {
-        let p = |x: f32| Light::Point { position: Vec3::splat(x), intensity: Rgb::ONE };
+        let p = |x: f32| Light::Point {
+            position: Vec3::splat(x),
+            intensity: Rgb::ONE,
+        };
         assert_eq!(p(f32::NAN).validate(), Err(LightError::NonFinite));
-        assert_eq!(Light::Point { position: Vec3::ZERO, intensity: Rgb::splat(-1.0) }.validate(), Err(LightError::Negative));
-        assert_eq!(Light::Directional { direction: Vec3::ZERO, irradiance: Rgb::ONE }.validate(), Err(LightError::ZeroDirection));
         assert_eq!(
-            Light::Spot { position: Vec3::ZERO, direction: Vec3::Y, cone_deg: 0.0, intensity: Rgb::ONE }.validate(),
+            Light::Point {
+                position: Vec3::ZERO,
+                intensity: Rgb::splat(-1.0)
+            }
+            .validate(),
+            Err(LightError::Negative)
+        );
+        assert_eq!(
+            Light::Directional {
+                direction: Vec3::ZERO,
+                irradiance: Rgb::ONE
+            }
+            .validate(),
+            Err(LightError::ZeroDirection)
+        );
+        assert_eq!(
+            Light::Spot {
+                position: Vec3::ZERO,
+                direction: Vec3::Y,
+                cone_deg: 0.0,
+                intensity: Rgb::ONE
+            }
+            .validate(),
             Err(LightError::ConeAngle)
         );
         assert!(p(1.0).validate().is_ok());

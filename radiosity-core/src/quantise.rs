@@ -23,7 +23,10 @@ pub struct LogScale {
 
 impl Default for LogScale {
     fn default() -> Self {
-        Self { v_max: 1.0, shift: DEFAULT_SHIFT }
+        Self {
+            v_max: 1.0,
+            shift: DEFAULT_SHIFT,
+        }
     }
 }
 
@@ -84,7 +87,10 @@ mod tests {
         let mut v = 0.25f32;
         while v > 0.25 * (-s.shift + s.shift / 255.0).exp() {
             let d = s.decode(s.encode(v));
-            assert!(d / v <= half_step && v / d <= half_step, "v={v} decoded {d}");
+            assert!(
+                d / v <= half_step && v / d <= half_step,
+                "v={v} decoded {d}"
+            );
             v *= 0.97;
         }
     }
@@ -101,6 +107,9 @@ mod tests {
         assert_eq!(s.decode(0), 0.0);
         assert_eq!(s.decode(255), 2.0);
         let t = s.table();
-        assert!(t.windows(2).all(|w| w[0] < w[1]), "table strictly increasing");
+        assert!(
+            t.windows(2).all(|w| w[0] < w[1]),
+            "table strictly increasing"
+        );
     }
 }

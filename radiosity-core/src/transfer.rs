@@ -40,7 +40,11 @@ impl<'a> TransferMatrix<'a> {
     pub fn validate(&self) -> Result<(), RadError> {
         let l = &self.layout;
         let n = l.n();
-        let bad = |section, index: usize, reason| RadError::Invalid { section, index: index as u64, reason };
+        let bad = |section, index: usize, reason| RadError::Invalid {
+            section,
+            index: index as u64,
+            reason,
+        };
         if self.scales.len() != l.scale_count() {
             return Err(RadError::Count {
                 section: SectionKind::Scales,
@@ -63,7 +67,11 @@ impl<'a> TransferMatrix<'a> {
                 for (i, h) in self.blocks.chunks_exact(2).enumerate() {
                     let h = u16::from_le_bytes([h[0], h[1]]);
                     if !f16_is_finite(h) || (h & 0x8000 != 0 && h != 0x8000) {
-                        return Err(bad(SectionKind::Blocks, i, "f16 entry not finite and non-negative"));
+                        return Err(bad(
+                            SectionKind::Blocks,
+                            i,
+                            "f16 entry not finite and non-negative",
+                        ));
                     }
                 }
             }
@@ -71,7 +79,11 @@ impl<'a> TransferMatrix<'a> {
                 for (i, v) in self.blocks.chunks_exact(4).enumerate() {
                     let v = f32::from_le_bytes([v[0], v[1], v[2], v[3]]);
                     if !(v.is_finite() && v >= 0.0) {
-                        return Err(bad(SectionKind::Blocks, i, "f32 entry not finite and non-negative"));
+                        return Err(bad(
+                            SectionKind::Blocks,
+                            i,
+                            "f32 entry not finite and non-negative",
+                        ));
                     }
                 }
             }
@@ -112,24 +124,37 @@ impl<'a> TransferMatrix<'a> {
                     return Err(bad(SectionKind::SparseCols, k, "column out of range"));
                 }
                 if k > a && sp.cols[k] <= sp.cols[k - 1] {
-                    return Err(bad(SectionKind::SparseCols, k, "columns not strictly increasing in a row"));
+                    return Err(bad(
+                        SectionKind::SparseCols,
+                        k,
+                        "columns not strictly increasing in a row",
+                    ));
                 }
             }
         }
         if let Some(i) = sp.values.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(bad(SectionKind::SparseValues, i, "value not finite and non-negative"));
+            return Err(bad(
+                SectionKind::SparseValues,
+                i,
+                "value not finite and non-negative",
+            ));
         }
         Ok(())
     }
 
     /// A decoder for this matrix under `mode` (builds the scale tables once).
     pub fn decoder(&self, mode: DecodeMode) -> BlockDecoder {
-        BlockDecoder { mode, tables: self.scales.iter().map(LogScale::table).collect() }
+        BlockDecoder {
+            mode,
+            tables: self.scales.iter().map(LogScale::table).collect(),
+        }
     }
 
     /// Bytes of block data plus sparse arrays plus scales: what a gather reads.
     pub fn bytes(&self) -> usize {
-        self.blocks.len() + self.sparse.bytes() + self.scales.len() * core::mem::size_of::<LogScale>()
+        self.blocks.len()
+            + self.sparse.bytes()
+            + self.scales.len() * core::mem::size_of::<LogScale>()
     }
 
     /// The whole matrix decoded, row-major, `channels` values per entry interleaved, blocks and
@@ -187,9 +212,20 @@ impl BlockDecoder {
     /// Panics if `m` is not the matrix this decoder was made for (table count differs) or the
     /// block lies outside the tile: both are programming errors, not bad input, since
     /// [`TransferMatrix::validate`] has checked the sizes.
-    pub fn decode(&self, m: &TransferMatrix<'_>, tile: &Tile, br: usize, bc: usize, out: &mut BlockValues) {
+    pub fn decode(
+        &self,
+        m: &TransferMatrix<'_>,
+        tile: &Tile,
+        br: usize,
+        bc: usize,
+        out: &mut BlockValues,
+    ) {
         let l = &m.layout;
-        assert_eq!(self.tables.len(), l.scale_count(), "decoder made for another matrix");
+        assert_eq!(
+            self.tables.len(),
+            l.scale_count(),
+            "decoder made for another matrix"
+        );
         let bb = l.format().block_bytes();
         for plane in 0..l.planes() {
             let off = l.block_offset(tile, plane, br, bc);
@@ -221,7 +257,8 @@ impl BlockDecoder {
                 }
                 Format::F16 => {
                     for i in 0..16 {
-                        out[plane][i] = f16_to_f32(u16::from_le_bytes([raw[2 * i], raw[2 * i + 1]]));
+                        out[plane][i] =
+                            f16_to_f32(u16::from_le_bytes([raw[2 * i], raw[2 * i + 1]]));
                     }
                 }
                 Format::F32 => {
