@@ -1,0 +1,90 @@
+//! Deterministic inputs shared by the cross-crate tests: a tiny PRNG, form-factor-like
+//! matrices, and a complete sample `.rad` file.
+
+use radiosity_bake::encode::{EncodeParams, encode_dense};
+use radiosity_core::{Bounces, Format, Patch, PatchOrder, RadFile, Rgb};
+use std::borrow::Cow;
+
+/// SplitMix64: a tiny, well-distributed, seedable generator, so tests need no `rand`
+/// dependency and every run sees the same inputs.
+#[derive(Clone, Debug)]
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Eight random bytes.
+    pub fn next_block(&mut self) -> [u8; 8] {
+        self.next_u64().to_le_bytes()
+    }
+}
+
+/// A dense `n × n × channels` matrix shaped like a transfer matrix: patches on a ring, entries
+/// falling off as `1/(1 + d²)` with distance, zero diagonal, channels scaled by a colour, and a
+/// few large near-field entries. Row-major, channels interleaved.
+pub fn transfer_like_matrix(n: usize, channels: usize, seed: u64) -> Vec<f32> {
+    let mut rng = SplitMix64(seed);
+    let tint = [1.0f32, 0.6, 0.3];
+    let mut m = vec![0f32; n * n * channels];
+    for r in 0..n {
+        for c in 0..n {
+            if r == c {
+                continue;
+            }
+            let d = (r as f32 - c as f32).abs().min(n as f32 - (r as f32 - c as f32).abs());
+            let mut v = 0.2 / (1.0 + d * d) * (0.8 + 0.4 * rng.next_f32());
+            if rng.next_u64() % 97 == 0 {
+                v *= 20.0; // a near-field spike, the kind the sparse list is for
+            }
+            for k in 0..channels {
+                m[(r * n + c) * channels + k] = v * tint[k];
+            }
+        }
+    }
+    m
+}
+
+/// Unit-area, valid patches for a matrix of `n`, alternating between two objects.
+pub fn sample_patches(n: usize) -> Vec<Patch> {
+    (0..n)
+        .map(|i| Patch {
+            centre: [i as f32, 0.5, -1.0],
+            area: 0.25 + i as f32 * 0.01,
+            normal: [0.0, 1.0, 0.0],
+            object: (i % 2) as u32,
+            reflectance: Rgb::new(0.7, 0.5, 0.3),
+            emission: if i == 0 { Rgb::splat(10.0) } else { Rgb::ZERO },
+        })
+        .collect()
+}
+
+/// A complete, valid `.rad` file: `n` patches, `channels`, `format`, tiles of `max_tile`,
+/// 2% sparse entries, a reversed patch order, two objects and a report.
+pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> RadFile<'static> {
+    let dense = transfer_like_matrix(n, channels, 7);
+    let params = EncodeParams { format, max_tile, sparse_fraction: 0.02, ..EncodeParams::default() };
+    let matrix = encode_dense(n, channels, &dense, &params).expect("sample matrix encodes");
+    RadFile {
+        patches: Cow::Owned(sample_patches(n)),
+        order: Cow::Owned((0..n as u32).rev().collect()),
+        matrix,
+        objects: vec![Cow::Borrowed("floor"), Cow::Borrowed("wall ünïcode")],
+        bounces: Bounces::Finite(4),
+        patch_order: PatchOrder::Spatial,
+        compression_rmse: Some(0.0125),
+        lighting_error: None,
+        report: Some(Cow::Borrowed("{\"note\":\"sample\"}")),
+    }
+}
