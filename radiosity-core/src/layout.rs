@@ -247,12 +247,20 @@ impl MatrixLayout {
         tile * self.channels() + channel
     }
 
+    /// Bytes of block data, or `None` when it or the scale table would not fit in memory
+    /// (`usize`): checked once in [`MatrixLayout::new`] so that every later `usize` product
+    /// (offsets, counts) is free of overflow on any target.
     fn checked_block_bytes(&self) -> Option<u64> {
         let padded = u64::from(self.n).div_ceil(4) * 4;
         let blocks = (padded / 4).checked_mul(padded / 4)?;
-        blocks
+        let bytes = blocks
             .checked_mul(self.planes() as u64)?
-            .checked_mul(self.format.block_bytes() as u64)
+            .checked_mul(self.format.block_bytes() as u64)?;
+        let tiles = u64::from(self.tiles_per_side).checked_mul(u64::from(self.tiles_per_side))?;
+        let scale_bytes = tiles.checked_mul(u64::from(self.channels))?.checked_mul(8)?;
+        let limit = usize::MAX as u64;
+        let entries = padded.checked_mul(padded)?;
+        (bytes <= limit && scale_bytes <= limit && entries <= limit).then_some(bytes)
     }
 
     /// Total bytes of block data.
