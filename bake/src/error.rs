@@ -1,0 +1,57 @@
+//! The bake error: what can go wrong with input the caller could not check beforehand.
+
+use std::path::PathBuf;
+
+/// An error from loading or baking a scene. Every variant names the file, and the line where
+/// one is known, so that a one-line message is enough to find the problem.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// A file could not be opened or read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// A statement in an OBJ or MTL file is malformed or out of range.
+    #[error("{}:{line}: {message}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A material is physically invalid (reflectance outside `[0, 1)`, negative or
+    /// non-finite emission).
+    #[error("{}{}: material `{material}`: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Material {
+        /// The MTL file.
+        path: PathBuf,
+        /// The `newmtl` line, where found.
+        line: Option<usize>,
+        /// The material name.
+        material: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A texture named by `map_Kd` could not be decoded.
+    #[error("{}: cannot decode texture: {message}", path.display())]
+    Texture {
+        /// The image file.
+        path: PathBuf,
+        /// The decoder's message.
+        message: String,
+    },
+    /// The scene has no usable (non-degenerate) triangle.
+    #[error("{}: the scene has no non-degenerate triangle", path.display())]
+    EmptyScene {
+        /// The OBJ file.
+        path: PathBuf,
+    },
+    /// A parameter is out of its documented range.
+    #[error("invalid parameter: {0}")]
+    InvalidParams(String),
+}

@@ -1,0 +1,409 @@
+//! Scenes: OBJ + MTL loaded into full-detail triangles with materials and objects.
+//!
+//! Conventions (DESIGN.md): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
+//! multiplied by the mean of `map_Kd` where one is given; `Ke` is emitted radiance L and the
+//! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
+
+use crate::error::BakeError;
+use crate::obj;
+use crate::texture::Texture;
+use glam::DVec3;
+use radiosity_core::Rgb;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+/// Reflectance used where a face has no material (no MTL, unknown `usemtl`, no `Kd`).
+pub const DEFAULT_REFLECTANCE: f32 = 0.5;
+
+/// A surface material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name from `newmtl` (`default` for the fallback).
+    pub name: String,
+    /// Diffuse reflectance ρ from `Kd`, each channel in `[0, 1)`.
+    pub reflectance: Rgb,
+    /// Emitted exitance E = π·`Ke` (W/m²).
+    pub emission: Rgb,
+    /// Index into [`Scene::textures`] of the `map_Kd` texture that multiplies `reflectance`.
+    pub texture: Option<u32>,
+}
+
+impl Material {
+    /// The fallback material: grey 0.5, no emission.
+    pub fn default_grey() -> Self {
+        Self {
+            name: "default".into(),
+            reflectance: Rgb::splat(DEFAULT_REFLECTANCE),
+            emission: Rgb::ZERO,
+            texture: None,
+        }
+    }
+}
+
+/// One full-detail triangle (front = counter-clockwise).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    /// Indices into [`Scene::positions`] (the OBJ's own vertex numbering, 0-based).
+    pub vertices: [u32; 3],
+    /// Indices into [`Scene::texcoords`], when the face has them.
+    pub texcoords: Option<[u32; 3]>,
+    /// Index into [`Scene::objects`].
+    pub object: u32,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// The OBJ line of the face it came from (0 for scenes not read from a file).
+    pub line: u32,
+}
+
+/// What the loader fixed or skipped, for the caller to show.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadReport {
+    /// Human-readable warnings (missing MTL, unknown material, skipped faces …).
+    pub warnings: Vec<String>,
+    /// Zero-area triangles skipped.
+    pub degenerate_triangles: usize,
+    /// Triangles skipped because an identical one (same corners, same winding) came earlier.
+    pub duplicate_triangles: usize,
+    /// `f` statements with fewer than three corners, skipped.
+    pub short_faces: usize,
+}
+
+/// A loaded scene: every triangle at full detail, with its object and material.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Where it came from (empty for built scenes).
+    pub path: PathBuf,
+    /// Every OBJ `v`, in file order: the "original vertices".
+    pub positions: Vec<DVec3>,
+    /// Every OBJ `vt`.
+    pub texcoords: Vec<[f64; 2]>,
+    /// Non-degenerate, de-duplicated triangles.
+    pub triangles: Vec<Triangle>,
+    /// Object names (`o`, else `g`), each name once, in order of first appearance.
+    pub objects: Vec<String>,
+    /// Materials; index 0 is always the grey fallback.
+    pub materials: Vec<Material>,
+    /// Decoded `map_Kd` textures.
+    pub textures: Vec<Texture>,
+    /// What the loader skipped or guessed.
+    pub report: LoadReport,
+}
+
+/// Whether a triangle has (numerically) no area: twice its area below 1e-12 of its longest
+/// edge squared, i.e. its smallest angle is below about 1e-12 rad.
+fn is_degenerate(p: [DVec3; 3]) -> bool {
+    let a2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
+    let e2 = (p[1] - p[0])
+        .length_squared()
+        .max((p[2] - p[1]).length_squared())
+        .max((p[0] - p[2]).length_squared());
+    !(a2 > 1e-12 * e2)
+}
+
+/// The line of `newmtl NAME` in an MTL text, for messages.
+fn newmtl_line(text: &str, name: &str) -> Option<usize> {
+    text.lines().position(|l| {
+        let mut t = l.split_whitespace();
+        t.next() == Some("newmtl") && t.collect::<Vec<_>>().join(" ") == name
+    })
+    .map(|i| i + 1)
+}
+
+impl Scene {
+    /// Loads an OBJ file and the MTL files it names.
+    ///
+    /// Errors (never panics) for a missing or unreadable file, a malformed statement, NaN or
+    /// infinite coordinates, out-of-range indices, reflectance outside `[0, 1)`, negative or
+    /// non-finite emission, an undecodable texture, or a scene without any usable triangle.
+    /// A missing MTL file or unknown material falls back to grey 0.5 with a warning.
+    pub fn load_obj(path: &Path) -> Result<Self, BakeError> {
+        let bytes =
+            std::fs::read(path).map_err(|source| BakeError::Io { path: path.into(), source })?;
+        Self::from_obj_str(path, &String::from_utf8_lossy(&bytes))
+    }
+
+    /// Loads OBJ text; `path` names it in messages, and MTL files are looked up beside it.
+    pub fn from_obj_str(path: &Path, text: &str) -> Result<Self, BakeError> {
+        let raw = obj::parse(path, text)?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut scene = Scene {
+            path: path.into(),
+            positions: raw.positions.iter().map(|&p| DVec3::from_array(p)).collect(),
+            texcoords: raw.texcoords.clone(),
+            objects: Vec::new(),
+            materials: vec![Material::default_grey()],
+            ..Default::default()
+        };
+        scene.report.short_faces = raw.short_faces;
+        if raw.short_faces > 0 {
+            scene.report.warnings.push(format!(
+                "{}: skipped {} face(s) with fewer than three corners",
+                path.display(),
+                raw.short_faces
+            ));
+        }
+
+        // Materials: every MTL library, later definitions of a name replacing earlier ones.
+        let mut by_name: Vec<(String, u32)> = Vec::new();
+        for (lib, line) in &raw.mtllibs {
+            let mut lib_path = dir.join(lib);
+            if !lib_path.exists() {
+                // `mtllib a.mtl b.mtl`: several files on one line.
+                let parts: Vec<&str> = lib.split_whitespace().collect();
+                if parts.len() > 1 {
+                    for p in parts {
+                        scene.load_mtl(&dir.join(p), path, *line, &mut by_name)?;
+                    }
+                    continue;
+                }
+                lib_path = dir.join(lib);
+            }
+            scene.load_mtl(&lib_path, path, *line, &mut by_name)?;
+        }
+        let mut mat_of_name = Vec::with_capacity(raw.material_names.len());
+        for name in &raw.material_names {
+            match by_name.iter().find(|(n, _)| n == name) {
+                Some(&(_, i)) => mat_of_name.push(i),
+                None => {
+                    scene.report.warnings.push(format!(
+                        "{}: material `{name}` is not defined; using grey {DEFAULT_REFLECTANCE}",
+                        path.display()
+                    ));
+                    mat_of_name.push(0);
+                }
+            }
+        }
+
+        // Triangles: fan-triangulate, skip degenerate and duplicate ones.
+        let mut seen: HashSet<[u64; 9]> = HashSet::new();
+        let mut object_remap: Vec<Option<u32>> = vec![None; raw.objects.len()];
+        for face in &raw.faces {
+            for k in 1..face.v.len() - 1 {
+                let vi = [face.v[0], face.v[k], face.v[k + 1]];
+                let p = vi.map(|i| scene.positions[i as usize]);
+                if is_degenerate(p) {
+                    scene.report.degenerate_triangles += 1;
+                    continue;
+                }
+                // Same corners in the same cyclic order: an exact duplicate.
+                let start = (0..3)
+                    .min_by(|&a, &b| {
+                        p[a].to_array().partial_cmp(&p[b].to_array()).expect("finite")
+                    })
+                    .expect("three corners");
+                let mut key = [0u64; 9];
+                for j in 0..3 {
+                    let q = p[(start + j) % 3];
+                    key[3 * j] = q.x.to_bits();
+                    key[3 * j + 1] = q.y.to_bits();
+                    key[3 * j + 2] = q.z.to_bits();
+                }
+                if !seen.insert(key) {
+                    scene.report.duplicate_triangles += 1;
+                    continue;
+                }
+                let object = *object_remap[face.object as usize].get_or_insert_with(|| {
+                    scene.objects.push(raw.objects[face.object as usize].clone());
+                    (scene.objects.len() - 1) as u32
+                });
+                let material = face.material.map_or(0, |m| mat_of_name[m as usize]);
+                scene.triangles.push(Triangle {
+                    vertices: vi,
+                    texcoords: face.vt.as_ref().map(|t| [t[0], t[k], t[k + 1]]),
+                    object,
+                    material,
+                    line: face.line,
+                });
+            }
+        }
+        if scene.report.degenerate_triangles > 0 {
+            scene.report.warnings.push(format!(
+                "{}: skipped {} degenerate (zero-area) triangle(s)",
+                path.display(),
+                scene.report.degenerate_triangles
+            ));
+        }
+        if scene.report.duplicate_triangles > 0 {
+            scene.report.warnings.push(format!(
+                "{}: skipped {} duplicate triangle(s) (same corners, same winding as an earlier one)",
+                path.display(),
+                scene.report.duplicate_triangles
+            ));
+        }
+        if raw.faces.iter().any(|f| f.material.is_none()) && !scene.triangles.is_empty() {
+            let n = scene.triangles.iter().filter(|t| t.material == 0).count();
+            if n > 0 && raw.mtllibs.is_empty() {
+                scene.report.warnings.push(format!(
+                    "{}: no material library; {n} triangle(s) use grey {DEFAULT_REFLECTANCE}",
+                    path.display()
+                ));
+            }
+        }
+        if scene.triangles.is_empty() {
+            return Err(BakeError::EmptyScene { path: path.into() });
+        }
+        Ok(scene)
+    }
+
+    /// Reads one MTL file into `self.materials`; a missing file is a warning, a bad value an
+    /// error.
+    fn load_mtl(
+        &mut self,
+        mtl_path: &Path,
+        obj_path: &Path,
+        obj_line: usize,
+        by_name: &mut Vec<(String, u32)>,
+    ) -> Result<(), BakeError> {
+        let text = match std::fs::read(mtl_path) {
+            Ok(b) => String::from_utf8_lossy(&b).into_owned(),
+            Err(e) => {
+                self.report.warnings.push(format!(
+                    "{}:{obj_line}: cannot read material library {}: {e}; its materials are grey {DEFAULT_REFLECTANCE}",
+                    obj_path.display(),
+                    mtl_path.display()
+                ));
+                return Ok(());
+            }
+        };
+        let (mats, _) = tobj::load_mtl_buf(&mut text.as_bytes()).map_err(|e| BakeError::Material {
+            path: mtl_path.into(),
+            line: None,
+            material: String::new(),
+            message: e.to_string(),
+        })?;
+        let dir = mtl_path.parent().unwrap_or(Path::new("."));
+        for m in mats {
+            let bad = |message: String| BakeError::Material {
+                path: mtl_path.into(),
+                line: newmtl_line(&text, &m.name),
+                material: m.name.clone(),
+                message,
+            };
+            let kd = m.diffuse.map(|d| d.map(f64::from)).unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
+            if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
+                return Err(bad(format!(
+                    "Kd {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",
+                    kd[0], kd[1], kd[2]
+                )));
+            }
+            let ke = m.emissive.map(|d| d.map(f64::from)).unwrap_or([0.0; 3]);
+            if ke.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                return Err(bad(format!(
+                    "Ke {} {} {} must be finite and non-negative",
+                    ke[0], ke[1], ke[2]
+                )));
+            }
+            let texture = match &m.diffuse_texture {
+                Some(spec) => {
+                    // Options (`-bm 1 …`) come before the file name.
+                    let file = spec.split_whitespace().last().unwrap_or(spec);
+                    self.textures.push(Texture::load(&dir.join(file))?);
+                    Some((self.textures.len() - 1) as u32)
+                }
+                None => None,
+            };
+            let pi = std::f64::consts::PI;
+            self.materials.push(Material {
+                name: m.name.clone(),
+                reflectance: Rgb::new(kd[0] as f32, kd[1] as f32, kd[2] as f32),
+                emission: Rgb::new((pi * ke[0]) as f32, (pi * ke[1]) as f32, (pi * ke[2]) as f32),
+                texture,
+            });
+            let idx = (self.materials.len() - 1) as u32;
+            match by_name.iter_mut().find(|(n, _)| *n == m.name) {
+                Some(entry) => entry.1 = idx,
+                None => by_name.push((m.name.clone(), idx)),
+            }
+        }
+        Ok(())
+    }
+
+    /// A scene built in code: triangles as corner positions, each with an object index into
+    /// `objects`, all grey 0.5. Degenerate triangles are skipped and counted as when loading.
+    pub fn from_triangles(objects: Vec<String>, triangles: &[([DVec3; 3], u32)]) -> Self {
+        let mut s = Scene {
+            objects,
+            materials: vec![Material::default_grey()],
+            ..Default::default()
+        };
+        for (p, object) in triangles {
+            assert!((*object as usize) < s.objects.len(), "object index out of range");
+            if is_degenerate(*p) {
+                s.report.degenerate_triangles += 1;
+                continue;
+            }
+            let base = s.positions.len() as u32;
+            s.positions.extend_from_slice(p);
+            s.triangles.push(Triangle {
+                vertices: [base, base + 1, base + 2],
+                texcoords: None,
+                object: *object,
+                material: 0,
+                line: 0,
+            });
+        }
+        s
+    }
+
+    /// Corner positions of triangle `t`.
+    #[inline]
+    pub fn corners(&self, t: usize) -> [DVec3; 3] {
+        self.triangles[t].vertices.map(|i| self.positions[i as usize])
+    }
+
+    /// Area of triangle `t`.
+    pub fn triangle_area(&self, t: usize) -> f64 {
+        let p = self.corners(t);
+        0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+    }
+
+    /// Unit front normal of triangle `t` (counter-clockwise winding).
+    pub fn triangle_normal(&self, t: usize) -> DVec3 {
+        let p = self.corners(t);
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize()
+    }
+
+    /// Total area of each object.
+    pub fn object_areas(&self) -> Vec<f64> {
+        let mut a = vec![0.0; self.objects.len()];
+        for t in 0..self.triangles.len() {
+            a[self.triangles[t].object as usize] += self.triangle_area(t);
+        }
+        a
+    }
+
+    /// Axis-aligned bounds of the triangles (min, max).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for t in 0..self.triangles.len() {
+            for p in self.corners(t) {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Mean reflectance of triangle `t` over the sub-region given by barycentric corners
+    /// (`Kd` times the mean of `map_Kd` over that region; `Kd` alone without a texture).
+    pub fn reflectance_over(&self, t: usize, bary: [[f64; 3]; 3]) -> [f64; 3] {
+        let tri = &self.triangles[t];
+        let mat = &self.materials[tri.material as usize];
+        let kd = mat.reflectance.to_array().map(f64::from);
+        match (mat.texture, tri.texcoords) {
+            (Some(tex), Some(vt)) => {
+                let uv = vt.map(|i| self.texcoords[i as usize]);
+                let at = |b: [f64; 3]| {
+                    [
+                        b[0] * uv[0][0] + b[1] * uv[1][0] + b[2] * uv[2][0],
+                        b[0] * uv[0][1] + b[1] * uv[1][1] + b[2] * uv[2][1],
+                    ]
+                };
+                let m = self.textures[tex as usize].mean_over_triangle(bary.map(at));
+                [kd[0] * m[0], kd[1] * m[1], kd[2] * m[2]]
+            }
+            _ => kd,
+        }
+    }
+}

@@ -1,0 +1,126 @@
+//! Albedo textures (`map_Kd`): decoded once to linear RGB, then averaged over regions.
+
+use crate::error::BakeError;
+use std::path::Path;
+
+/// A decoded albedo texture in linear RGB, each channel in `[0, 1]`.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    width: usize,
+    height: usize,
+    texels: Vec<[f32; 3]>,
+}
+
+/// sRGB transfer function inverse: 8-bit albedo maps are sRGB-encoded by convention.
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+impl Texture {
+    /// Decodes an image file (PNG, JPEG or GIF).
+    pub fn load(path: &Path) -> Result<Self, BakeError> {
+        let bytes =
+            std::fs::read(path).map_err(|source| BakeError::Io { path: path.into(), source })?;
+        let img = image::load_from_memory(&bytes)
+            .map_err(|e| BakeError::Texture { path: path.into(), message: e.to_string() })?;
+        let rgb = img.to_rgb32f();
+        let (width, height) = (rgb.width() as usize, rgb.height() as usize);
+        if width == 0 || height == 0 {
+            return Err(BakeError::Texture { path: path.into(), message: "empty image".into() });
+        }
+        let texels = rgb
+            .pixels()
+            .map(|p| {
+                [srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])]
+                    .map(|c| c.clamp(0.0, 1.0))
+            })
+            .collect();
+        Ok(Self { width, height, texels })
+    }
+
+    /// A texture from linear texels, row-major, `v` = 0 at the bottom row as in OBJ.
+    pub fn from_texels(width: usize, height: usize, texels: Vec<[f32; 3]>) -> Self {
+        assert_eq!(texels.len(), width * height, "texel count");
+        assert!(width > 0 && height > 0, "empty texture");
+        Self { width, height, texels }
+    }
+
+    /// Bilinear sample with wrap-around (`repeat`) addressing at texture coordinate `(u, v)`.
+    pub fn sample(&self, u: f64, v: f64) -> [f64; 3] {
+        // OBJ's v runs up, image rows run down.
+        let x = u.rem_euclid(1.0) * self.width as f64 - 0.5;
+        let y = (1.0 - v.rem_euclid(1.0)) * self.height as f64 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let wrap = |i: f64, n: usize| (i as i64).rem_euclid(n as i64) as usize;
+        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
+        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
+        let t = |x: usize, y: usize| self.texels[y * self.width + x];
+        let mut out = [0.0; 3];
+        for c in 0..3 {
+            let top = t(xa, ya)[c] as f64 * (1.0 - fx) + t(xb, ya)[c] as f64 * fx;
+            let bot = t(xa, yb)[c] as f64 * (1.0 - fx) + t(xb, yb)[c] as f64 * fx;
+            out[c] = top * (1.0 - fy) + bot * fy;
+        }
+        out
+    }
+
+    /// Mean over the UV triangle `uv`, by a fixed barycentric lattice of `k(k+1)/2` points with
+    /// `k` chosen from the triangle's texel footprint (at most 64 per side).
+    pub fn mean_over_triangle(&self, uv: [[f64; 2]; 3]) -> [f64; 3] {
+        let span = |i: usize| {
+            let (a, b) = (uv[i], uv[(i + 1) % 3]);
+            ((a[0] - b[0]) * self.width as f64).hypot((a[1] - b[1]) * self.height as f64)
+        };
+        let k = (span(0).max(span(1)).max(span(2)).ceil() as usize).clamp(1, 64);
+        let mut acc = [0.0; 3];
+        let mut n = 0.0;
+        // Centroids of the k² sub-triangles of a regular subdivision: equal weights.
+        for i in 0..k {
+            for j in 0..k - i {
+                for up in [true, false] {
+                    if !up && i + j + 1 >= k {
+                        continue;
+                    }
+                    let (a, b) = if up {
+                        ((i as f64 + 1.0 / 3.0) / k as f64, (j as f64 + 1.0 / 3.0) / k as f64)
+                    } else {
+                        ((i as f64 + 2.0 / 3.0) / k as f64, (j as f64 + 2.0 / 3.0) / k as f64)
+                    };
+                    let c = 1.0 - a - b;
+                    let u = a * uv[0][0] + b * uv[1][0] + c * uv[2][0];
+                    let v = a * uv[0][1] + b * uv[1][1] + c * uv[2][1];
+                    let s = self.sample(u, v);
+                    for ch in 0..3 {
+                        acc[ch] += s[ch];
+                    }
+                    n += 1.0;
+                }
+            }
+        }
+        acc.map(|x| x / n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_of_two_colour_texture() {
+        // Left half black, right half white: the mean over the whole UV square is 0.5.
+        let t = Texture::from_texels(2, 1, vec![[0.0; 3], [1.0; 3]]);
+        let a = t.mean_over_triangle([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]);
+        let b = t.mean_over_triangle([[0.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        let m = 0.5 * (a[0] + b[0]);
+        // Bilinear filtering with wrap blurs the edge symmetrically: the mean is exact to the
+        // lattice resolution.
+        assert!((m - 0.5).abs() < 0.02, "mean {m}");
+    }
+
+    #[test]
+    fn srgb_endpoints() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+    }
+}
