@@ -277,19 +277,9 @@ impl<'a> RadFile<'a> {
         if self.objects.len() > u32::MAX as usize {
             return Err(bad(SectionKind::Objects, 0, "too many objects"));
         }
-        for (k, v) in [
-            ("compression_rmse", self.compression_rmse),
-            ("lighting_error", self.lighting_error),
-        ] {
-            if let Some(v) = v {
-                if !(v.is_finite() && v >= 0.0) {
-                    let _ = k;
-                    return Err(bad(
-                        SectionKind::Meta,
-                        0,
-                        "error estimate not finite and non-negative",
-                    ));
-                }
+        for v in [self.compression_rmse, self.lighting_error].into_iter().flatten() {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(SectionKind::Meta, 0, "error estimate not finite and non-negative"));
             }
         }
         if let Bounces::Finite(0) = self.bounces {

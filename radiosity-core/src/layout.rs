@@ -173,7 +173,7 @@ impl MatrixLayout {
         if format == Format::Bc1 && channels != 3 {
             return Err(LayoutError::Bc1NeedsThreeChannels);
         }
-        if max_tile == 0 || max_tile % 4 != 0 || max_tile > 65536 {
+        if max_tile == 0 || !max_tile.is_multiple_of(4) || max_tile > 65536 {
             return Err(LayoutError::MaxTile(max_tile));
         }
         if n == 0 {

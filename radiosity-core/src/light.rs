@@ -3,7 +3,7 @@
 //! Visibility (shadow rays) belongs to whoever owns the geometry; this module gives the
 //! unoccluded irradiance and the segment a shadow ray must test.
 
-use crate::{Patch, Rgb};
+use crate::{Patch, Rgb, math};
 use core::fmt;
 use glam::Vec3;
 
@@ -165,7 +165,7 @@ fn point_light(
     if !(r2 > 0.0) {
         return None;
     }
-    let r = r2.sqrt();
+    let r = math::sqrt(r2);
     let to_light = d / r;
     let cos = normal.dot(to_light);
     if cos <= 0.0 {
@@ -173,7 +173,7 @@ fn point_light(
     }
     if let Some((axis, cone_deg)) = cone {
         // Inside the cone when the angle between the axis and light→point is ≤ the half-angle.
-        if axis.dot(-to_light) < cone_deg.to_radians().cos() {
+        if axis.dot(-to_light) < math::cos(cone_deg.to_radians()) {
             return None;
         }
     }

@@ -15,6 +15,14 @@ mod imp {
     pub(crate) fn round(x: f32) -> f32 {
         x.round()
     }
+    #[inline]
+    pub(crate) fn sqrt(x: f32) -> f32 {
+        x.sqrt()
+    }
+    #[inline]
+    pub(crate) fn cos(x: f32) -> f32 {
+        x.cos()
+    }
 }
 
 #[cfg(not(feature = "std"))]
@@ -30,6 +38,14 @@ mod imp {
     #[inline]
     pub(crate) fn round(x: f32) -> f32 {
         libm::roundf(x)
+    }
+    #[inline]
+    pub(crate) fn sqrt(x: f32) -> f32 {
+        libm::sqrtf(x)
+    }
+    #[inline]
+    pub(crate) fn cos(x: f32) -> f32 {
+        libm::cosf(x)
     }
 }
 
