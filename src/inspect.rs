@@ -1,6 +1,94 @@
-//! `radiosity inspect`.
+//! `radiosity inspect FILE [--json]`: what a `.rad` file holds.
+
+use anyhow::Context;
+use radiosity_core::{Bounces, RadFile};
+use serde_json::{Value, json};
 use std::path::Path;
 
-pub(crate) fn run(_file: &Path, _json: bool) -> anyhow::Result<()> {
-    anyhow::bail!("inspect is not implemented yet")
+pub(crate) fn run(path: &Path, json_out: bool) -> anyhow::Result<()> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let file = RadFile::parse(&bytes).with_context(|| format!("{} is not a valid .rad file", path.display()))?;
+    let summary = summarise(&file, bytes.len());
+    if json_out {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print_text(path, &file, &summary);
+    }
+    Ok(())
+}
+
+/// The `inspect --json` object (DESIGN.md): the file's own facts, merged over the bake's report
+/// (rays cast, effects, timings, per-order errors) when the file carries one.
+fn summarise(file: &RadFile<'_>, total: usize) -> Value {
+    let m = &file.matrix;
+    let l = &m.layout;
+    let order = file.patch_order.name();
+    let mut out = match file.report.as_deref().map(serde_json::from_str::<Value>) {
+        Some(Ok(Value::Object(report))) => Value::Object(report),
+        _ => json!({}),
+    };
+    let mut rmse = out.get("compression_rmse").cloned().unwrap_or_else(|| json!({}));
+    if let (Some(map), Some(v)) = (rmse.as_object_mut(), file.compression_rmse) {
+        map.entry(order).or_insert(json!(v));
+    }
+    let own = json!({
+        "patches": file.n(),
+        "channels": l.channels(),
+        "format": l.format().name(),
+        "order": order,
+        "bounces": match file.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
+        "bytes": {
+            "total": total,
+            "blocks": m.blocks.len(),
+            "sparse": m.sparse.bytes(),
+            "scales": m.scales.len() * std::mem::size_of::<radiosity_core::LogScale>(),
+        },
+        "tiles": l.tile_count(),
+        "tile_size": l.tile_size(),
+        "sparse_entries": m.sparse.nnz(),
+        "compression_rmse": rmse,
+        "lighting_error": file.lighting_error,
+        "objects": file.objects.iter().map(|o| o.as_ref()).collect::<Vec<_>>(),
+    });
+    let obj = out.as_object_mut().expect("object");
+    for (k, v) in own.as_object().expect("object") {
+        obj.insert(k.clone(), v.clone());
+    }
+    out
+}
+
+fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
+    let l = &file.matrix.layout;
+    let mib = |b: &Value| b.as_f64().unwrap_or(0.0) / (1024.0 * 1024.0);
+    println!("{}", path.display());
+    println!("  patches      {} ({} objects)", file.n(), file.objects.len());
+    println!("  matrix       {} × {} channel(s), {}", l.format(), l.channels(), s["bounces"]);
+    println!("  order        {}", file.patch_order.name());
+    println!("  tiles        {} of up to {}²", l.tile_count(), l.tile_size());
+    println!(
+        "  bytes        {:.3} MiB total: blocks {:.3} MiB, sparse {:.3} MiB ({} entries)",
+        mib(&s["bytes"]["total"]),
+        mib(&s["bytes"]["blocks"]),
+        mib(&s["bytes"]["sparse"]),
+        file.matrix.sparse.nnz()
+    );
+    let dense_rgb = (file.n() * file.n() * 3 * 4) as f64;
+    println!(
+        "               {:.1}× smaller than a dense f32 RGB matrix",
+        dense_rgb / s["bytes"]["total"].as_f64().unwrap_or(1.0)
+    );
+    match file.compression_rmse {
+        Some(v) => println!("  compression  relative Frobenius error {:.4}", v),
+        None => println!("  compression  error not measured"),
+    }
+    if let Some(v) = file.lighting_error {
+        println!("  lighting     relative L2 error {v:.4} (scene's own emitters)");
+    }
+    if let Some(effects) = s.get("effects").and_then(Value::as_object) {
+        println!("  effects");
+        for (name, e) in effects {
+            let on = if e["on"].as_bool().unwrap_or(false) { "on " } else { "off" };
+            println!("    {name:<12} {on} {}", e["why"].as_str().unwrap_or(""));
+        }
+    }
 }
