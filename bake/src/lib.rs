@@ -27,6 +27,7 @@ pub mod polygon;
 pub mod quadrature;
 pub mod scene;
 pub mod texture;
+pub mod transfer;
 pub mod view_factors;
 pub mod voxel;
 
