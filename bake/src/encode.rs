@@ -100,6 +100,12 @@ pub enum EncodeError {
     /// The layout is impossible.
     #[error("{0}")]
     Layout(#[from] LayoutError),
+    /// An entry exceeds what binary16 can hold.
+    #[error("matrix entry {value} exceeds the f16 range (65504); use f32")]
+    F16Range {
+        /// The entry.
+        value: f32,
+    },
 }
 
 /// Encodes a dense row-major matrix (`n · n · channels` values, channels interleaved per entry)
