@@ -7,12 +7,12 @@
 
 use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
+use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
-use obvhs::BvhBuildParams;
 use std::time::Duration;
 
 /// The triangles that block light, with a BVH over them.
@@ -48,7 +48,11 @@ const EDGE_SLACK: f32 = 1e-6;
 
 impl RayTriangle {
     fn new(t: &BvhTriangle) -> Self {
-        Self { v0: t.v0, e1: t.v1 - t.v0, e2: t.v2 - t.v0 }
+        Self {
+            v0: t.v0,
+            e1: t.v1 - t.v0,
+            e2: t.v2 - t.v0,
+        }
     }
 
     /// Distance along the ray of the hit, or infinity. Both sides hit.
@@ -71,14 +75,20 @@ impl RayTriangle {
             return f32::INFINITY;
         }
         let t = self.e2.dot(q) * inv;
-        if t >= ray.tmin && t <= ray.tmax { t } else { f32::INFINITY }
+        if t >= ray.tmin && t <= ray.tmax {
+            t
+        } else {
+            f32::INFINITY
+        }
     }
 }
 
 impl Occluders {
     /// Builds the BVH over every triangle of `scene`.
     pub fn new(scene: &Scene) -> Self {
-        let corners: Vec<[DVec3; 3]> = (0..scene.triangles.len()).map(|t| scene.corners(t)).collect();
+        let corners: Vec<[DVec3; 3]> = (0..scene.triangles.len())
+            .map(|t| scene.corners(t))
+            .collect();
         Self::from_triangles(&corners)
     }
 
@@ -92,17 +102,28 @@ impl Occluders {
                 hi = hi.max(*p);
             }
         }
-        let (origin, extent) =
-            if tris.is_empty() { (DVec3::ZERO, 1.0) } else { ((lo + hi) * 0.5, (hi - lo).length().max(f64::MIN_POSITIVE)) };
+        let (origin, extent) = if tris.is_empty() {
+            (DVec3::ZERO, 1.0)
+        } else {
+            ((lo + hi) * 0.5, (hi - lo).length().max(f64::MIN_POSITIVE))
+        };
         let local = |p: DVec3| Vec3A::from((p - origin).as_vec3());
         let bt: Vec<BvhTriangle> = tris
             .iter()
-            .map(|t| BvhTriangle { v0: local(t[0]), v1: local(t[1]), v2: local(t[2]) })
+            .map(|t| BvhTriangle {
+                v0: local(t[0]),
+                v1: local(t[1]),
+                v2: local(t[2]),
+            })
             .collect();
         let bvh = if bt.is_empty() {
             Bvh2::default()
         } else {
-            build_bvh2_from_tris(&bt, BvhBuildParams::medium_build(), &mut Duration::default())
+            build_bvh2_from_tris(
+                &bt,
+                BvhBuildParams::medium_build(),
+                &mut Duration::default(),
+            )
         };
         let order: Vec<usize> = bvh.primitive_indices.iter().map(|&i| i as usize).collect();
         Self {
@@ -146,7 +167,8 @@ impl Occluders {
         let dir = Vec3A::from((d / len).as_vec3());
         let o = Vec3A::from((a - self.origin).as_vec3());
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
-        self.bvh.ray_traverse_miss(ray, |r, id| self.rt[id].intersect(r))
+        self.bvh
+            .ray_traverse_miss(ray, |r, id| self.rt[id].intersect(r))
     }
 
     /// Whether any triangle could block some segment from a point of polygon `s` (unit normal
@@ -184,7 +206,9 @@ impl Occluders {
                 if clo.cmpgt(hi).any() || chi.cmplt(lo).any() {
                     continue;
                 }
-                if c.iter().all(|p| ns.dot(*p) - ds <= tol) || c.iter().all(|p| nt.dot(*p) - dt <= tol) {
+                if c.iter().all(|p| ns.dot(*p) - ds <= tol)
+                    || c.iter().all(|p| nt.dot(*p) - dt <= tol)
+                {
                     continue;
                 }
                 let nc = (c[1] - c[0]).cross(c[2] - c[0]);
@@ -214,9 +238,17 @@ mod tests {
     use glam::dvec3;
 
     fn quad(z: f64, up: bool) -> Vec<[DVec3; 3]> {
-        let (a, b, c, d) =
-            (dvec3(0.0, 0.0, z), dvec3(1.0, 0.0, z), dvec3(1.0, 1.0, z), dvec3(0.0, 1.0, z));
-        if up { vec![[a, b, c], [a, c, d]] } else { vec![[a, c, b], [a, d, c]] }
+        let (a, b, c, d) = (
+            dvec3(0.0, 0.0, z),
+            dvec3(1.0, 0.0, z),
+            dvec3(1.0, 1.0, z),
+            dvec3(0.0, 1.0, z),
+        );
+        if up {
+            vec![[a, b, c], [a, c, d]]
+        } else {
+            vec![[a, c, b], [a, d, c]]
+        }
     }
 
     #[test]
@@ -232,8 +264,16 @@ mod tests {
         let mut tris = quad(0.0, true);
         tris.extend(quad(1.0, false));
         let occ = Occluders::from_triangles(&tris);
-        let s = [dvec3(0.0, 0.0, 0.0), dvec3(1.0, 0.0, 0.0), dvec3(1.0, 1.0, 0.0)];
-        let t = [dvec3(0.0, 0.0, 1.0), dvec3(1.0, 1.0, 1.0), dvec3(1.0, 0.0, 1.0)];
+        let s = [
+            dvec3(0.0, 0.0, 0.0),
+            dvec3(1.0, 0.0, 0.0),
+            dvec3(1.0, 1.0, 0.0),
+        ];
+        let t = [
+            dvec3(0.0, 0.0, 1.0),
+            dvec3(1.0, 1.0, 1.0),
+            dvec3(1.0, 0.0, 1.0),
+        ];
         assert!(!occ.may_block(&s, DVec3::Z, &t, -DVec3::Z));
         // A plate between them is a candidate.
         tris.extend(quad(0.5, true));

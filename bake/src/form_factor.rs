@@ -51,8 +51,15 @@ pub struct FormFactorParams {
 impl Default for FormFactorParams {
     fn default() -> Self {
         Self {
-            quadrature: Adaptive { rule: Rule::Centroid, ratio: 0.5, max_depth: 5 },
-            visibility: Visibility::Rays { per_sample: 1, skip_unblockable: true },
+            quadrature: Adaptive {
+                rule: Rule::Centroid,
+                ratio: 0.5,
+                max_depth: 5,
+            },
+            visibility: Visibility::Rays {
+                per_sample: 1,
+                skip_unblockable: true,
+            },
         }
     }
 }
@@ -60,20 +67,37 @@ impl Default for FormFactorParams {
 impl FormFactorParams {
     /// Coarser quadrature: previews.
     pub fn fast() -> Self {
-        Self { quadrature: Adaptive { rule: Rule::Centroid, ratio: 1.0, max_depth: 3 }, ..Self::default() }
+        Self {
+            quadrature: Adaptive {
+                rule: Rule::Centroid,
+                ratio: 1.0,
+                max_depth: 3,
+            },
+            ..Self::default()
+        }
     }
 
     /// Finer quadrature and four rays per sample: final bakes.
     pub fn high_quality() -> Self {
         Self {
-            quadrature: Adaptive { rule: Rule::Degree2, ratio: 0.5, max_depth: 6 },
-            visibility: Visibility::Rays { per_sample: 4, skip_unblockable: true },
+            quadrature: Adaptive {
+                rule: Rule::Degree2,
+                ratio: 0.5,
+                max_depth: 6,
+            },
+            visibility: Visibility::Rays {
+                per_sample: 4,
+                skip_unblockable: true,
+            },
         }
     }
 
     /// The default with visibility rays switched off.
     pub fn unoccluded() -> Self {
-        Self { visibility: Visibility::Off, ..Self::default() }
+        Self {
+            visibility: Visibility::Off,
+            ..Self::default()
+        }
     }
 }
 
@@ -193,7 +217,12 @@ fn exchange(
             }
             let need_rays = match (params.visibility, occ) {
                 (Visibility::Off, _) | (_, None) => false,
-                (Visibility::Rays { skip_unblockable, .. }, Some(o)) => {
+                (
+                    Visibility::Rays {
+                        skip_unblockable, ..
+                    },
+                    Some(o),
+                ) => {
                     !skip_unblockable
                         || match cache {
                             Some(c) => c.may_block(s.triangle, t.triangle),
@@ -217,29 +246,37 @@ fn exchange(
         };
         let mut sample_index: u64 = 0;
         for i in 1..sv.len() - 1 {
-            integrate([sv[0], sv[i], sv[i + 1]], &params.quadrature, &dist, &mut |q| {
-                for &(k, need_rays) in live.iter() {
-                    let t = &dst[k];
-                    let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
-                    if f <= 0.0 {
-                        continue;
-                    }
-                    let vis = if need_rays {
-                        let o = occ.expect("rays need occluders");
-                        let mut seen = 0u32;
-                        for r in 0..per_sample {
-                            let y = polygon_point(t.polygon.vertices(), sample_index * per_sample as u64 + r as u64);
-                            seen += o.segment_visible(q.x, y) as u32;
+            integrate(
+                [sv[0], sv[i], sv[i + 1]],
+                &params.quadrature,
+                &dist,
+                &mut |q| {
+                    for &(k, need_rays) in live.iter() {
+                        let t = &dst[k];
+                        let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
+                        if f <= 0.0 {
+                            continue;
                         }
-                        *rays += per_sample as u64;
-                        seen as f64 / per_sample as f64
-                    } else {
-                        1.0
-                    };
-                    total += q.w * f * vis;
-                }
-                sample_index += 1;
-            });
+                        let vis = if need_rays {
+                            let o = occ.expect("rays need occluders");
+                            let mut seen = 0u32;
+                            for r in 0..per_sample {
+                                let y = polygon_point(
+                                    t.polygon.vertices(),
+                                    sample_index * per_sample as u64 + r as u64,
+                                );
+                                seen += o.segment_visible(q.x, y) as u32;
+                            }
+                            *rays += per_sample as u64;
+                            seen as f64 / per_sample as f64
+                        } else {
+                            1.0
+                        };
+                        total += q.w * f * vis;
+                    }
+                    sample_index += 1;
+                },
+            );
         }
     }
     total
@@ -263,7 +300,11 @@ pub fn form_factors(
                 hi = hi.max(*v);
             }
         }
-        if patches.pieces.is_empty() { 1.0 } else { (hi - lo).length() }
+        if patches.pieces.is_empty() {
+            1.0
+        } else {
+            (hi - lo).length()
+        }
     };
     let tol = 1e-9 * extent;
     let occ = match params.visibility {
@@ -271,9 +312,13 @@ pub fn form_factors(
         Visibility::Rays { .. } => occluders,
     };
     let cache = match (params.visibility, occ) {
-        (Visibility::Rays { skip_unblockable: true, .. }, Some(o)) => {
-            BlockCache::new(patches, o, &patches.triangles)
-        }
+        (
+            Visibility::Rays {
+                skip_unblockable: true,
+                ..
+            },
+            Some(o),
+        ) => BlockCache::new(patches, o, &patches.triangles),
         _ => None,
     };
     let done = AtomicUsize::new(0);
@@ -317,8 +362,9 @@ pub fn form_factors(
             matrix[j * n + i] = (g / aj) as f32;
         }
     }
-    let row_sums: Vec<f64> =
-        (0..n).map(|i| matrix[i * n..(i + 1) * n].iter().map(|&f| f as f64).sum()).collect();
+    let row_sums: Vec<f64> = (0..n)
+        .map(|i| matrix[i * n..(i + 1) * n].iter().map(|&f| f as f64).sum())
+        .collect();
     let mut reciprocity_error: f64 = 0.0;
     for i in 0..n {
         for j in i + 1..n {
@@ -330,5 +376,11 @@ pub fn form_factors(
             }
         }
     }
-    FormFactors { n, matrix, rays_cast, row_sums, reciprocity_error }
+    FormFactors {
+        n,
+        matrix,
+        rays_cast,
+        row_sums,
+        reciprocity_error,
+    }
 }

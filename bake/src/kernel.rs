@@ -118,7 +118,10 @@ mod tests {
             // Limit at the edge: half the hemisphere minus the two open ends, below 0.5.
             assert!(f > 0.3 && f < 0.5, "eps {eps}: F = {f}");
         }
-        assert_eq!(point_to_polygon(dvec3(0.0, 0.5, 0.0), DVec3::Z, &wall, nw), 0.0);
+        assert_eq!(
+            point_to_polygon(dvec3(0.0, 0.5, 0.0), DVec3::Z, &wall, nw),
+            0.0
+        );
     }
 
     #[test]

@@ -40,7 +40,11 @@ pub(crate) struct RawObj {
 }
 
 fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> BakeError {
-    BakeError::Parse { path: path.into(), line, message: message.into() }
+    BakeError::Parse {
+        path: path.into(),
+        line,
+        message: message.into(),
+    }
 }
 
 fn intern(names: &mut Vec<String>, name: &str) -> u32 {
@@ -55,23 +59,40 @@ fn intern(names: &mut Vec<String>, name: &str) -> u32 {
 
 fn parse_f64(path: &Path, line: usize, tok: Option<&str>, what: &str) -> Result<f64, BakeError> {
     let tok = tok.ok_or_else(|| parse_err(path, line, format!("missing {what}")))?;
-    let x: f64 =
-        tok.parse().map_err(|_| parse_err(path, line, format!("bad {what} `{tok}`")))?;
+    let x: f64 = tok
+        .parse()
+        .map_err(|_| parse_err(path, line, format!("bad {what} `{tok}`")))?;
     if !x.is_finite() {
-        return Err(parse_err(path, line, format!("{what} `{tok}` is not finite")));
+        return Err(parse_err(
+            path,
+            line,
+            format!("{what} `{tok}` is not finite"),
+        ));
     }
     Ok(x)
 }
 
 /// Resolves a 1-based or negative (relative) OBJ index; `count` is the number defined so far.
-fn resolve(path: &Path, line: usize, tok: &str, count: usize, what: &str) -> Result<u32, BakeError> {
-    let k: i64 = tok.parse().map_err(|_| parse_err(path, line, format!("bad {what} index `{tok}`")))?;
+fn resolve(
+    path: &Path,
+    line: usize,
+    tok: &str,
+    count: usize,
+    what: &str,
+) -> Result<u32, BakeError> {
+    let k: i64 = tok
+        .parse()
+        .map_err(|_| parse_err(path, line, format!("bad {what} index `{tok}`")))?;
     let i = if k > 0 {
         k - 1
     } else if k < 0 {
         count as i64 + k
     } else {
-        return Err(parse_err(path, line, format!("{what} index 0 is invalid (OBJ indices start at 1)")));
+        return Err(parse_err(
+            path,
+            line,
+            format!("{what} index 0 is invalid (OBJ indices start at 1)"),
+        ));
     };
     if i < 0 || i as usize >= count || i > u32::MAX as i64 {
         return Err(parse_err(
@@ -119,9 +140,13 @@ pub(crate) fn parse(path: &Path, text: &str) -> Result<RawObj, BakeError> {
                     let p = parts.next().unwrap_or("");
                     v.push(resolve(path, line, p, obj.positions.len(), "vertex")?);
                     match parts.next() {
-                        Some(t) if !t.is_empty() => {
-                            vt.push(resolve(path, line, t, obj.texcoords.len(), "texture coordinate")?)
-                        }
+                        Some(t) if !t.is_empty() => vt.push(resolve(
+                            path,
+                            line,
+                            t,
+                            obj.texcoords.len(),
+                            "texture coordinate",
+                        )?),
                         _ => all_vt = false,
                     }
                 }
@@ -184,6 +209,9 @@ mod tests {
         let e = parse(Path::new("t.obj"), "v 0 0 0\nv 1 nan 0\n").unwrap_err();
         assert!(e.to_string().starts_with("t.obj:2:"), "{e}");
         let e = parse(Path::new("t.obj"), "v 0 0 0\n\nf 1 2 3\n").unwrap_err();
-        assert!(e.to_string().starts_with("t.obj:3:") && e.to_string().contains("out of range"), "{e}");
+        assert!(
+            e.to_string().starts_with("t.obj:3:") && e.to_string().contains("out of range"),
+            "{e}"
+        );
     }
 }

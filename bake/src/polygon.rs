@@ -17,7 +17,10 @@ pub struct Polygon {
 
 impl Polygon {
     /// The empty polygon.
-    pub const EMPTY: Polygon = Polygon { len: 0, v: [DVec3::ZERO; MAX_VERTICES] };
+    pub const EMPTY: Polygon = Polygon {
+        len: 0,
+        v: [DVec3::ZERO; MAX_VERTICES],
+    };
 
     /// A triangle.
     pub fn triangle(a: DVec3, b: DVec3, c: DVec3) -> Self {
@@ -30,7 +33,11 @@ impl Polygon {
 
     /// A polygon from a slice of at most [`MAX_VERTICES`] points (more is a broken precondition).
     pub fn from_slice(points: &[DVec3]) -> Self {
-        assert!(points.len() <= MAX_VERTICES, "polygon with {} vertices", points.len());
+        assert!(
+            points.len() <= MAX_VERTICES,
+            "polygon with {} vertices",
+            points.len()
+        );
         let mut p = Self::EMPTY;
         for &q in points {
             p.push(q);
@@ -165,7 +172,11 @@ pub fn centroid(v: &[DVec3]) -> DVec3 {
 pub fn point_segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let ab = b - a;
     let l2 = ab.length_squared();
-    let t = if l2 > 0.0 { ((p - a).dot(ab) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if l2 > 0.0 {
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     (a + ab * t - p).length()
 }
 

@@ -73,7 +73,12 @@ pub struct Sample {
 /// Calls `f` once per quadrature point of `tri`, subdividing where `dist` (a lower bound of the
 /// distance from a point to the target) is small compared with the leaf size. The weights
 /// sum to the triangle's area.
-pub fn integrate(tri: [DVec3; 3], params: &Adaptive, dist: &impl Fn(DVec3) -> f64, f: &mut impl FnMut(Sample)) {
+pub fn integrate(
+    tri: [DVec3; 3],
+    params: &Adaptive,
+    dist: &impl Fn(DVec3) -> f64,
+    f: &mut impl FnMut(Sample),
+) {
     let mut stack: Vec<([DVec3; 3], u32)> = vec![(tri, 0)];
     while let Some((t, depth)) = stack.pop() {
         let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
@@ -81,7 +86,10 @@ pub fn integrate(tri: [DVec3; 3], params: &Adaptive, dist: &impl Fn(DVec3) -> f6
             continue;
         }
         let c = (t[0] + t[1] + t[2]) / 3.0;
-        let radius = (t[0] - c).length().max((t[1] - c).length()).max((t[2] - c).length());
+        let radius = (t[0] - c)
+            .length()
+            .max((t[1] - c).length())
+            .max((t[2] - c).length());
         let d = dist(c) - radius;
         if depth >= params.max_depth || 2.0 * radius <= params.ratio * d {
             for &(b, w) in params.rule.points() {
@@ -107,15 +115,27 @@ mod tests {
 
     #[test]
     fn rules_integrate_polynomials_exactly() {
-        let tri = [dvec3(0.0, 0.0, 0.0), dvec3(1.0, 0.0, 0.0), dvec3(0.0, 1.0, 0.0)];
+        let tri = [
+            dvec3(0.0, 0.0, 0.0),
+            dvec3(1.0, 0.0, 0.0),
+            dvec3(0.0, 1.0, 0.0),
+        ];
         // ∫ x² y² over the unit right triangle = 1/180 (degree 4: exact for the degree-5 rule).
         for (rule, f, exact) in [
-            (Rule::Degree5, (|p: DVec3| p.x * p.x * p.y * p.y) as fn(DVec3) -> f64, 1.0 / 180.0),
+            (
+                Rule::Degree5,
+                (|p: DVec3| p.x * p.x * p.y * p.y) as fn(DVec3) -> f64,
+                1.0 / 180.0,
+            ),
             (Rule::Degree2, |p: DVec3| p.x * p.y, 1.0 / 24.0),
             (Rule::Centroid, |p: DVec3| p.x, 1.0 / 6.0),
         ] {
             let mut s = 0.0;
-            let params = Adaptive { rule, ratio: 1.0, max_depth: 0 };
+            let params = Adaptive {
+                rule,
+                ratio: 1.0,
+                max_depth: 0,
+            };
             integrate(tri, &params, &|_| 1.0, &mut |q| s += q.w * f(q.x));
             assert!((s - exact).abs() < 1e-14, "{rule:?}: {s} vs {exact}");
         }
@@ -123,8 +143,16 @@ mod tests {
 
     #[test]
     fn weights_sum_to_area_when_subdividing() {
-        let tri = [dvec3(0.0, 0.0, 0.0), dvec3(2.0, 0.0, 0.0), dvec3(0.0, 3.0, 0.0)];
-        let params = Adaptive { rule: Rule::Degree2, ratio: 0.5, max_depth: 5 };
+        let tri = [
+            dvec3(0.0, 0.0, 0.0),
+            dvec3(2.0, 0.0, 0.0),
+            dvec3(0.0, 3.0, 0.0),
+        ];
+        let params = Adaptive {
+            rule: Rule::Degree2,
+            ratio: 0.5,
+            max_depth: 5,
+        };
         let mut s = 0.0;
         let mut n = 0;
         integrate(tri, &params, &|x| x.length(), &mut |q| {

@@ -102,11 +102,12 @@ fn is_degenerate(p: [DVec3; 3]) -> bool {
 
 /// The line of `newmtl NAME` in an MTL text, for messages.
 fn newmtl_line(text: &str, name: &str) -> Option<usize> {
-    text.lines().position(|l| {
-        let mut t = l.split_whitespace();
-        t.next() == Some("newmtl") && t.collect::<Vec<_>>().join(" ") == name
-    })
-    .map(|i| i + 1)
+    text.lines()
+        .position(|l| {
+            let mut t = l.split_whitespace();
+            t.next() == Some("newmtl") && t.collect::<Vec<_>>().join(" ") == name
+        })
+        .map(|i| i + 1)
 }
 
 impl Scene {
@@ -117,8 +118,10 @@ impl Scene {
     /// non-finite emission, an undecodable texture, or a scene without any usable triangle.
     /// A missing MTL file or unknown material falls back to grey 0.5 with a warning.
     pub fn load_obj(path: &Path) -> Result<Self, BakeError> {
-        let bytes =
-            std::fs::read(path).map_err(|source| BakeError::Io { path: path.into(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+            path: path.into(),
+            source,
+        })?;
         Self::from_obj_str(path, &String::from_utf8_lossy(&bytes))
     }
 
@@ -128,7 +131,11 @@ impl Scene {
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut scene = Scene {
             path: path.into(),
-            positions: raw.positions.iter().map(|&p| DVec3::from_array(p)).collect(),
+            positions: raw
+                .positions
+                .iter()
+                .map(|&p| DVec3::from_array(p))
+                .collect(),
             texcoords: raw.texcoords.clone(),
             objects: Vec::new(),
             materials: vec![Material::default_grey()],
@@ -188,7 +195,9 @@ impl Scene {
                 // Same corners in the same cyclic order: an exact duplicate.
                 let start = (0..3)
                     .min_by(|&a, &b| {
-                        p[a].to_array().partial_cmp(&p[b].to_array()).expect("finite")
+                        p[a].to_array()
+                            .partial_cmp(&p[b].to_array())
+                            .expect("finite")
                     })
                     .expect("three corners");
                 let mut key = [0u64; 9];
@@ -203,7 +212,9 @@ impl Scene {
                     continue;
                 }
                 let object = *object_remap[face.object as usize].get_or_insert_with(|| {
-                    scene.objects.push(raw.objects[face.object as usize].clone());
+                    scene
+                        .objects
+                        .push(raw.objects[face.object as usize].clone());
                     (scene.objects.len() - 1) as u32
                 });
                 let material = face.material.map_or(0, |m| mat_of_name[m as usize]);
@@ -265,12 +276,13 @@ impl Scene {
                 return Ok(());
             }
         };
-        let (mats, _) = tobj::load_mtl_buf(&mut text.as_bytes()).map_err(|e| BakeError::Material {
-            path: mtl_path.into(),
-            line: None,
-            material: String::new(),
-            message: e.to_string(),
-        })?;
+        let (mats, _) =
+            tobj::load_mtl_buf(&mut text.as_bytes()).map_err(|e| BakeError::Material {
+                path: mtl_path.into(),
+                line: None,
+                material: String::new(),
+                message: e.to_string(),
+            })?;
         let dir = mtl_path.parent().unwrap_or(Path::new("."));
         for m in mats {
             let bad = |message: String| BakeError::Material {
@@ -279,7 +291,10 @@ impl Scene {
                 material: m.name.clone(),
                 message,
             };
-            let kd = m.diffuse.map(|d| d.map(f64::from)).unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
+            let kd = m
+                .diffuse
+                .map(|d| d.map(f64::from))
+                .unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
             if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
                 return Err(bad(format!(
                     "Kd {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",
@@ -306,7 +321,11 @@ impl Scene {
             self.materials.push(Material {
                 name: m.name.clone(),
                 reflectance: Rgb::new(kd[0] as f32, kd[1] as f32, kd[2] as f32),
-                emission: Rgb::new((pi * ke[0]) as f32, (pi * ke[1]) as f32, (pi * ke[2]) as f32),
+                emission: Rgb::new(
+                    (pi * ke[0]) as f32,
+                    (pi * ke[1]) as f32,
+                    (pi * ke[2]) as f32,
+                ),
                 texture,
             });
             let idx = (self.materials.len() - 1) as u32;
@@ -327,7 +346,10 @@ impl Scene {
             ..Default::default()
         };
         for (p, object) in triangles {
-            assert!((*object as usize) < s.objects.len(), "object index out of range");
+            assert!(
+                (*object as usize) < s.objects.len(),
+                "object index out of range"
+            );
             if is_degenerate(*p) {
                 s.report.degenerate_triangles += 1;
                 continue;
@@ -348,7 +370,9 @@ impl Scene {
     /// Corner positions of triangle `t`.
     #[inline]
     pub fn corners(&self, t: usize) -> [DVec3; 3] {
-        self.triangles[t].vertices.map(|i| self.positions[i as usize])
+        self.triangles[t]
+            .vertices
+            .map(|i| self.positions[i as usize])
     }
 
     /// Area of triangle `t`.

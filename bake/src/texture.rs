@@ -13,36 +13,59 @@ pub struct Texture {
 
 /// sRGB transfer function inverse: 8-bit albedo maps are sRGB-encoded by convention.
 fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 impl Texture {
     /// Decodes an image file (PNG, JPEG or GIF).
     pub fn load(path: &Path) -> Result<Self, BakeError> {
-        let bytes =
-            std::fs::read(path).map_err(|source| BakeError::Io { path: path.into(), source })?;
-        let img = image::load_from_memory(&bytes)
-            .map_err(|e| BakeError::Texture { path: path.into(), message: e.to_string() })?;
+        let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+            path: path.into(),
+            source,
+        })?;
+        let img = image::load_from_memory(&bytes).map_err(|e| BakeError::Texture {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
         let rgb = img.to_rgb32f();
         let (width, height) = (rgb.width() as usize, rgb.height() as usize);
         if width == 0 || height == 0 {
-            return Err(BakeError::Texture { path: path.into(), message: "empty image".into() });
+            return Err(BakeError::Texture {
+                path: path.into(),
+                message: "empty image".into(),
+            });
         }
         let texels = rgb
             .pixels()
             .map(|p| {
-                [srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])]
-                    .map(|c| c.clamp(0.0, 1.0))
+                [
+                    srgb_to_linear(p[0]),
+                    srgb_to_linear(p[1]),
+                    srgb_to_linear(p[2]),
+                ]
+                .map(|c| c.clamp(0.0, 1.0))
             })
             .collect();
-        Ok(Self { width, height, texels })
+        Ok(Self {
+            width,
+            height,
+            texels,
+        })
     }
 
     /// A texture from linear texels, row-major, `v` = 0 at the bottom row as in OBJ.
     pub fn from_texels(width: usize, height: usize, texels: Vec<[f32; 3]>) -> Self {
         assert_eq!(texels.len(), width * height, "texel count");
         assert!(width > 0 && height > 0, "empty texture");
-        Self { width, height, texels }
+        Self {
+            width,
+            height,
+            texels,
+        }
     }
 
     /// Bilinear sample with wrap-around (`repeat`) addressing at texture coordinate `(u, v)`.
@@ -83,9 +106,15 @@ impl Texture {
                         continue;
                     }
                     let (a, b) = if up {
-                        ((i as f64 + 1.0 / 3.0) / k as f64, (j as f64 + 1.0 / 3.0) / k as f64)
+                        (
+                            (i as f64 + 1.0 / 3.0) / k as f64,
+                            (j as f64 + 1.0 / 3.0) / k as f64,
+                        )
                     } else {
-                        ((i as f64 + 2.0 / 3.0) / k as f64, (j as f64 + 2.0 / 3.0) / k as f64)
+                        (
+                            (i as f64 + 2.0 / 3.0) / k as f64,
+                            (j as f64 + 2.0 / 3.0) / k as f64,
+                        )
                     };
                     let c = 1.0 - a - b;
                     let u = a * uv[0][0] + b * uv[1][0] + c * uv[2][0];

@@ -43,9 +43,17 @@ pub struct ViewFactorParams {
 impl Default for ViewFactorParams {
     fn default() -> Self {
         Self {
-            quadrature: Adaptive { rule: Rule::Degree5, ratio: 0.5, max_depth: 9 },
+            quadrature: Adaptive {
+                rule: Rule::Degree5,
+                ratio: 0.5,
+                max_depth: 9,
+            },
             visibility: true,
-            visibility_quadrature: Adaptive { rule: Rule::Degree5, ratio: 1.0, max_depth: 5 },
+            visibility_quadrature: Adaptive {
+                rule: Rule::Degree5,
+                ratio: 1.0,
+                max_depth: 5,
+            },
             min_visibility_depth: 2,
             max_visibility_depth: 6,
         }
@@ -56,8 +64,16 @@ impl ViewFactorParams {
     /// Coarser: about 1% where occluded.
     pub fn fast() -> Self {
         Self {
-            quadrature: Adaptive { rule: Rule::Degree5, ratio: 1.0, max_depth: 6 },
-            visibility_quadrature: Adaptive { rule: Rule::Degree2, ratio: 1.0, max_depth: 3 },
+            quadrature: Adaptive {
+                rule: Rule::Degree5,
+                ratio: 1.0,
+                max_depth: 6,
+            },
+            visibility_quadrature: Adaptive {
+                rule: Rule::Degree2,
+                ratio: 1.0,
+                max_depth: 3,
+            },
             min_visibility_depth: 1,
             max_visibility_depth: 4,
             ..Self::default()
@@ -67,8 +83,16 @@ impl ViewFactorParams {
     /// Finer: for reference values.
     pub fn high_quality() -> Self {
         Self {
-            quadrature: Adaptive { rule: Rule::Degree5, ratio: 0.25, max_depth: 12 },
-            visibility_quadrature: Adaptive { rule: Rule::Degree5, ratio: 0.5, max_depth: 7 },
+            quadrature: Adaptive {
+                rule: Rule::Degree5,
+                ratio: 0.25,
+                max_depth: 12,
+            },
+            visibility_quadrature: Adaptive {
+                rule: Rule::Degree5,
+                ratio: 0.5,
+                max_depth: 7,
+            },
             min_visibility_depth: 3,
             max_visibility_depth: 8,
             ..Self::default()
@@ -104,7 +128,15 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     /// The blocked part of `F(x → T)`: the kernel of the parts of `T` that shadow rays from
     /// `x` do not reach, by adaptive subdivision of `T`.
-    fn blocked_factor(&self, x: DVec3, n: DVec3, t: [DVec3; 3], nt: DVec3, depth: u32, rays: &mut u64) -> f64 {
+    fn blocked_factor(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        t: [DVec3; 3],
+        nt: DVec3,
+        depth: u32,
+        rays: &mut u64,
+    ) -> f64 {
         let poly = Polygon::triangle(t[0], t[1], t[2]);
         let k = point_to_polygon(x, n, &poly, nt);
         if k <= 0.0 {
@@ -113,15 +145,36 @@ impl Ctx<'_> {
         let m01 = (t[0] + t[1]) * 0.5;
         let m12 = (t[1] + t[2]) * 0.5;
         let m20 = (t[2] + t[0]) * 0.5;
-        let children = [[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]];
+        let children = [
+            [t[0], m01, m20],
+            [m01, t[1], m12],
+            [m20, m12, t[2]],
+            [m01, m12, m20],
+        ];
         if depth < self.params.min_visibility_depth {
-            return children.iter().map(|&c| self.blocked_factor(x, n, c, nt, depth + 1, rays)).sum();
+            return children
+                .iter()
+                .map(|&c| self.blocked_factor(x, n, c, nt, depth + 1, rays))
+                .sum();
         }
         let c = (t[0] + t[1] + t[2]) / 3.0;
-        // Probes: the centroid and the corners pulled 2% towards it (never exactly on an edge
-        // shared with a neighbour).
-        let probes = [c, t[0] + (c - t[0]) * 0.02, t[1] + (c - t[1]) * 0.02, t[2] + (c - t[2]) * 0.02];
-        let seen = probes.iter().filter(|&&y| self.occ.segment_visible(x, y)).count();
+        // Probes: the centroid, the corners and the edge midpoints, all pulled 2% towards the
+        // centroid (never exactly on an edge shared with a neighbour). A shadow that reaches
+        // into the part almost always covers one of the six boundary probes.
+        let pull = |p: DVec3| p + (c - p) * 0.02;
+        let probes = [
+            c,
+            pull(t[0]),
+            pull(t[1]),
+            pull(t[2]),
+            pull(m01),
+            pull(m12),
+            pull(m20),
+        ];
+        let seen = probes
+            .iter()
+            .filter(|&&y| self.occ.segment_visible(x, y))
+            .count();
         *rays += probes.len() as u64;
         if seen == probes.len() {
             return 0.0;
@@ -132,7 +185,10 @@ impl Ctx<'_> {
         if depth >= self.params.max_visibility_depth {
             return k * (probes.len() - seen) as f64 / probes.len() as f64;
         }
-        children.iter().map(|&c| self.blocked_factor(x, n, c, nt, depth + 1, rays)).sum()
+        children
+            .iter()
+            .map(|&c| self.blocked_factor(x, n, c, nt, depth + 1, rays))
+            .sum()
     }
 
     /// `∫_S F(x → T) V dA` for one triangle pair: the exact unoccluded exchange minus the
@@ -163,7 +219,11 @@ impl Ctx<'_> {
 
 /// View factors between the objects of `scene`, from its full-detail triangles. `progress` is
 /// told about finished source triangles.
-pub fn view_factors(scene: &Scene, params: &ViewFactorParams, progress: Option<Progress<'_>>) -> ViewFactors {
+pub fn view_factors(
+    scene: &Scene,
+    params: &ViewFactorParams,
+    progress: Option<Progress<'_>>,
+) -> ViewFactors {
     let m = scene.objects.len();
     let nt = scene.triangles.len();
     let occ = Occluders::new(scene);
@@ -208,7 +268,22 @@ pub fn view_factors(scene: &Scene, params: &ViewFactorParams, progress: Option<P
         );
     let areas = scene.object_areas();
     let matrix = (0..m)
-        .map(|a| (0..m).map(|b| if areas[a] > 0.0 { exchange[a * m + b] / areas[a] } else { 0.0 }).collect())
+        .map(|a| {
+            (0..m)
+                .map(|b| {
+                    if areas[a] > 0.0 {
+                        exchange[a * m + b] / areas[a]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
         .collect();
-    ViewFactors { objects: scene.objects.clone(), areas, matrix, rays_cast }
+    ViewFactors {
+        objects: scene.objects.clone(),
+        areas,
+        matrix,
+        rays_cast,
+    }
 }

@@ -40,29 +40,45 @@ pub struct VoxelParams {
 
 impl Default for VoxelParams {
     fn default() -> Self {
-        Self { resolution: Resolution::TargetPatches(1024), max_normal_angle_deg: 35.0, tolerance: 0.1 }
+        Self {
+            resolution: Resolution::TargetPatches(1024),
+            max_normal_angle_deg: 35.0,
+            tolerance: 0.1,
+        }
     }
 }
 
 impl VoxelParams {
     /// About 256 patches: previews and tests.
     pub fn fast() -> Self {
-        Self { resolution: Resolution::TargetPatches(256), ..Self::default() }
+        Self {
+            resolution: Resolution::TargetPatches(256),
+            ..Self::default()
+        }
     }
 
     /// About 4096 patches: final bakes of room-sized scenes.
     pub fn high_quality() -> Self {
-        Self { resolution: Resolution::TargetPatches(4096), ..Self::default() }
+        Self {
+            resolution: Resolution::TargetPatches(4096),
+            ..Self::default()
+        }
     }
 
     /// The default, with a target patch count.
     pub fn with_patches(n: usize) -> Self {
-        Self { resolution: Resolution::TargetPatches(n), ..Self::default() }
+        Self {
+            resolution: Resolution::TargetPatches(n),
+            ..Self::default()
+        }
     }
 
     /// The default, with a fixed cell size.
     pub fn with_cell_size(size: f64) -> Self {
-        Self { resolution: Resolution::CellSize(size), ..Self::default() }
+        Self {
+            resolution: Resolution::CellSize(size),
+            ..Self::default()
+        }
     }
 }
 
@@ -229,7 +245,12 @@ fn group(scene: &Scene, h: f64, cos_max: f64) -> Grouping {
             if !(area > 1e-14 * tri_area) {
                 continue;
             }
-            let piece = Piece { polygon: poly, normal, area, triangle: t as u32 };
+            let piece = Piece {
+                polygon: poly,
+                normal,
+                area,
+                triangle: t as u32,
+            };
             let cands = lookup.entry((cell, tri.object, tri.material)).or_default();
             match cands.iter().find(|&&g| seeds[g].dot(normal) >= cos_max) {
                 Some(&g) => groups[g].2.push(piece),
@@ -269,7 +290,11 @@ fn piece_reflectance(scene: &Scene, piece: &Piece) -> [f64; 3] {
         }
         wsum += w;
     }
-    if wsum > 0.0 { acc.map(|a| a / wsum) } else { mat.reflectance.to_array().map(f64::from) }
+    if wsum > 0.0 {
+        acc.map(|a| a / wsum)
+    } else {
+        mat.reflectance.to_array().map(f64::from)
+    }
 }
 
 /// Builds the patches of `scene` (see the module docs).
@@ -281,7 +306,9 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         )));
     }
     if scene.triangles.is_empty() {
-        return Err(BakeError::EmptyScene { path: scene.path.clone() });
+        return Err(BakeError::EmptyScene {
+            path: scene.path.clone(),
+        });
     }
     let cos_max = params.max_normal_angle_deg.to_radians().cos();
     let mut warnings = Vec::new();
@@ -290,7 +317,9 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
     let (h, grouping) = match params.resolution {
         Resolution::CellSize(h) => {
             if !(h.is_finite() && h > 0.0) {
-                return Err(BakeError::InvalidParams(format!("cell size {h} must be finite and positive")));
+                return Err(BakeError::InvalidParams(format!(
+                    "cell size {h} must be finite and positive"
+                )));
             }
             // Bound the work: a cell size a million times below the scene would never finish.
             if extent / h > 1e5 {
@@ -302,10 +331,14 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         }
         Resolution::TargetPatches(n) => {
             if n == 0 || n > 1 << 24 {
-                return Err(BakeError::InvalidParams(format!("target patch count {n} must be in 1..=2^24")));
+                return Err(BakeError::InvalidParams(format!(
+                    "target patch count {n} must be in 1..=2^24"
+                )));
             }
             let target = n as f64;
-            let total_area: f64 = (0..scene.triangles.len()).map(|t| scene.triangle_area(t)).sum();
+            let total_area: f64 = (0..scene.triangles.len())
+                .map(|t| scene.triangle_area(t))
+                .sum();
             // Bisection on log(h): the count falls as h grows (about area/h² for flat surfaces).
             let mut h_small = (total_area / target).sqrt() / 8.0;
             let mut h_large = extent * 2.0;
@@ -366,14 +399,27 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
             normal: nsum.normalize_or(pieces[start].normal),
             object,
             material,
-            reflectance: Rgb::new((refl[0] / area) as f32, (refl[1] / area) as f32, (refl[2] / area) as f32),
+            reflectance: Rgb::new(
+                (refl[0] / area) as f32,
+                (refl[1] / area) as f32,
+                (refl[2] / area) as f32,
+            ),
             emission: mat.emission,
             pieces: start..pieces.len(),
         });
     }
     let vertex_weights = vertex_weights(scene, &patches, &pieces, h);
-    let triangles = (0..scene.triangles.len()).map(|t| scene.corners(t)).collect();
-    Ok(Patches { patches, pieces, triangles, cell_size: h, vertex_weights, warnings })
+    let triangles = (0..scene.triangles.len())
+        .map(|t| scene.corners(t))
+        .collect();
+    Ok(Patches {
+        patches,
+        pieces,
+        triangles,
+        cell_size: h,
+        vertex_weights,
+        warnings,
+    })
 }
 
 /// Interpolation weights: every vertex over the patches cut from its own triangles, whose
