@@ -116,6 +116,62 @@ pub fn encode_dense(
     dense: &[f32],
     params: &EncodeParams,
 ) -> Result<TransferMatrix<'static>, EncodeError> {
+    let layout = check_input(n, channels, dense, params)?;
+
+    let fraction = if params.format.is_log() {
+        params.sparse_fraction
+    } else {
+        0.0
+    };
+    let threshold = sparse_threshold(dense, channels, fraction);
+    let is_sparse = |e: usize| kept_sparse(&dense[e * channels..(e + 1) * channels], threshold);
+    let sparse = build_sparse(n, channels, dense, &is_sparse);
+    // The value blocks see: zero where the sparse list holds the entry.
+    let value = |row: usize, col: usize, ch: usize| -> f32 {
+        if row >= n || col >= n {
+            return 0.0;
+        }
+        let e = row * n + col;
+        if is_sparse(e) {
+            0.0
+        } else {
+            dense[e * channels + ch]
+        }
+    };
+
+    let scales = tile_scales(&layout, params, &value);
+    let tiles: Vec<Tile> = layout.tiles().collect();
+    let mut blocks = vec![0u8; layout.block_bytes() as usize];
+    let bb = params.format.block_bytes();
+    for tile in &tiles {
+        let plane_bytes = tile.blocks_high() * tile.blocks_wide() * bb;
+        let tile_bytes = &mut blocks[tile.offset..tile.offset + plane_bytes * layout.planes()];
+        for (plane, plane_out) in tile_bytes.chunks_exact_mut(plane_bytes).enumerate() {
+            plane_out
+                .par_chunks_exact_mut(bb)
+                .enumerate()
+                .for_each(|(b, out)| {
+                    let (br, bc) = (b / tile.blocks_wide(), b % tile.blocks_wide());
+                    encode_block(&layout, params, &scales, tile, plane, br, bc, &value, out);
+                });
+        }
+    }
+    Ok(TransferMatrix {
+        layout,
+        scales: Cow::Owned(scales),
+        blocks: Cow::Owned(blocks),
+        sparse,
+    })
+}
+
+/// Checks what [`encode_dense`] checks before encoding anything (length, parameters, layout,
+/// finite non-negative entries) and returns the layout the matrix will have.
+pub fn check_input(
+    n: usize,
+    channels: usize,
+    dense: &[f32],
+    params: &EncodeParams,
+) -> Result<MatrixLayout, EncodeError> {
     let expected = n
         .checked_mul(n)
         .and_then(|v| v.checked_mul(channels))
@@ -145,116 +201,106 @@ pub fn encode_dense(
             value: dense[i],
         });
     }
+    Ok(layout)
+}
 
-    let fraction = if params.format.is_log() {
-        params.sparse_fraction
-    } else {
-        0.0
-    };
-    let threshold = sparse_threshold(dense, channels, fraction);
-    let is_sparse = |e: usize| {
-        let v = &dense[e * channels..(e + 1) * channels];
-        v.iter().copied().fold(0f32, f32::max) > threshold
-    };
-    let sparse = build_sparse(n, channels, dense, &is_sparse);
-    // The value blocks see: zero where the sparse list holds the entry.
-    let value = |row: usize, col: usize, ch: usize| -> f32 {
-        if row >= n || col >= n {
-            return 0.0;
-        }
-        let e = row * n + col;
-        if is_sparse(e) {
-            0.0
-        } else {
-            dense[e * channels + ch]
-        }
-    };
-
+/// One [`LogScale`] per tile and channel ([`MatrixLayout::scale_index`] order), each from the
+/// largest value its tile holds in the blocks; empty for the float formats.
+///
+/// `value(row, col, channel)` is what the blocks see: the matrix in its final numbering with the
+/// sparse entries zeroed, and 0 beyond the last patch. [`encode_dense`] uses this, and so can a
+/// caller that encodes single blocks with [`encode_block`] (e.g. to estimate the compression
+/// error from a sample of blocks, with the same quantisation as the whole matrix).
+pub fn tile_scales<V>(layout: &MatrixLayout, params: &EncodeParams, value: &V) -> Vec<LogScale>
+where
+    V: Fn(usize, usize, usize) -> f32 + Sync,
+{
+    if !params.format.is_log() {
+        return Vec::new();
+    }
+    let channels = layout.channels();
     let tiles: Vec<Tile> = layout.tiles().collect();
-    let scales: Vec<LogScale> = if params.format.is_log() {
-        tiles
-            .par_iter()
-            .flat_map_iter(|t| {
-                (0..channels).map(move |ch| {
-                    let mut v_max = 0f32;
-                    for r in t.row0..t.row0 + t.rows {
-                        for c in t.col0..t.col0 + t.cols {
-                            v_max = v_max.max(value(r, c, ch));
-                        }
+    tiles
+        .par_iter()
+        .flat_map_iter(|t| {
+            (0..channels).map(move |ch| {
+                let mut v_max = 0f32;
+                for r in t.row0..t.row0 + t.rows {
+                    for c in t.col0..t.col0 + t.cols {
+                        v_max = v_max.max(value(r, c, ch));
                     }
-                    // An all-zero tile still needs a valid scale; every code will be 0.
-                    LogScale::new(if v_max > 0.0 { v_max } else { 1.0 }, params.shift)
-                })
+                }
+                // An all-zero tile still needs a valid scale; every code will be 0.
+                LogScale::new(if v_max > 0.0 { v_max } else { 1.0 }, params.shift)
             })
-            .collect()
-    } else {
-        Vec::new()
-    };
+        })
+        .collect()
+}
 
-    let mut blocks = vec![0u8; layout.block_bytes() as usize];
-    let bb = params.format.block_bytes();
-    for tile in &tiles {
-        let plane_bytes = tile.blocks_high() * tile.blocks_wide() * bb;
-        let tile_bytes = &mut blocks[tile.offset..tile.offset + plane_bytes * layout.planes()];
-        for (plane, plane_out) in tile_bytes.chunks_exact_mut(plane_bytes).enumerate() {
-            plane_out
-                .par_chunks_exact_mut(bb)
-                .enumerate()
-                .for_each(|(b, out)| {
-                    let (br, bc) = (b / tile.blocks_wide(), b % tile.blocks_wide());
-                    let (r0, c0) = (tile.row0 + br * 4, tile.col0 + bc * 4);
-                    let texel = |i: usize, ch: usize| value(r0 + i / 4, c0 + i % 4, ch);
-                    let code = |i: usize, ch: usize| {
-                        scales[layout.scale_index(tile.index, ch)].encode(texel(i, ch))
-                    };
-                    // Texels beyond the last patch are don't-cares: masked out of BC fits.
-                    let mask = (0..16)
-                        .filter(|i| r0 + i / 4 < n && c0 + i % 4 < n)
-                        .fold(0u32, |m, i| m | 1 << i);
-                    match params.format {
-                        Format::Bc1 => {
-                            let codes: [[u8; 3]; 16] =
-                                core::array::from_fn(|i| [code(i, 0), code(i, 1), code(i, 2)]);
-                            out.copy_from_slice(
-                                &encode_bc1_block(&codes, mask, params.bc1_iterative).0,
-                            );
-                        }
-                        Format::Bc4 => {
-                            let codes: [u8; 16] = core::array::from_fn(|i| code(i, plane));
-                            out.copy_from_slice(&encode_bc4_block(&codes, mask));
-                        }
-                        Format::U8 => {
-                            for i in 0..16 {
-                                out[i] = code(i, plane);
-                            }
-                        }
-                        Format::F16 => {
-                            for i in 0..16 {
-                                out[2 * i..2 * i + 2]
-                                    .copy_from_slice(&f32_to_f16(texel(i, plane)).to_le_bytes());
-                            }
-                        }
-                        Format::F32 => {
-                            for i in 0..16 {
-                                out[4 * i..4 * i + 4]
-                                    .copy_from_slice(&texel(i, plane).to_le_bytes());
-                            }
-                        }
-                    }
-                });
+/// Encodes block (`br`, `bc`) of `plane` in `tile` into `out` (`params.format.block_bytes()`
+/// bytes), exactly as [`encode_dense`] does: `value` as in [`tile_scales`], `scales` from
+/// [`tile_scales`] with the same `value`. Texels beyond the last patch are don't-cares.
+pub fn encode_block<V>(
+    layout: &MatrixLayout,
+    params: &EncodeParams,
+    scales: &[LogScale],
+    tile: &Tile,
+    plane: usize,
+    br: usize,
+    bc: usize,
+    value: &V,
+    out: &mut [u8],
+) where
+    V: Fn(usize, usize, usize) -> f32,
+{
+    let n = layout.n();
+    let (r0, c0) = (tile.row0 + br * 4, tile.col0 + bc * 4);
+    let texel = |i: usize, ch: usize| value(r0 + i / 4, c0 + i % 4, ch);
+    let code =
+        |i: usize, ch: usize| scales[layout.scale_index(tile.index, ch)].encode(texel(i, ch));
+    // Texels beyond the last patch are don't-cares: masked out of BC fits.
+    let mask = (0..16)
+        .filter(|i| r0 + i / 4 < n && c0 + i % 4 < n)
+        .fold(0u32, |m, i| m | 1 << i);
+    match params.format {
+        Format::Bc1 => {
+            let codes: [[u8; 3]; 16] =
+                core::array::from_fn(|i| [code(i, 0), code(i, 1), code(i, 2)]);
+            out.copy_from_slice(&encode_bc1_block(&codes, mask, params.bc1_iterative).0);
+        }
+        Format::Bc4 => {
+            let codes: [u8; 16] = core::array::from_fn(|i| code(i, plane));
+            out.copy_from_slice(&encode_bc4_block(&codes, mask));
+        }
+        Format::U8 => {
+            for i in 0..16 {
+                out[i] = code(i, plane);
+            }
+        }
+        Format::F16 => {
+            for i in 0..16 {
+                out[2 * i..2 * i + 2].copy_from_slice(&f32_to_f16(texel(i, plane)).to_le_bytes());
+            }
+        }
+        Format::F32 => {
+            for i in 0..16 {
+                out[4 * i..4 * i + 4].copy_from_slice(&texel(i, plane).to_le_bytes());
+            }
         }
     }
-    Ok(TransferMatrix {
-        layout,
-        scales: Cow::Owned(scales),
-        blocks: Cow::Owned(blocks),
-        sparse,
-    })
+}
+
+/// Whether an entry (its `channels` values) goes to the sparse list under `threshold`: its
+/// largest channel exceeds it.
+#[inline]
+pub fn kept_sparse(entry: &[f32], threshold: f32) -> bool {
+    entry.iter().copied().fold(0f32, f32::max) > threshold
 }
 
 /// The value above which an entry (its largest channel) goes to the sparse list, so that about
-/// `fraction` of the non-zero entries do. `f32::INFINITY` keeps none.
-fn sparse_threshold(dense: &[f32], channels: usize, fraction: f32) -> f32 {
+/// `fraction` of the non-zero entries do. `f32::INFINITY` keeps none. Independent of the patch
+/// order. `dense` holds `channels` values per entry.
+pub fn sparse_threshold(dense: &[f32], channels: usize, fraction: f32) -> f32 {
     if fraction <= 0.0 {
         return f32::INFINITY;
     }
@@ -396,7 +442,12 @@ pub fn encode_bc4_block(codes: &[u8; 16], mask: u32) -> [u8; 8] {
     }
     let rgba: [[u8; 4]; 16] = core::array::from_fn(|i| [codes[i], 0, 0, 255]);
     let mut theirs = [0u8; 8];
-    texpresso::Format::Bc4.compress_block_masked(rgba, mask, texpresso::Params::default(), &mut theirs);
+    texpresso::Format::Bc4.compress_block_masked(
+        rgba,
+        mask,
+        texpresso::Params::default(),
+        &mut theirs,
+    );
     let live = |i: &usize| mask & (1 << *i) != 0;
     let values = || (0..16).filter(live).map(|i| codes[i]);
     let (lo, hi) = (values().min().unwrap_or(0), values().max().unwrap_or(0));
@@ -425,7 +476,11 @@ fn bc4_with_best_indices(r0: u8, r1: u8, codes: &[u8; 16], mask: u32) -> ([u8; 8
     let mut bits = 0u64;
     let mut sse = 0u32;
     for (i, &want) in codes.iter().enumerate() {
-        let err = |k: usize| (i32::from(palette[k]) - i32::from(want)).unsigned_abs().pow(2);
+        let err = |k: usize| {
+            (i32::from(palette[k]) - i32::from(want))
+                .unsigned_abs()
+                .pow(2)
+        };
         let best = (0..8).min_by_key(|&k| err(k)).expect("eight entries");
         bits |= (best as u64) << (3 * i);
         if mask & (1 << i) != 0 {
