@@ -3,20 +3,24 @@
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use radiosity_bake::scene::Scene;
+use radiosity_bake::scene::{LoadOptions, Scene};
 use radiosity_bake::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 use serde_json::json;
 use std::path::Path;
 
 pub(crate) fn run(scene_path: &Path, json_out: bool) -> anyhow::Result<()> {
-    let scene = Scene::load_obj(scene_path).context("cannot load the scene")?;
+    // Geometry only: a material the bake would refuse (Kd 1) is no reason to refuse view factors.
+    let scene = Scene::load_obj_with(scene_path, &LoadOptions::geometry_only())
+        .context("cannot load the scene")?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
     let bar = ProgressBar::new(scene.triangles.len() as u64);
     bar.set_style(
-        ProgressStyle::with_template("{spinner} view factors {bar:30} {pos}/{len} triangles ({eta})")
-            .expect("static template"),
+        ProgressStyle::with_template(
+            "{spinner} view factors {bar:30} {pos}/{len} triangles ({eta})",
+        )
+        .expect("static template"),
     );
     let progress = |done: usize, _total: usize| bar.set_position(done as u64);
     let vf = view_factors(&scene, &ViewFactorParams::default(), Some(&progress));
@@ -36,10 +40,23 @@ pub(crate) fn run(scene_path: &Path, json_out: bool) -> anyhow::Result<()> {
 
 /// A readable table: one row per emitting object, its area, the factors and the row sum.
 fn print_table(path: &Path, vf: &ViewFactors) {
-    println!("view factors of {} (row: from, column: to; rows sum to 1 in a closed scene)", path.display());
-    let w = vf.objects.iter().map(|n| n.chars().count()).max().unwrap_or(4).clamp(4, 24);
+    println!(
+        "view factors of {} (row: from, column: to; rows sum to 1 in a closed scene)",
+        path.display()
+    );
+    let w = vf
+        .objects
+        .iter()
+        .map(|n| n.chars().count())
+        .max()
+        .unwrap_or(4)
+        .clamp(4, 24);
     let short = |n: &str| -> String {
-        if n.chars().count() > w { n.chars().take(w - 1).chain(['…']).collect() } else { n.to_owned() }
+        if n.chars().count() > w {
+            n.chars().take(w - 1).chain(['…']).collect()
+        } else {
+            n.to_owned()
+        }
     };
     print!("{:<w$} {:>12}", "from \\ to", "area");
     for name in &vf.objects {

@@ -68,6 +68,33 @@ pub struct LoadReport {
     pub short_faces: usize,
 }
 
+/// Options of [`Scene::load_obj_with`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Invalid materials (reflectance outside `[0, 1)`, bad emission, an unreadable texture)
+    /// are errors. `false` turns them into warnings and repairs them (reflectance clamped to
+    /// `[0, 0.999]`, emission and texture dropped): for geometry-only uses such as view
+    /// factors, where materials do not matter.
+    pub validate_materials: bool,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self {
+            validate_materials: true,
+        }
+    }
+}
+
+impl LoadOptions {
+    /// For geometry-only uses: materials are repaired with a warning instead of refused.
+    pub fn geometry_only() -> Self {
+        Self {
+            validate_materials: false,
+        }
+    }
+}
+
 /// A loaded scene: every triangle at full detail, with its object and material.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
@@ -118,15 +145,29 @@ impl Scene {
     /// non-finite emission, an undecodable texture, or a scene without any usable triangle.
     /// A missing MTL file or unknown material falls back to grey 0.5 with a warning.
     pub fn load_obj(path: &Path) -> Result<Self, BakeError> {
+        Self::load_obj_with(path, &LoadOptions::default())
+    }
+
+    /// [`Self::load_obj`] with options.
+    pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
         let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
             path: path.into(),
             source,
         })?;
-        Self::from_obj_str(path, &String::from_utf8_lossy(&bytes))
+        Self::from_obj_str_with(path, &String::from_utf8_lossy(&bytes), options)
     }
 
     /// Loads OBJ text; `path` names it in messages, and MTL files are looked up beside it.
     pub fn from_obj_str(path: &Path, text: &str) -> Result<Self, BakeError> {
+        Self::from_obj_str_with(path, text, &LoadOptions::default())
+    }
+
+    /// [`Self::from_obj_str`] with options.
+    pub fn from_obj_str_with(
+        path: &Path,
+        text: &str,
+        options: &LoadOptions,
+    ) -> Result<Self, BakeError> {
         let raw = obj::parse(path, text)?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut scene = Scene {
@@ -159,13 +200,13 @@ impl Scene {
                 let parts: Vec<&str> = lib.split_whitespace().collect();
                 if parts.len() > 1 {
                     for p in parts {
-                        scene.load_mtl(&dir.join(p), path, *line, &mut by_name)?;
+                        scene.load_mtl(&dir.join(p), path, *line, options, &mut by_name)?;
                     }
                     continue;
                 }
                 lib_path = dir.join(lib);
             }
-            scene.load_mtl(&lib_path, path, *line, &mut by_name)?;
+            scene.load_mtl(&lib_path, path, *line, options, &mut by_name)?;
         }
         let mut mat_of_name = Vec::with_capacity(raw.material_names.len());
         for name in &raw.material_names {
@@ -263,6 +304,7 @@ impl Scene {
         mtl_path: &Path,
         obj_path: &Path,
         obj_line: usize,
+        options: &LoadOptions,
         by_name: &mut Vec<(String, u32)>,
     ) -> Result<(), BakeError> {
         let text = match std::fs::read(mtl_path) {
@@ -291,29 +333,56 @@ impl Scene {
                 material: m.name.clone(),
                 message,
             };
-            let kd = m
+            let mut kd = m
                 .diffuse
                 .map(|d| d.map(f64::from))
                 .unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
             if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
-                return Err(bad(format!(
+                let e = bad(format!(
                     "Kd {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",
                     kd[0], kd[1], kd[2]
-                )));
+                ));
+                if options.validate_materials {
+                    return Err(e);
+                }
+                self.report
+                    .warnings
+                    .push(format!("{e}; clamped to [0, 0.999]"));
+                kd = kd.map(|c| {
+                    if c.is_finite() {
+                        c.clamp(0.0, 0.999)
+                    } else {
+                        DEFAULT_REFLECTANCE as f64
+                    }
+                });
             }
-            let ke = m.emissive.map(|d| d.map(f64::from)).unwrap_or([0.0; 3]);
+            let mut ke = m.emissive.map(|d| d.map(f64::from)).unwrap_or([0.0; 3]);
             if ke.iter().any(|c| !c.is_finite() || *c < 0.0) {
-                return Err(bad(format!(
+                let e = bad(format!(
                     "Ke {} {} {} must be finite and non-negative",
                     ke[0], ke[1], ke[2]
-                )));
+                ));
+                if options.validate_materials {
+                    return Err(e);
+                }
+                self.report.warnings.push(format!("{e}; emission dropped"));
+                ke = [0.0; 3];
             }
             let texture = match &m.diffuse_texture {
                 Some(spec) => {
                     // Options (`-bm 1 …`) come before the file name.
                     let file = spec.split_whitespace().last().unwrap_or(spec);
-                    self.textures.push(Texture::load(&dir.join(file))?);
-                    Some((self.textures.len() - 1) as u32)
+                    match Texture::load(&dir.join(file)) {
+                        Ok(t) => {
+                            self.textures.push(t);
+                            Some((self.textures.len() - 1) as u32)
+                        }
+                        Err(e) if !options.validate_materials => {
+                            self.report.warnings.push(format!("{e}; texture ignored"));
+                            None
+                        }
+                        Err(e) => return Err(e),
+                    }
                 }
                 None => None,
             };

@@ -1,0 +1,144 @@
+//! Voxel simplification: patch targets, area preservation, orientation splitting, vertex
+//! interpolation weights.
+
+mod bake_support;
+
+use bake_support::*;
+use glam::{DVec3, dvec3};
+use radiosity_bake::scene::Scene;
+use radiosity_bake::voxel::{VoxelParams, simplify};
+use std::path::Path;
+
+fn cornell() -> Scene {
+    Scene::load_obj(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell-box/CornellBox-Original.obj"),
+    )
+    .unwrap()
+}
+
+#[test]
+fn hits_the_target_within_ten_percent_and_keeps_the_area() {
+    let s = cornell();
+    let total: f64 = (0..s.triangles.len()).map(|t| s.triangle_area(t)).sum();
+    for n in [64, 256, 1024, 4096] {
+        let p = simplify(&s, &VoxelParams::with_patches(n)).unwrap();
+        let got = p.len() as f64;
+        assert!(
+            (got - n as f64).abs() <= 0.1 * n as f64,
+            "target {n}: {got} patches"
+        );
+        let area: f64 = p.patches.iter().map(|q| q.area).sum();
+        // The bound: total area to 1e-6 relative (cutting is exact up to rounding).
+        assert!(
+            (area - total).abs() <= 1e-6 * total,
+            "target {n}: area {area} vs {total}"
+        );
+        for q in &p.patches {
+            assert!(q.area > 0.0 && (q.normal.length() - 1.0).abs() < 1e-9);
+            assert!(q.reflectance.max_channel() < 1.0);
+        }
+        assert_eq!(p.to_core().len(), p.len());
+    }
+}
+
+#[test]
+fn fixed_cell_size() {
+    // A 1×1 quad and 0.25 cells: exactly 16 patches of area 1/16.
+    let s = Scene::from_triangles(
+        vec!["q".into()],
+        &[
+            (
+                [
+                    dvec3(0.0, 0.0, 0.0),
+                    dvec3(1.0, 0.0, 0.0),
+                    dvec3(1.0, 1.0, 0.0),
+                ],
+                0,
+            ),
+            (
+                [
+                    dvec3(0.0, 0.0, 0.0),
+                    dvec3(1.0, 1.0, 0.0),
+                    dvec3(0.0, 1.0, 0.0),
+                ],
+                0,
+            ),
+        ],
+    );
+    let p = simplify(&s, &VoxelParams::with_cell_size(0.25)).unwrap();
+    assert_eq!(p.len(), 16);
+    for q in &p.patches {
+        assert!((q.area - 1.0 / 16.0).abs() < 1e-12, "area {}", q.area);
+    }
+    assert!(simplify(&s, &VoxelParams::with_cell_size(-1.0)).is_err());
+    assert!(simplify(&s, &VoxelParams::with_cell_size(f64::NAN)).is_err());
+}
+
+/// The two sides of a thin wall, and a floor with a wall standing on it, fall in the same
+/// cells but never share a patch.
+#[test]
+fn orientation_splits_patches() {
+    let wall_front = facing(
+        vec![
+            dvec3(0.5, 0.0, 0.0),
+            dvec3(0.5, 1.0, 0.0),
+            dvec3(0.5, 1.0, 1.0),
+            dvec3(0.5, 0.0, 1.0),
+        ],
+        DVec3::X,
+    );
+    let wall_back: Vec<DVec3> = wall_front
+        .iter()
+        .rev()
+        .map(|p| *p + dvec3(1e-3, 0.0, 0.0))
+        .collect();
+    let objs = vec![Obj::new(
+        "room",
+        vec![rect_z(0.0, 1.0, 0.0, 1.0, 0.0, true), wall_front, wall_back],
+    )];
+    let dir = tempfile::tempdir().unwrap();
+    let s = load(dir.path(), "thin", &objs, Placement::general(1.0));
+    let p = simplify(&s, &VoxelParams::with_cell_size(2.0)).unwrap();
+    // One cell for everything (cell 2 > scene 1): floor, wall front, wall back.
+    assert_eq!(p.len(), 3, "{} patches", p.len());
+    let ns: Vec<DVec3> = p.patches.iter().map(|q| q.normal).collect();
+    for i in 0..3 {
+        for j in 0..i {
+            assert!(
+                ns[i].dot(ns[j]) < 0.1,
+                "patches {i} and {j} share an orientation"
+            );
+        }
+    }
+}
+
+#[test]
+fn vertex_weights_sum_to_one_over_compatible_patches() {
+    let s = cornell();
+    let p = simplify(&s, &VoxelParams::with_patches(512)).unwrap();
+    let mut used = vec![false; s.positions.len()];
+    for t in &s.triangles {
+        for &v in &t.vertices {
+            used[v as usize] = true;
+        }
+    }
+    for v in 0..s.positions.len() {
+        let w = p.vertex_weights.of(v);
+        if !used[v] {
+            assert!(w.is_empty());
+            continue;
+        }
+        assert!(!w.is_empty(), "vertex {v} has no weights");
+        let sum: f32 = w.iter().map(|e| e.1).sum();
+        assert!((sum - 1.0).abs() < 1e-5, "vertex {v}: weights sum {sum}");
+        for &(patch, _) in w {
+            // Nearby: within two cells and a half-diagonal of the vertex.
+            let d = (p.patches[patch as usize].centre - s.positions[v]).length();
+            assert!(
+                d <= 2.0 * p.cell_size * 1.8,
+                "vertex {v}: patch {patch} at distance {d}"
+            );
+        }
+    }
+}
