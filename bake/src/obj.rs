@@ -178,10 +178,8 @@ pub(crate) fn parse(path: &Path, text: &str) -> Result<RawObj, BakeError> {
                 let name = rest();
                 current_mtl = (!name.is_empty()).then(|| intern(&mut obj.material_names, name));
             }
-            "mtllib" => {
-                if !rest().is_empty() {
-                    obj.mtllibs.push((rest().to_owned(), line));
-                }
+            "mtllib" if !rest().is_empty() => {
+                obj.mtllibs.push((rest().to_owned(), line));
             }
             // Normals come from the winding; smoothing groups, lines, points and free-form
             // geometry carry nothing for radiosity.
