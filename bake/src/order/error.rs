@@ -45,7 +45,7 @@ pub enum ErrorSampling {
 }
 
 impl ErrorSampling {
-    /// At most about `blocks` block positions (e.g. 50 000 BC1 blocks ≈ 0.5 s on 2 cores),
+    /// At most about `blocks` block positions (BC1 encodes ≈ 20–70 µs per block and core),
     /// exact when the matrix has no more than that. `n` patches.
     pub fn budget(n: usize, blocks: usize, seed: u64) -> Self {
         let total = n.div_ceil(4).pow(2);
@@ -81,9 +81,10 @@ pub struct ErrorEstimate {
 }
 
 /// Share of the sampling weight spread uniformly over non-zero blocks (the rest goes by squared
-/// norm). Measured on the Cornell box (n = 1024, BC1 and BC4): pure norm weighting gives the
-/// smallest variance when the error tracks the norm, and a quarter uniform costs little while
-/// capping `1/p` at 4× the uniform design for blocks whose error outgrows their norm.
+/// norm). Pure norm weighting is variance-optimal when a block's squared error is proportional
+/// to its squared norm; a quarter uniform caps `1/p` at 4× the uniform design for blocks whose
+/// error outgrows their norm. With it the relative standard error on the Cornell box is
+/// ≈ 0.1–0.7% from 65 536 blocks (n = 1938 and 4175); uniform sampling was not measured.
 const UNIFORM_SHARE: f64 = 0.25;
 
 /// Measures compression errors of one matrix under one set of encode parameters, for any
