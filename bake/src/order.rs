@@ -46,7 +46,7 @@ pub use error::{ErrorEstimate, ErrorMeter, ErrorSampling};
 pub use similarity::{Signatures, greedy_chain};
 pub use spatial::{Curve, hilbert_3d, morton_3d, orientation, spatial_order};
 
-use crate::encode::{EncodeError, EncodeParams, sparse_threshold};
+use crate::encode::{EncodeError, EncodeParams, SparseRule};
 use crate::rng::SplitMix64;
 use radiosity_core::{Patch, PatchOrder};
 use rayon::prelude::*;
@@ -226,8 +226,8 @@ pub fn random_order(n: usize, seed: u64) -> Vec<u32> {
 
 /// The paper's neighbour sort over signatures of `m` ([`Signatures`], [`greedy_chain`]).
 pub fn paper_order(m: DenseMatrix<'_>, params: &OrderParams) -> Vec<u32> {
-    let threshold = sparse_threshold(m.values, m.channels, sparse_fraction(&params.encode));
-    let sig = Signatures::new(m, params.signature_samples, params.encode.shift, threshold);
+    let rule = SparseRule::new(m.values, m.n, m.channels, sparse_fraction(&params.encode));
+    let sig = Signatures::new(m, params.signature_samples, params.encode.shift, &rule);
     greedy_chain(&sig)
 }
 

@@ -277,9 +277,16 @@ impl<'a> RadFile<'a> {
         if self.objects.len() > u32::MAX as usize {
             return Err(bad(SectionKind::Objects, 0, "too many objects"));
         }
-        for v in [self.compression_rmse, self.lighting_error].into_iter().flatten() {
+        for v in [self.compression_rmse, self.lighting_error]
+            .into_iter()
+            .flatten()
+        {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(SectionKind::Meta, 0, "error estimate not finite and non-negative"));
+                return Err(bad(
+                    SectionKind::Meta,
+                    0,
+                    "error estimate not finite and non-negative",
+                ));
             }
         }
         if let Bounces::Finite(0) = self.bounces {

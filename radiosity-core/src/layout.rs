@@ -257,7 +257,9 @@ impl MatrixLayout {
             .checked_mul(self.planes() as u64)?
             .checked_mul(self.format.block_bytes() as u64)?;
         let tiles = u64::from(self.tiles_per_side).checked_mul(u64::from(self.tiles_per_side))?;
-        let scale_bytes = tiles.checked_mul(u64::from(self.channels))?.checked_mul(8)?;
+        let scale_bytes = tiles
+            .checked_mul(u64::from(self.channels))?
+            .checked_mul(8)?;
         let limit = usize::MAX as u64;
         let entries = padded.checked_mul(padded)?;
         (bytes <= limit && scale_bytes <= limit && entries <= limit).then_some(bytes)

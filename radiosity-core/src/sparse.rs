@@ -3,8 +3,9 @@
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
 
-/// Entries of the transfer matrix too large to quantise, stored exactly (CSR). Their places in
-/// the blocks hold zero, so a gather adds both parts without double counting.
+/// Entries of the transfer matrix too large to quantise, stored exactly (CSR). Each value is
+/// the exact entry minus what the blocks decode at its position (the encoder leaves those texels
+/// out of the block fit), so a gather adds both parts and gets the exact entry back.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SparseRows<'a> {
     /// `n + 1` offsets into `cols`; row `i` owns `cols[row_ptr[i]..row_ptr[i+1]]`.

@@ -132,12 +132,10 @@ impl<'a> TransferMatrix<'a> {
                 }
             }
         }
-        if let Some(i) = sp.values.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(bad(
-                SectionKind::SparseValues,
-                i,
-                "value not finite and non-negative",
-            ));
+        // A sparse value corrects what the block decodes at its position, so it may be negative
+        // in a channel; it must be finite.
+        if let Some(i) = sp.values.iter().position(|v| !v.is_finite()) {
+            return Err(bad(SectionKind::SparseValues, i, "value not finite"));
         }
         Ok(())
     }

@@ -43,9 +43,11 @@ pub fn transfer_like_matrix(n: usize, channels: usize, seed: u64) -> Vec<f32> {
             if r == c {
                 continue;
             }
-            let d = (r as f32 - c as f32).abs().min(n as f32 - (r as f32 - c as f32).abs());
+            let d = (r as f32 - c as f32)
+                .abs()
+                .min(n as f32 - (r as f32 - c as f32).abs());
             let mut v = 0.2 / (1.0 + d * d) * (0.8 + 0.4 * rng.next_f32());
-            if rng.next_u64() % 97 == 0 {
+            if rng.next_u64().is_multiple_of(97) {
                 v *= 20.0; // a near-field spike, the kind the sparse list is for
             }
             for k in 0..channels {
@@ -74,7 +76,12 @@ pub fn sample_patches(n: usize) -> Vec<Patch> {
 /// 2% sparse entries, a reversed patch order, two objects and a report.
 pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> RadFile<'static> {
     let dense = transfer_like_matrix(n, channels, 7);
-    let params = EncodeParams { format, max_tile, sparse_fraction: 0.02, ..EncodeParams::default() };
+    let params = EncodeParams {
+        format,
+        max_tile,
+        sparse_fraction: 0.02,
+        ..EncodeParams::default()
+    };
     let matrix = encode_dense(n, channels, &dense, &params).expect("sample matrix encodes");
     RadFile {
         patches: Cow::Owned(sample_patches(n)),

@@ -349,13 +349,13 @@ pub fn check_encode_roundtrip(data: &[u8]) {
     let (n, ch) = (case.n, case.channels);
     let format = case.params.format;
     let f16_overflow = format == Format::F16 && case.dense.iter().any(|v| *v > F16_MAX);
-    if f16_overflow && skip_known("f16-overflow") {
-        return;
-    }
     let matrix = match encode_dense(n, ch, &case.dense, &case.params) {
-        Ok(m) => m,
-        // Refusing values binary16 cannot hold is a correct answer; storing them wrong is not.
-        Err(EncodeError::Value { .. }) if f16_overflow => return,
+        Ok(m) => {
+            assert!(!f16_overflow, "f16 accepted a value above {F16_MAX}");
+            m
+        }
+        // Refusing values binary16 cannot hold is the correct answer; storing them wrong is not.
+        Err(EncodeError::F16Range { .. }) if f16_overflow => return,
         Err(e) => panic!("encode_dense refused a valid input ({format}): {e}"),
     };
     let file = rad_file_around(matrix, case.bounces, case.patch_order, case.report);
@@ -392,22 +392,20 @@ pub fn check_encode_roundtrip(data: &[u8]) {
                     at()
                 );
                 if sparse[r * n + c] {
-                    if format.is_block_compressed() && skip_known("bc-sparse") {
-                        // KNOWN_ISSUES "bc-sparse": the block texel under a sparse entry is whatever
-                        // the BC fit gave it; at least check it is no more than a block value.
-                        let (tile, _, _) = m.layout.locate(r, c);
-                        let v_max = m.scales[m.layout.scale_index(tile.index, k)].v_max;
-                        let extra = f64::from(d) - f64::from(v);
-                        assert!(
-                            extra >= -f64::from(v) / 8e6
-                                && extra <= f64::from(v_max) * (1.0 + 1e-6) + f64::from(v) / 8e6,
-                            "{}: sparse entry decoded {d}, stored {v}, tile v_max {v_max}",
-                            at()
-                        );
-                        continue;
-                    }
-                    // Sparse entries are kept exactly and are zero in the blocks (DESIGN.md).
-                    assert_eq!(d, v, "{}: sparse entry decoded {d}, stored {v}", at());
+                    // Sparse entries are exact: the list stores the entry minus its block's
+                    // decoded value, and decode_dense adds the two back in f32, which rounds
+                    // once: within 2^-23 of the larger of the entry and the tile's v_max.
+                    let (tile, _, _) = m.layout.locate(r, c);
+                    let v_max = m
+                        .scales
+                        .get(m.layout.scale_index(tile.index, k))
+                        .map_or(0.0, |s| s.v_max);
+                    let tol = f64::from(v.abs().max(v_max)) * f64::from(f32::EPSILON);
+                    assert!(
+                        (f64::from(d) - f64::from(v)).abs() <= tol,
+                        "{}: sparse entry decoded {d}, stored {v} (tolerance {tol})",
+                        at()
+                    );
                     continue;
                 }
                 match format {
@@ -436,40 +434,6 @@ pub fn check_encode_roundtrip(data: &[u8]) {
 
 /// The largest finite binary16 value.
 const F16_MAX: f32 = 65504.0;
-
-/// Bugs the fuzzer found that are reported but not fixed yet, by name. Each has a file in
-/// `fuzz/regressions/`, so the replay test fails until it is fixed. With
-/// `RADIOSITY_FUZZ_SKIP_KNOWN=NAME[,NAME…]` (or `all`) in the environment the checks step around
-/// the named ones, so that a fuzz run or `cargo fuzz tmin` can look for other bugs; `run.sh`
-/// does not set it, and the replay test never does. Remove an entry when its bug is fixed.
-pub const KNOWN_ISSUES: [(&str, &str); 2] = [
-    (
-        "bc-sparse",
-        "bake BC1/BC4: the block texel under a sparse entry is not zero after the BC fit, so \
-         decode_dense and every gather add a block value to the exact sparse value \
-         (regressions/encode_roundtrip/bc1-sparse-entry-not-zero-in-block.bin)",
-    ),
-    (
-        "f16-overflow",
-        "bake f16: values above 65504 encode to +inf, and the matrix then fails validation \
-         (regressions/encode_roundtrip/f16-overflow-to-infinity.bin)",
-    ),
-];
-
-/// Whether the known issue `name` is to be stepped around (see [`KNOWN_ISSUES`]).
-fn skip_known(name: &str) -> bool {
-    static SKIP: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
-    debug_assert!(KNOWN_ISSUES.iter().any(|(n, _)| *n == name));
-    SKIP.get_or_init(|| {
-        std::env::var("RADIOSITY_FUZZ_SKIP_KNOWN")
-            .unwrap_or_default()
-            .split(',')
-            .map(|s| s.trim().to_owned())
-            .collect()
-    })
-    .iter()
-    .any(|s| s == name || s == "all")
-}
 
 /// Marks the entries held by the sparse list.
 fn sparse_mask(sp: &SparseRows<'_>, n: usize, channels: usize) -> Vec<bool> {

@@ -12,7 +12,12 @@ fn dense(channels: usize) -> Vec<f32> {
 
 fn encode(format: Format, channels: usize, sparse_fraction: f32) -> (Vec<f32>, Vec<f32>) {
     let m = dense(channels);
-    let params = EncodeParams { format, max_tile: 16, sparse_fraction, ..EncodeParams::default() };
+    let params = EncodeParams {
+        format,
+        max_tile: 16,
+        sparse_fraction,
+        ..EncodeParams::default()
+    };
     let t = encode_dense(N, channels, &m, &params).unwrap();
     t.validate().unwrap();
     (m, t.decode_dense(DecodeMode::D3d10))
@@ -27,7 +32,10 @@ fn f32_is_exact_and_f16_within_half_an_ulp() {
         // Round to nearest binary16: relative error ≤ 2^-11 for normal halves (≥ 2^-14),
         // absolute ≤ 2^-25 (half the subnormal step) below.
         let tol = (a.abs() * (2f32).powi(-11)).max((2f32).powi(-25));
-        assert!((a - b).abs() <= tol, "f16: {a} decoded as {b} (tolerance {tol})");
+        assert!(
+            (a - b).abs() <= tol,
+            "f16: {a} decoded as {b} (tolerance {tol})"
+        );
     }
 }
 
@@ -36,28 +44,42 @@ fn u8_log_codes_within_half_a_step() {
     let params = EncodeParams::for_format(Format::U8);
     for channels in [1, 3] {
         let m = dense(channels);
-        let p = EncodeParams { max_tile: 16, ..params };
+        let p = EncodeParams {
+            max_tile: 16,
+            ..params
+        };
         let t = encode_dense(N, channels, &m, &p).unwrap();
         let d = t.decode_dense(DecodeMode::D3d10);
-        let half_step = (p.shift / 255.0 / 2.0).exp() * (1.0 + 1e-5); // f32 exp/ln slack
         let mut exact = 0;
         for (e, (a, b)) in m.iter().zip(&d).enumerate() {
             let (row, col, ch) = (e / channels / N, e / channels % N, e % channels);
             let (tile, _, _) = t.layout.locate(row, col);
             let scale = t.scales[t.layout.scale_index(tile.index, ch)];
+            // Each tile has its own log range (≤ p.shift): half of its code step, with slack
+            // for f32 exp/ln.
+            let half_step = (scale.shift / 255.0 / 2.0).exp() * (1.0 + 1e-5);
             // Values below the quantiser's floor (half a step above v_max·e^-s) may become 0.
-            let floor = scale.v_max * (-p.shift).exp() * half_step;
+            let floor = scale.v_max * (-scale.shift).exp() * half_step;
             if *a == 0.0 {
                 assert_eq!(*b, 0.0, "zero must stay exactly zero");
             } else if *a == *b {
                 exact += 1; // sparse entries are kept exactly
             } else if *a > floor {
-                assert!(b / a <= half_step && a / b <= half_step, "({row},{col}) ch {ch}: {a} → {b}");
+                assert!(
+                    b / a <= half_step && a / b <= half_step,
+                    "({row},{col}) ch {ch}: {a} → {b}"
+                );
             } else {
-                assert!(*b <= floor, "below the floor decodes to 0 or the first code: {a} → {b}");
+                assert!(
+                    *b <= floor,
+                    "below the floor decodes to 0 or the first code: {a} → {b}"
+                );
             }
         }
-        assert!(exact >= N * N * channels / 100, "about 1% of entries are sparse and exact");
+        assert!(
+            exact >= N * N * channels / 100,
+            "about 1% of entries are sparse and exact"
+        );
     }
 }
 
@@ -71,14 +93,22 @@ fn bc4_block_rms_within_range_over_fourteen() {
     for _ in 0..50_000 {
         let base = (rng.next_u64() % 256) as i32;
         let spread = (rng.next_u64() % 256) as i32;
-        let codes: [u8; 16] =
-            core::array::from_fn(|_| (base + (rng.next_u64() % (spread as u64 + 1)) as i32 - spread / 2).clamp(0, 255) as u8);
+        let codes: [u8; 16] = core::array::from_fn(|_| {
+            (base + (rng.next_u64() % (spread as u64 + 1)) as i32 - spread / 2).clamp(0, 255) as u8
+        });
         let decoded = decode_bc4_block(&encode_bc4_block(&codes, 0xffff));
         let (lo, hi) = (codes.iter().min().unwrap(), codes.iter().max().unwrap());
         let bound = f64::from(hi - lo) / 14.0 + 1.0;
-        let sse: f64 = codes.iter().zip(&decoded).map(|(a, b)| (f64::from(*a) - f64::from(*b)).powi(2)).sum();
+        let sse: f64 = codes
+            .iter()
+            .zip(&decoded)
+            .map(|(a, b)| (f64::from(*a) - f64::from(*b)).powi(2))
+            .sum();
         let rms = (sse / 16.0).sqrt();
-        assert!(rms <= bound, "codes {codes:?} → {decoded:?}: rms {rms} > {bound}");
+        assert!(
+            rms <= bound,
+            "codes {codes:?} → {decoded:?}: rms {rms} > {bound}"
+        );
     }
 }
 
@@ -93,20 +123,38 @@ fn bc1_grey_block_rms_within_bound_and_never_black() {
     let mut rng = SplitMix64(5);
     for i in 0..50_000 {
         let base = (rng.next_u64() % 256) as i32;
-        let spread = if i % 2 == 0 { 4 } else { (rng.next_u64() % 256) as i32 };
+        let spread = if i % 2 == 0 {
+            4
+        } else {
+            (rng.next_u64() % 256) as i32
+        };
         let codes: [[u8; 3]; 16] = core::array::from_fn(|_| {
-            let v = (base + (rng.next_u64() % (spread as u64 + 1)) as i32 - spread / 2).clamp(0, 255) as u8;
+            let v = (base + (rng.next_u64() % (spread as u64 + 1)) as i32 - spread / 2)
+                .clamp(0, 255) as u8;
             [v, v, v]
         });
         let block: Bc1Block = encode_bc1_block(&codes, 0xffff, false);
         let decoded = block.decode(DecodeMode::D3d10);
-        assert!(decoded.iter().all(|t| t[3] == 255), "transparent texel: {codes:?} → {block:?}");
-        let (lo, hi) = (codes.iter().map(|c| c[0]).min().unwrap(), codes.iter().map(|c| c[0]).max().unwrap());
+        assert!(
+            decoded.iter().all(|t| t[3] == 255),
+            "transparent texel: {codes:?} → {block:?}"
+        );
+        let (lo, hi) = (
+            codes.iter().map(|c| c[0]).min().unwrap(),
+            codes.iter().map(|c| c[0]).max().unwrap(),
+        );
         let bound = f64::from(hi - lo) / 6.0 + 255.0 / 31.0 / 2.0 + 1.0;
         for ch in 0..3 {
-            let sse: f64 = codes.iter().zip(&decoded).map(|(a, b)| (f64::from(a[ch]) - f64::from(b[ch])).powi(2)).sum();
+            let sse: f64 = codes
+                .iter()
+                .zip(&decoded)
+                .map(|(a, b)| (f64::from(a[ch]) - f64::from(b[ch])).powi(2))
+                .sum();
             let rms = (sse / 16.0).sqrt();
-            assert!(rms <= bound, "channel {ch}: {codes:?} → {decoded:?}: rms {rms} > {bound}");
+            assert!(
+                rms <= bound,
+                "channel {ch}: {codes:?} → {decoded:?}: rms {rms} > {bound}"
+            );
         }
     }
 }
@@ -121,7 +169,10 @@ fn bc1_coloured_blocks_are_never_transparent() {
             [b[0] | 1, b[1] | 1, b[2] | 1] // non-zero codes: no texel means "zero"
         });
         let block = encode_bc1_block(&codes, 0xffff, false);
-        assert!(block.decode(DecodeMode::D3d10).iter().all(|t| t[3] == 255), "{codes:?} → {block:?}");
+        assert!(
+            block.decode(DecodeMode::D3d10).iter().all(|t| t[3] == 255),
+            "{codes:?} → {block:?}"
+        );
     }
 }
 
@@ -136,19 +187,37 @@ fn whole_matrix_errors_are_ordered_and_small() {
     // order the formats promise: u8 (pure quantisation) beats bc4, which beats bc1.
     let rel = |format, channels| {
         let (m, d) = encode(format, channels, 0.01);
-        let num: f64 = m.iter().zip(&d).map(|(a, b)| f64::from(a - b).powi(2)).sum();
+        let num: f64 = m
+            .iter()
+            .zip(&d)
+            .map(|(a, b)| f64::from(a - b).powi(2))
+            .sum();
         let den: f64 = m.iter().map(|a| f64::from(*a).powi(2)).sum();
         (num / den).sqrt()
     };
     let (u8e, bc4e, bc1e) = (rel(Format::U8, 3), rel(Format::Bc4, 3), rel(Format::Bc1, 3));
     eprintln!("relative Frobenius error: u8 {u8e:.4}, bc4 {bc4e:.4}, bc1 {bc1e:.4}");
-    assert!(u8e < bc4e && bc4e < bc1e, "u8 {u8e} < bc4 {bc4e} < bc1 {bc1e}");
-    assert!(u8e < 0.0075 && bc4e < 0.06 && bc1e < 0.30, "u8 {u8e}, bc4 {bc4e}, bc1 {bc1e}");
+    assert!(
+        u8e < bc4e && bc4e < bc1e,
+        "u8 {u8e} < bc4 {bc4e} < bc1 {bc1e}"
+    );
+    assert!(
+        u8e < 0.0075 && bc4e < 0.06 && bc1e < 0.30,
+        "u8 {u8e}, bc4 {bc4e}, bc1 {bc1e}"
+    );
     // Keeping the largest entries exact must help.
     let (m, d) = encode(Format::Bc1, 3, 0.0);
-    let no_sparse: f64 = m.iter().zip(&d).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>().sqrt()
+    let no_sparse: f64 = m
+        .iter()
+        .zip(&d)
+        .map(|(a, b)| f64::from(a - b).powi(2))
+        .sum::<f64>()
+        .sqrt()
         / m.iter().map(|a| f64::from(*a).powi(2)).sum::<f64>().sqrt();
-    assert!(no_sparse > bc1e, "sparse 1% ({bc1e}) must beat none ({no_sparse})");
+    assert!(
+        no_sparse > bc1e,
+        "sparse 1% ({bc1e}) must beat none ({no_sparse})"
+    );
 }
 
 #[test]
@@ -157,7 +226,11 @@ fn grey_matrices_use_one_channel_and_bc1_refuses_them() {
     let t = encode_dense(N, 1, &m, &EncodeParams::for_format(Format::Bc4)).unwrap();
     assert_eq!(t.layout.planes(), 1);
     let three = encode_dense(N, 3, &dense(3), &EncodeParams::for_format(Format::Bc4)).unwrap();
-    assert_eq!(three.blocks.len(), 3 * t.blocks.len(), "one channel stores a third of the blocks");
+    assert_eq!(
+        three.blocks.len(),
+        3 * t.blocks.len(),
+        "one channel stores a third of the blocks"
+    );
     assert!(encode_dense(N, 1, &m, &EncodeParams::for_format(Format::Bc1)).is_err());
 }
 
@@ -170,6 +243,9 @@ fn bad_input_is_refused() {
         Err(radiosity_bake::encode::EncodeError::Value { row: 0, col: 5, .. })
     ));
     assert!(encode_dense(N, 1, &m[..10], &EncodeParams::for_format(Format::U8)).is_err());
-    let p = EncodeParams { shift: 0.0, ..EncodeParams::for_format(Format::U8) };
+    let p = EncodeParams {
+        shift: 0.0,
+        ..EncodeParams::for_format(Format::U8)
+    };
     assert!(encode_dense(N, 1, &dense(1), &p).is_err());
 }

@@ -13,13 +13,13 @@
 //! squared error grows with its squared norm, and sampling in proportion to it is close to the
 //! variance-optimal design. The uniform share bounds the weight `1/p` of any block. All-zero
 //! blocks encode exactly (every format writes zero codes, which decode to exactly 0) and are
-//! never sampled. The sparse entries are exact f32 and contribute nothing beyond their block's
-//! error (the block sees 0 there).
+//! never sampled. The sparse entries are exact (the sparse list stores each one's exact value
+//! minus its block's decoded value), so their texels count no error.
 
 use super::DenseMatrix;
 use crate::encode::{
-    EncodeError, EncodeParams, check_input, encode_block, encode_dense, kept_sparse,
-    sparse_threshold, tile_scales,
+    EncodeError, EncodeParams, SPARSE_TEXEL, SparseRule, check_input, encode_block, encode_dense,
+    tile_scales,
 };
 use crate::rng::SplitMix64;
 use radiosity_core::half::f16_to_f32;
@@ -88,13 +88,13 @@ pub struct ErrorEstimate {
 const UNIFORM_SHARE: f64 = 0.25;
 
 /// Measures compression errors of one matrix under one set of encode parameters, for any
-/// number of orders: the sparse threshold and `‖M‖_F` are computed once (they do not depend
+/// number of orders: the sparse rule and `‖M‖_F` are computed once (they do not depend
 /// on the order), the per-tile scales once when the matrix has a single tile.
 pub struct ErrorMeter<'a> {
     m: DenseMatrix<'a>,
     params: EncodeParams,
     layout: MatrixLayout,
-    threshold: f32,
+    rule: SparseRule,
     squared_norm: f64,
     /// Per-tile scales when they cannot depend on the order (a single tile).
     shared_scales: Option<Vec<LogScale>>,
@@ -109,7 +109,7 @@ impl<'a> ErrorMeter<'a> {
         } else {
             0.0
         };
-        let threshold = sparse_threshold(m.values, m.channels, fraction);
+        let rule = SparseRule::new(m.values, m.n, m.channels, fraction);
         let squared_norm = m
             .values
             .par_chunks(4096)
@@ -119,7 +119,7 @@ impl<'a> ErrorMeter<'a> {
             m,
             params: *params,
             layout,
-            threshold,
+            rule,
             squared_norm,
             shared_scales: None,
         };
@@ -139,7 +139,7 @@ impl<'a> ErrorMeter<'a> {
     }
 
     /// The value the blocks see at (`row`, `col`) of the permuted matrix: 0 beyond the last
-    /// patch and where the sparse list holds the entry.
+    /// patch, [`SPARSE_TEXEL`] (NaN) where the sparse list holds the entry.
     #[inline]
     fn seen(&self, perm: Option<&[u32]>, row: usize, col: usize, ch: usize) -> f32 {
         let (n, channels) = (self.m.n, self.m.channels);
@@ -152,8 +152,8 @@ impl<'a> ErrorMeter<'a> {
         };
         let e = (r * n + c) * channels;
         let entry = &self.m.values[e..e + channels];
-        if kept_sparse(entry, self.threshold) {
-            0.0
+        if self.rule.keeps(r, entry) {
+            SPARSE_TEXEL
         } else {
             entry[ch]
         }
@@ -283,8 +283,11 @@ impl<'a> ErrorMeter<'a> {
             .for_each(|(block_row, out)| {
                 for r in block_row * 4..(block_row * 4 + 4).min(n) {
                     for c in 0..n {
+                        // Sparse texels (NaN) are exact: no weight.
                         let s: f64 = (0..channels)
-                            .map(|k| f64::from(self.seen(perm, r, c, k)).powi(2))
+                            .map(|k| f64::from(self.seen(perm, r, c, k)))
+                            .filter(|v| !v.is_nan())
+                            .map(|v| v * v)
                             .sum();
                         out[c / 4] += s;
                     }
@@ -367,7 +370,11 @@ impl<'a> ErrorMeter<'a> {
                 continue;
             }
             for ch in 0..self.m.channels {
-                err += (f64::from(decoded[ch][i]) - f64::from(seen(r, c, ch))).powi(2);
+                let want = f64::from(seen(r, c, ch));
+                // A sparse texel is exact: the sparse list corrects whatever the block holds.
+                if !want.is_nan() {
+                    err += (f64::from(decoded[ch][i]) - want).powi(2);
+                }
             }
         }
         err

@@ -21,9 +21,14 @@ pub struct Signatures {
 
 impl Signatures {
     /// Signatures of every patch of `m` from `samples` sampled rows and columns (clamped to
-    /// `1..=n`). Entries whose largest channel exceeds `threshold` count as 0 (the sparse
+    /// `1..=n`). Entries the sparse `rule` keeps count as 0 (the sparse
     /// list holds them); `shift` is the quantiser's log range.
-    pub fn new(m: DenseMatrix<'_>, samples: usize, shift: f32, threshold: f32) -> Self {
+    pub fn new(
+        m: DenseMatrix<'_>,
+        samples: usize,
+        shift: f32,
+        rule: &crate::encode::SparseRule,
+    ) -> Self {
         let (n, ch) = (m.n, m.channels);
         let samples = samples.clamp(1, n.max(1));
         let picks: Vec<usize> = (0..samples)
@@ -31,7 +36,7 @@ impl Signatures {
             .collect();
         let seen = |r: usize, c: usize| -> f32 {
             let e = &m.values[(r * n + c) * ch..(r * n + c + 1) * ch];
-            if crate::encode::kept_sparse(e, threshold) {
+            if rule.keeps(r, e) {
                 0.0
             } else {
                 e.iter().sum::<f32>() / ch as f32
