@@ -5,9 +5,17 @@ use radiosity_core::{Bounces, RadFile};
 use serde_json::{Value, json};
 use std::path::Path;
 
-pub(crate) fn run(path: &Path, json_out: bool) -> anyhow::Result<()> {
+pub(crate) fn run(path: &Path, json_out: bool, export_dds: Option<&Path>) -> anyhow::Result<()> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let file = RadFile::parse(&bytes).with_context(|| format!("{} is not a valid .rad file", path.display()))?;
+    let file = RadFile::parse(&bytes)
+        .with_context(|| format!("{} is not a valid .rad file", path.display()))?;
+    if let Some(dir) = export_dds {
+        let count = crate::export_dds::export(&file, dir)?;
+        eprintln!(
+            "wrote {count} DDS textures and tiles.json to {}",
+            dir.display()
+        );
+    }
     let summary = summarise(&file, bytes.len());
     if json_out {
         println!("{}", serde_json::to_string_pretty(&summary)?);
@@ -27,7 +35,10 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
         Some(Ok(Value::Object(report))) => Value::Object(report),
         _ => json!({}),
     };
-    let mut rmse = out.get("compression_rmse").cloned().unwrap_or_else(|| json!({}));
+    let mut rmse = out
+        .get("compression_rmse")
+        .cloned()
+        .unwrap_or_else(|| json!({}));
     if let (Some(map), Some(v)) = (rmse.as_object_mut(), file.compression_rmse) {
         map.entry(order).or_insert(json!(v));
     }
@@ -61,10 +72,26 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
     let l = &file.matrix.layout;
     let mib = |b: &Value| b.as_f64().unwrap_or(0.0) / (1024.0 * 1024.0);
     println!("{}", path.display());
-    println!("  patches      {} ({} objects)", file.n(), file.objects.len());
-    println!("  matrix       {} × {} channel(s), {}", l.format(), l.channels(), s["bounces"]);
+    println!(
+        "  patches      {} ({} objects)",
+        file.n(),
+        file.objects.len()
+    );
+    let bounces = match file.bounces {
+        Bounces::Finite(k) => format!("{k} bounce(s)"),
+        Bounces::Infinite => "all bounces".to_owned(),
+    };
+    println!(
+        "  matrix       {} × {} channel(s), {bounces}",
+        l.format(),
+        l.channels()
+    );
     println!("  order        {}", file.patch_order.name());
-    println!("  tiles        {} of up to {}²", l.tile_count(), l.tile_size());
+    println!(
+        "  tiles        {} of up to {}²",
+        l.tile_count(),
+        l.tile_size()
+    );
     println!(
         "  bytes        {:.3} MiB total: blocks {:.3} MiB, sparse {:.3} MiB ({} entries)",
         mib(&s["bytes"]["total"]),
@@ -87,7 +114,11 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
     if let Some(effects) = s.get("effects").and_then(Value::as_object) {
         println!("  effects");
         for (name, e) in effects {
-            let on = if e["on"].as_bool().unwrap_or(false) { "on " } else { "off" };
+            let on = if e["on"].as_bool().unwrap_or(false) {
+                "on "
+            } else {
+                "off"
+            };
             println!("    {name:<12} {on} {}", e["why"].as_str().unwrap_or(""));
         }
     }

@@ -1,16 +1,25 @@
 //! The `radiosity` command line (DESIGN.md, "Command line"). Thin: each subcommand parses its
 //! arguments and calls a library function; every error leaves as one `error: …` line on stderr
-//! and exit status 1.
+//! and a non-zero exit status.
 
+mod args;
+mod bake;
+mod export_dds;
 mod inspect;
+mod solve;
 mod view_factors;
 
+use args::BakeArgs;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "radiosity", version, about = "Precomputed-transfer radiosity: bake once, light every frame with one mat-vec")]
+#[command(
+    name = "radiosity",
+    version,
+    about = "Precomputed-transfer radiosity: bake once, light every frame with one mat-vec"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -18,6 +27,29 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Bake an OBJ scene into a compressed transfer matrix (.rad).
+    Bake {
+        /// The OBJ file.
+        scene: PathBuf,
+        /// Where to write the .rad file (written atomically).
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        bake: BakeArgs,
+        /// Print the bake report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Light a scene by its own emitters and report per-object irradiance and radiosity.
+    Solve {
+        /// An OBJ scene (baked first, with the bake flags) or a .rad file.
+        input: PathBuf,
+        #[command(flatten)]
+        bake: BakeArgs,
+        /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"}.
+        #[arg(long)]
+        json: bool,
+    },
     /// Object-to-object view factors of an OBJ scene, from its full-detail geometry.
     ViewFactors {
         /// The OBJ file.
@@ -26,28 +58,65 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Print what a .rad file holds: sizes, format, order, error estimates.
+    /// Print what a .rad file holds: sizes, format, order, effects, error estimates.
     Inspect {
         /// The .rad file.
         file: PathBuf,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
+        /// Also write every matrix tile as a DDS texture into this directory.
+        #[arg(long, value_name = "DIR")]
+        export_dds: Option<PathBuf>,
     },
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version: clap prints them as usual.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // Usage errors keep the one-line contract: clap's first paragraph (which names the
+            // flag, and its continuation lines such as the missing argument) on one line.
+            let text = e.to_string();
+            let first: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let first = first.join(" ");
+            eprintln!(
+                "error: {} (see --help)",
+                first.trim_start_matches("error: ")
+            );
+            return ExitCode::from(2);
+        }
+    };
     let result = match cli.command {
+        Command::Bake {
+            scene,
+            output,
+            bake,
+            json,
+        } => bake::run(&scene, &output, &bake, json),
+        Command::Solve { input, bake, json } => solve::run(&input, &bake, json),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),
-        Command::Inspect { file, json } => inspect::run(&file, json),
+        Command::Inspect {
+            file,
+            json,
+            export_dds,
+        } => inspect::run(&file, json, export_dds.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line: the context chain joined, never a backtrace.
             let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            eprintln!("error: {}", msg.join(": "));
+            eprintln!("error: {}", msg.join(": ").replace('\n', " "));
             ExitCode::FAILURE
         }
     }

@@ -16,6 +16,7 @@
 //! - [`view_factors`]: object-to-object view factors from the full-detail geometry.
 #![deny(missing_docs)]
 
+pub mod effects;
 pub mod encode;
 
 pub mod bvh;
@@ -24,6 +25,7 @@ pub mod form_factor;
 pub mod kernel;
 mod obj;
 pub mod order;
+pub mod pipeline;
 pub mod polygon;
 pub mod quadrature;
 pub mod rng;

@@ -124,8 +124,14 @@ pub fn analyse_closure(f: &Dense, tolerance: f64) -> Closure {
     let seeing = || sums.iter().copied().filter(|s| *s > 0.0);
     let min_row_sum = seeing().fold(f64::INFINITY, f64::min);
     let max_row_sum = seeing().fold(0.0, f64::max);
-    let closed = min_row_sum.is_finite() && (1.0 - min_row_sum) <= tolerance && (max_row_sum - 1.0) <= tolerance;
-    Closure { min_row_sum, max_row_sum, closed }
+    let closed = min_row_sum.is_finite()
+        && (1.0 - min_row_sum) <= tolerance
+        && (max_row_sum - 1.0) <= tolerance;
+    Closure {
+        min_row_sum,
+        max_row_sum,
+        closed,
+    }
 }
 
 /// Rebalances a closed scene's form factors so every row sums to 1 and reciprocity holds
@@ -144,10 +150,20 @@ pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
         }
     }
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
-    let live: Vec<bool> = (0..n).map(|i| w[i * n..(i + 1) * n].iter().any(|v| *v > 0.0)).collect();
+    let live: Vec<bool> = (0..n)
+        .map(|i| w[i * n..(i + 1) * n].iter().any(|v| *v > 0.0))
+        .collect();
     let mut d = vec![1.0; n];
     for _ in 0..10_000 {
-        let wd: Vec<f64> = (0..n).map(|i| w[i * n..(i + 1) * n].iter().zip(&d).map(|(a, b)| a * b).sum()).collect();
+        let wd: Vec<f64> = (0..n)
+            .map(|i| {
+                w[i * n..(i + 1) * n]
+                    .iter()
+                    .zip(&d)
+                    .map(|(a, b)| a * b)
+                    .sum()
+            })
+            .collect();
         let mut worst = 0f64;
         for i in 0..n {
             if live[i] {
@@ -180,7 +196,12 @@ fn max_gain(f: &Dense, reflectance: &[[f64; 3]], channels: usize) -> (f64, usize
     let mut best = (0.0, 0);
     for i in 0..f.n {
         for c in 0..channels {
-            let s: f64 = f.row(i).iter().zip(reflectance).map(|(fij, r)| fij * r[c]).sum();
+            let s: f64 = f
+                .row(i)
+                .iter()
+                .zip(reflectance)
+                .map(|(fij, r)| fij * r[c])
+                .sum();
             if s > best.0 {
                 best = (s, i);
             }
@@ -205,10 +226,18 @@ pub fn transfer_matrix(
         return Err(TransferError::Input("channels must be 1 or 3"));
     }
     if !f.values.iter().all(|v| v.is_finite() && *v >= 0.0) {
-        return Err(TransferError::Input("form factors must be finite and non-negative"));
+        return Err(TransferError::Input(
+            "form factors must be finite and non-negative",
+        ));
     }
-    if !reflectance.iter().flatten().all(|r| r.is_finite() && (0.0..1.0).contains(r)) {
-        return Err(TransferError::Input("reflectance must be finite and in [0, 1)"));
+    if !reflectance
+        .iter()
+        .flatten()
+        .all(|r| r.is_finite() && (0.0..1.0).contains(r))
+    {
+        return Err(TransferError::Input(
+            "reflectance must be finite and in [0, 1)",
+        ));
     }
     let (gain, row) = max_gain(f, reflectance, channels);
     let (k, method) = match bounces {
@@ -227,7 +256,10 @@ pub fn transfer_matrix(
         }
     };
     if k == Bounces::Infinite && gain >= 1.0 {
-        return Err(TransferError::Divergent { patch: row, row_sum: gain });
+        return Err(TransferError::Divergent {
+            patch: row,
+            row_sum: gain,
+        });
     }
     let energy_left = match k {
         Bounces::Finite(k) => gain.powi(k as i32),
@@ -259,7 +291,15 @@ pub fn transfer_matrix(
             }
         }
     }
-    Ok((out, TransferReport { bounces: k, method, max_gain: gain, energy_left }))
+    Ok((
+        out,
+        TransferReport {
+            bounces: k,
+            method,
+            max_gain: gain,
+            energy_left,
+        },
+    ))
 }
 
 /// `Σ_{b<k} G^b` by binary doubling: about 3·log2(k) matrix products.
@@ -316,7 +356,10 @@ mod tests {
             }
             for (a, b) in m.iter().zip(&want) {
                 // f32 storage of an f64 result: relative 2^-24.
-                assert!((f64::from(*a) - b).abs() <= b.abs() * 1e-7 + 1e-12, "K = {k}: {a} vs {b}");
+                assert!(
+                    (f64::from(*a) - b).abs() <= b.abs() * 1e-7 + 1e-12,
+                    "K = {k}: {a} vs {b}"
+                );
             }
         }
     }
@@ -326,9 +369,14 @@ mod tests {
         // B1 = (E1 + ρ1 E2)/(1 − ρ1ρ2): with E2 = 0, irradiance at plate 2 from unit first
         // exitance at plate 1 is M21 = 1/(1 − ρ1ρ2) (multibounce.md §3a).
         let (r1, r2) = (0.9, 0.99);
-        let (m, rep) = transfer_matrix(&plates(), &[[r1; 3], [r2; 3]], 1, BounceSpec::Infinite).unwrap();
+        let (m, rep) =
+            transfer_matrix(&plates(), &[[r1; 3], [r2; 3]], 1, BounceSpec::Infinite).unwrap();
         let want = 1.0 / (1.0 - r1 * r2);
-        assert!((f64::from(m[2]) - want).abs() / want < 1e-6, "{} vs {want}", m[2]);
+        assert!(
+            (f64::from(m[2]) - want).abs() / want < 1e-6,
+            "{} vs {want}",
+            m[2]
+        );
         assert_eq!((rep.bounces, rep.method), (Bounces::Infinite, "lu"));
     }
 
@@ -354,11 +402,14 @@ mod tests {
     #[test]
     fn auto_uses_as_few_bounces_as_the_energy_needs() {
         let f = plates();
-        let (_, rep) = transfer_matrix(&f, &[[1e-4; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
+        let (_, rep) =
+            transfer_matrix(&f, &[[1e-4; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
         assert_eq!(rep.bounces, Bounces::Finite(1));
-        let (_, rep) = transfer_matrix(&f, &[[0.02; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
+        let (_, rep) =
+            transfer_matrix(&f, &[[0.02; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
         assert_eq!(rep.bounces, Bounces::Finite(2));
-        let (_, rep) = transfer_matrix(&f, &[[0.5; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
+        let (_, rep) =
+            transfer_matrix(&f, &[[0.5; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
         assert_eq!(rep.bounces, Bounces::Infinite);
     }
 

@@ -3,7 +3,9 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use radiosity_bake::encode::{EncodeParams, encode_bc1_block, encode_bc4_block, encode_dense};
-use radiosity_core::{DecodeMode, Format, Gather, ReferenceGather, Rgb, decode_bc1_block, decode_bc4_block};
+use radiosity_core::{
+    DecodeMode, Format, Gather, ReferenceGather, Rgb, decode_bc1_block, decode_bc4_block,
+};
 use radiosity_tests::fixtures::{SplitMix64, transfer_like_matrix};
 use std::hint::black_box;
 
@@ -17,10 +19,20 @@ fn decode(c: &mut Criterion) {
     let mut g = c.benchmark_group("decode");
     g.throughput(Throughput::Elements(blocks.len() as u64));
     g.bench_function("bc1_reference", |b| {
-        b.iter(|| blocks.iter().map(|x| decode_bc1_block(black_box(x))[5][1] as u32).sum::<u32>())
+        b.iter(|| {
+            blocks
+                .iter()
+                .map(|x| decode_bc1_block(black_box(x))[5][1] as u32)
+                .sum::<u32>()
+        })
     });
     g.bench_function("bc4_reference", |b| {
-        b.iter(|| blocks.iter().map(|x| decode_bc4_block(black_box(x))[5] as u32).sum::<u32>())
+        b.iter(|| {
+            blocks
+                .iter()
+                .map(|x| decode_bc4_block(black_box(x))[5] as u32)
+                .sum::<u32>()
+        })
     });
     g.finish();
 }
@@ -39,13 +51,21 @@ fn encode(c: &mut Criterion) {
     let mut g = c.benchmark_group("encode_block");
     g.throughput(Throughput::Elements(codes.len() as u64));
     g.bench_function("bc1_cluster_fit", |b| {
-        b.iter(|| codes.iter().map(|c| encode_bc1_block(black_box(c), 0xffff, false).0[0] as u32).sum::<u32>())
+        b.iter(|| {
+            codes
+                .iter()
+                .map(|c| encode_bc1_block(black_box(c), 0xffff, false).0[0] as u32)
+                .sum::<u32>()
+        })
     });
     g.bench_function("bc4_best_of_three", |b| {
         b.iter(|| {
             codes
                 .iter()
-                .map(|c| encode_bc4_block(black_box(&core::array::from_fn(|i| c[i][0])), 0xffff)[0] as u32)
+                .map(|c| {
+                    encode_bc4_block(black_box(&core::array::from_fn(|i| c[i][0])), 0xffff)[0]
+                        as u32
+                })
                 .sum::<u32>()
         })
     });
@@ -62,7 +82,9 @@ fn reference_gather(c: &mut Criterion) {
         let mut gather = ReferenceGather::new(m, DecodeMode::D3d10);
         let x = vec![Rgb::ONE; n];
         let mut y = vec![Rgb::ZERO; n];
-        g.bench_function(format.name(), |b| b.iter(|| gather.gather(black_box(&x), &mut y).unwrap()));
+        g.bench_function(format.name(), |b| {
+            b.iter(|| gather.gather(black_box(&x), &mut y).unwrap())
+        });
     }
     g.finish();
 }

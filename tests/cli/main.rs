@@ -6,7 +6,10 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn radiosity(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radiosity")).args(args).output().expect("binary runs")
+    Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .args(args)
+        .output()
+        .expect("binary runs")
 }
 
 /// Asserts the contract for bad input: non-zero exit (not a panic's 101), and stderr exactly
@@ -16,12 +19,19 @@ fn assert_one_line_error(out: &Output, needle: &str) {
     assert!(!out.status.success(), "must fail: {stderr}");
     assert_ne!(out.status.code(), Some(101), "must not panic: {stderr}");
     assert_eq!(stderr.lines().count(), 1, "one line: {stderr:?}");
-    assert!(stderr.starts_with("error: ") && stderr.contains(needle), "{stderr:?} should mention {needle:?}");
+    assert!(
+        stderr.starts_with("error: ") && stderr.contains(needle),
+        "{stderr:?} should mention {needle:?}"
+    );
 }
 
 fn write_sample(dir: &Path) -> std::path::PathBuf {
     let path = dir.join("sample.rad");
-    std::fs::write(&path, sample_file(37, 3, Format::Bc1, 16).to_bytes().unwrap()).unwrap();
+    std::fs::write(
+        &path,
+        sample_file(37, 3, Format::Bc1, 16).to_bytes().unwrap(),
+    )
+    .unwrap();
     path
 }
 
@@ -30,9 +40,16 @@ fn inspect_prints_text_and_json() {
     let dir = tempfile::tempdir().unwrap();
     let path = write_sample(dir.path());
     let out = radiosity(&["inspect", path.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8(out.stdout).unwrap();
-    assert!(text.contains("patches      37") && text.contains("bc1"), "{text}");
+    assert!(
+        text.contains("patches      37") && text.contains("bc1"),
+        "{text}"
+    );
 
     let out = radiosity(&["inspect", path.to_str().unwrap(), "--json"]);
     assert!(out.status.success());
@@ -44,7 +61,9 @@ fn inspect_prints_text_and_json() {
     assert_eq!(v["bounces"], 4);
     let total = std::fs::metadata(&path).unwrap().len();
     assert_eq!(v["bytes"]["total"], total);
-    assert!(v["bytes"]["blocks"].as_u64().unwrap() > 0 && v["bytes"]["sparse"].as_u64().unwrap() > 0);
+    assert!(
+        v["bytes"]["blocks"].as_u64().unwrap() > 0 && v["bytes"]["sparse"].as_u64().unwrap() > 0
+    );
     // The sample records an error estimate for its own order.
     assert!((v["compression_rmse"]["spatial"].as_f64().unwrap() - 0.0125).abs() < 1e-6);
     assert_eq!(v["note"], "sample", "the bake's report is merged in");
@@ -57,19 +76,211 @@ fn inspect_bad_files_fail_with_one_line() {
     let mut bytes = std::fs::read(&path).unwrap();
 
     let missing = dir.path().join("nope.rad");
-    assert_one_line_error(&radiosity(&["inspect", missing.to_str().unwrap()]), "cannot read");
+    assert_one_line_error(
+        &radiosity(&["inspect", missing.to_str().unwrap()]),
+        "cannot read",
+    );
 
     let truncated = dir.path().join("truncated.rad");
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
-    assert_one_line_error(&radiosity(&["inspect", truncated.to_str().unwrap()]), "truncated");
+    assert_one_line_error(
+        &radiosity(&["inspect", truncated.to_str().unwrap()]),
+        "truncated",
+    );
 
     let flipped = dir.path().join("flipped.rad");
     let mid = bytes.len() - 40;
     bytes[mid] ^= 0x10;
     std::fs::write(&flipped, &bytes).unwrap();
-    assert_one_line_error(&radiosity(&["inspect", flipped.to_str().unwrap()]), "corrupt");
+    assert_one_line_error(
+        &radiosity(&["inspect", flipped.to_str().unwrap()]),
+        "corrupt",
+    );
 
     let text = dir.path().join("text.rad");
     std::fs::write(&text, "hello, I am not a transfer matrix\n").unwrap();
-    assert_one_line_error(&radiosity(&["inspect", text.to_str().unwrap()]), "not a .rad file");
+    assert_one_line_error(
+        &radiosity(&["inspect", text.to_str().unwrap()]),
+        "not a .rad file",
+    );
+}
+
+fn small_scene(dir: &Path) -> std::path::PathBuf {
+    use radiosity_tests::scenes::{Material, closed_box, write_scene};
+    let mats = [
+        Material::new("wall", [0.6, 0.5, 0.4], [0.0; 3]),
+        Material::new("lamp", [0.5; 3], [4.0; 3]),
+    ];
+    let quads = closed_box(2.0, 2, |face, i, j| {
+        if face == "ceiling" && i == 0 && j == 0 {
+            "lamp".into()
+        } else {
+            "wall".into()
+        }
+    });
+    write_scene(dir, "room", &quads, &mats)
+}
+
+#[test]
+fn bake_solve_inspect_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_scene(dir.path());
+    let rad = dir.path().join("room.rad");
+    let out = radiosity(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        rad.to_str().unwrap(),
+        "--patches",
+        "80",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "patches",
+        "channels",
+        "format",
+        "order",
+        "bounces",
+        "bytes",
+        "rays_cast",
+        "compression_rmse",
+        "lighting_error",
+        "effects",
+        "timings_ms",
+    ] {
+        assert!(
+            report.get(key).is_some(),
+            "bake --json lacks {key}: {report}"
+        );
+    }
+    assert_eq!(report["format"], "bc1", "a coloured scene defaults to bc1");
+    assert_eq!(report["rays_cast"], 0, "a box is convex");
+    assert_eq!(
+        report["bytes"]["total"],
+        std::fs::metadata(&rad).unwrap().len()
+    );
+    for order in ["none", "random", "paper", "spatial"] {
+        assert!(
+            report["compression_rmse"][order].as_f64().is_some(),
+            "error of order {order} reported"
+        );
+    }
+
+    let out = radiosity(&["solve", rad.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["patches"], report["patches"]);
+    let objects = v["objects"].as_array().unwrap();
+    let names: Vec<&str> = objects
+        .iter()
+        .map(|o| o["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["floor", "ceiling", "left", "right", "back", "front"]
+    );
+    let floor = &objects[0];
+    assert!(
+        (floor["area"].as_f64().unwrap() - 4.0).abs() < 1e-4,
+        "floor area {}",
+        floor["area"]
+    );
+    assert!(
+        floor["irradiance"][0].as_f64().unwrap() > 0.0,
+        "the lamp lights the floor"
+    );
+
+    // Solving the OBJ directly bakes in memory first: same objects.
+    let out = radiosity(&[
+        "solve",
+        scene.to_str().unwrap(),
+        "--patches",
+        "80",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let dds = dir.path().join("dds");
+    let out = radiosity(&[
+        "inspect",
+        rad.to_str().unwrap(),
+        "--export-dds",
+        dds.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tex = std::fs::read(dds.join("tile_000_000_rgb.dds")).unwrap();
+    assert_eq!(&tex[..4], b"DDS ", "a standard DDS file");
+    let index: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dds.join("tiles.json")).unwrap()).unwrap();
+    assert_eq!(index["tiles"][0]["format"], "bc1");
+}
+
+#[test]
+fn bake_bad_input_fails_cleanly_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let rad = dir.path().join("out.rad");
+    let r = rad.to_str().unwrap();
+    assert_one_line_error(
+        &radiosity(&["bake", s, "-o", r, "--patches", "0"]),
+        "--patches",
+    );
+    assert_one_line_error(
+        &radiosity(&["bake", s, "-o", r, "--format", "png"]),
+        "--format",
+    );
+    assert_one_line_error(
+        &radiosity(&["bake", s, "-o", r, "--order", "alphabetical"]),
+        "--order",
+    );
+    assert_one_line_error(
+        &radiosity(&["bake", s, "-o", r, "--bounces", "0"]),
+        "--bounces",
+    );
+    assert_one_line_error(
+        &radiosity(&["bake", s, "-o", r, "--voxel", "-1"]),
+        "--voxel",
+    );
+    assert_one_line_error(
+        &radiosity(&["bake", s, "-o", "/nonexistent/dir/out.rad"]),
+        "does not exist",
+    );
+    assert_one_line_error(&radiosity(&["bake", "missing.obj", "-o", r]), "missing.obj");
+    assert_one_line_error(&radiosity(&["bake", s]), "--output");
+    let empty = dir.path().join("empty.obj");
+    std::fs::write(&empty, "# nothing here\n").unwrap();
+    assert_one_line_error(
+        &radiosity(&["bake", empty.to_str().unwrap(), "-o", r]),
+        "no non-degenerate triangle",
+    );
+    assert!(!rad.exists(), "no output after a failed bake");
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(
+        leftovers
+            .iter()
+            .all(|f| !f.to_string_lossy().starts_with(".tmp")),
+        "no temporary files left: {leftovers:?}"
+    );
 }

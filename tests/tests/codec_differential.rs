@@ -9,7 +9,9 @@
 //! - bcdec_rs 0.2.1 (a port of bcdec): rounds differently on purpose; every difference is
 //!   explained and bounded below.
 
-use radiosity_core::{DecodeMode, decode_bc1_block, decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with};
+use radiosity_core::{
+    DecodeMode, decode_bc1_block, decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
+};
 use radiosity_tests::fixtures::SplitMix64;
 
 /// Over a million blocks per format, as the Foundation issue asks.
@@ -113,7 +115,12 @@ fn bcdec_differs_only_by_rounding_of_interpolants() {
             let theirs = &out[4 * i..4 * i + 4];
             for c in 0..4 {
                 let d = (i32::from(theirs[c]) - i32::from(ours[i][c])).abs();
-                assert!(d <= 1, "block {b:02x?} texel {i} channel {c}: {} vs {}", theirs[c], ours[i][c]);
+                assert!(
+                    d <= 1,
+                    "block {b:02x?} texel {i} channel {c}: {} vs {}",
+                    theirs[c],
+                    ours[i][c]
+                );
                 bc1_diffs += usize::from(d != 0 && block.index(i) >= 2);
             }
         }
@@ -123,12 +130,20 @@ fn bcdec_differs_only_by_rounding_of_interpolants() {
         for i in 0..16 {
             let d = (i32::from(out4[i]) - i32::from(ours4[i])).abs();
             let exact = block4.index(i) < 2 || (!block4.is_eight_value() && block4.index(i) >= 6);
-            assert!(d <= if exact { 0 } else { 1 }, "block {b:02x?} texel {i}: {} vs {}", out4[i], ours4[i]);
+            assert!(
+                d <= if exact { 0 } else { 1 },
+                "block {b:02x?} texel {i}: {} vs {}",
+                out4[i],
+                ours4[i]
+            );
             bc4_diffs += usize::from(d != 0);
         }
     }
     // The comparison must have exercised the rounding differences it explains.
-    assert!(bc1_diffs > 0 && bc4_diffs > 0, "expected some ±1 rounding differences");
+    assert!(
+        bc1_diffs > 0 && bc4_diffs > 0,
+        "expected some ±1 rounding differences"
+    );
 }
 
 #[test]
@@ -150,15 +165,27 @@ fn mesa_mode_differs_from_d3d10_by_at_most_one_bc1_and_two_bc4() {
     }
     assert_eq!(bc4_max, 2);
     for b in blocks().take(BLOCKS / 4) {
-        let (d, m) = (decode_bc1_block(&b), decode_bc1_block_with(&b, DecodeMode::Mesa));
+        let (d, m) = (
+            decode_bc1_block(&b),
+            decode_bc1_block_with(&b, DecodeMode::Mesa),
+        );
         for i in 0..16 {
             for c in 0..4 {
-                assert!((i32::from(d[i][c]) - i32::from(m[i][c])).abs() <= 1, "bc1 {b:02x?}");
+                assert!(
+                    (i32::from(d[i][c]) - i32::from(m[i][c])).abs() <= 1,
+                    "bc1 {b:02x?}"
+                );
             }
         }
-        let (d, m) = (decode_bc4_block(&b), decode_bc4_block_with(&b, DecodeMode::Mesa));
+        let (d, m) = (
+            decode_bc4_block(&b),
+            decode_bc4_block_with(&b, DecodeMode::Mesa),
+        );
         for i in 0..16 {
-            assert!((i32::from(d[i]) - i32::from(m[i])).abs() <= 2, "bc4 {b:02x?}");
+            assert!(
+                (i32::from(d[i]) - i32::from(m[i])).abs() <= 2,
+                "bc4 {b:02x?}"
+            );
         }
     }
 }

@@ -6,7 +6,9 @@
 //! texture2ddecoder use; Mesa values from the rules measured on llvmpipe/lavapipe 22.3 and
 //! recorded in the Foundation issue (#2). Each entry shows its arithmetic.
 
-use radiosity_core::{DecodeMode, decode_bc1_block, decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with};
+use radiosity_core::{
+    DecodeMode, decode_bc1_block, decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
+};
 
 /// An opaque BC1 texel.
 const fn rgb(r: u8, g: u8, b: u8) -> [u8; 4] {
@@ -21,10 +23,26 @@ fn bc1_endpoint_order_selects_three_colour_mode() {
     let block = [0x1f, 0x00, 0x00, 0xf8, 0b1110_0100, 0, 0, 0];
     let d = decode_bc1_block(&block);
     // Midpoint: (255 + 0) / 2 = 127 for red and blue; index 3 is transparent black.
-    assert_eq!(d[..4], [rgb(0, 0, 255), rgb(255, 0, 0), rgb(127, 0, 127), [0, 0, 0, 0]]);
+    assert_eq!(
+        d[..4],
+        [
+            rgb(0, 0, 255),
+            rgb(255, 0, 0),
+            rgb(127, 0, 127),
+            [0, 0, 0, 0]
+        ]
+    );
     // Mesa's midpoint rounds up: (255 + 0 + 1) >> 1 = 128.
     let m = decode_bc1_block_with(&block, DecodeMode::Mesa);
-    assert_eq!(m[..4], [rgb(0, 0, 255), rgb(255, 0, 0), rgb(128, 0, 128), [0, 0, 0, 0]]);
+    assert_eq!(
+        m[..4],
+        [
+            rgb(0, 0, 255),
+            rgb(255, 0, 0),
+            rgb(128, 0, 128),
+            [0, 0, 0, 0]
+        ]
+    );
     // The remaining 12 texels have index 0.
     assert!(d[4..].iter().all(|t| *t == rgb(0, 0, 255)));
 }
@@ -36,7 +54,15 @@ fn bc1_four_colour_grey_ramp() {
     // Indices: row 0 = 0, 2, 3, 1 → byte 0b01_11_10_00.
     let block = [0xff, 0xff, 0x41, 0x08, 0b0111_1000, 0, 0, 0];
     let d = decode_bc1_block(&block);
-    assert_eq!(d[..4], [rgb(255, 255, 255), rgb(172, 172, 172), rgb(90, 90, 90), rgb(8, 8, 8)]);
+    assert_eq!(
+        d[..4],
+        [
+            rgb(255, 255, 255),
+            rgb(172, 172, 172),
+            rgb(90, 90, 90),
+            rgb(8, 8, 8)
+        ]
+    );
     // Mesa: 255 + ((−247·85) >> 8) = 255 + ⌊−82.01⌋ = 172; 255 + ((−247·170) >> 8) = 255 − 165 = 90.
     let m = decode_bc1_block_with(&block, DecodeMode::Mesa);
     assert_eq!(m[..4], d[..4]);
@@ -48,7 +74,15 @@ fn bc1_endpoint_expansion_by_bit_replication() {
     // c2 = (264 + 0)/3, (260)/3, (16)/3 = 88, 86, 5; c3 = 44, 43, 2.
     let block = [0x01, 0x84, 0x00, 0x00, 0b1110_0100, 0, 0, 0];
     let d = decode_bc1_block(&block);
-    assert_eq!(d[..4], [rgb(132, 130, 8), rgb(0, 0, 0), rgb(88, 86, 5), rgb(44, 43, 2)]);
+    assert_eq!(
+        d[..4],
+        [
+            rgb(132, 130, 8),
+            rgb(0, 0, 0),
+            rgb(88, 86, 5),
+            rgb(44, 43, 2)
+        ]
+    );
     // Mesa: 132 + ((−132·85) >> 8) = 132 + ⌊−43.83⌋ = 88; 130 − 44 = 86 (⌊−43.16⌋ = −44);
     // 8 + ⌊−2.66⌋ = 5; c3: 132 + ⌊−87.66⌋ = 44, 130 + ⌊−86.33⌋ = 43, 8 + ⌊−5.31⌋ = 2.
     assert_eq!(decode_bc1_block_with(&block, DecodeMode::Mesa)[..4], d[..4]);
@@ -75,10 +109,16 @@ fn bc4_six_value_mode_with_constants() {
     // r0 = 10 ≤ r1 = 110: six values and the constants. (4·10 + 110)/5 = 30, (30 + 220)/5 = 50,
     // (20 + 330)/5 = 70, (10 + 440)/5 = 90, then 0 and 255. Same packing as above.
     let block = [10, 110, 0x88, 0xc6, 0xfa, 0, 0, 0];
-    assert_eq!(decode_bc4_block(&block)[..8], [10, 110, 30, 50, 70, 90, 0, 255]);
+    assert_eq!(
+        decode_bc4_block(&block)[..8],
+        [10, 110, 30, 50, 70, 90, 0, 255]
+    );
     // Mesa: 10 + ((100·⌊255t/5⌋) >> 8): w = 51, 102, 153, 204 → 10 + 19, 10 + 39, 10 + 59,
     // 10 + 79 = 29, 49, 69, 89: one below D3D10 each.
-    assert_eq!(decode_bc4_block_with(&block, DecodeMode::Mesa)[..8], [10, 110, 29, 49, 69, 89, 0, 255]);
+    assert_eq!(
+        decode_bc4_block_with(&block, DecodeMode::Mesa)[..8],
+        [10, 110, 29, 49, 69, 89, 0, 255]
+    );
 }
 
 #[test]

@@ -6,15 +6,23 @@ use radiosity_tests::fixtures::{SplitMix64, sample_file};
 
 fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
     let mut rng = SplitMix64(seed);
-    (0..n).map(|_| Rgb::new(rng.next_f32() * 10.0, rng.next_f32(), rng.next_f32() * 0.1)).collect()
+    (0..n)
+        .map(|_| Rgb::new(rng.next_f32() * 10.0, rng.next_f32(), rng.next_f32() * 0.1))
+        .collect()
 }
 
 #[test]
 fn gather_equals_dense_matvec_of_the_decoded_matrix() {
     let n = 37;
-    for (format, channels) in
-        [(Format::Bc1, 3), (Format::Bc4, 3), (Format::Bc4, 1), (Format::U8, 3), (Format::U8, 1), (Format::F16, 3), (Format::F32, 1)]
-    {
+    for (format, channels) in [
+        (Format::Bc1, 3),
+        (Format::Bc4, 3),
+        (Format::Bc4, 1),
+        (Format::U8, 3),
+        (Format::U8, 1),
+        (Format::F16, 3),
+        (Format::F32, 1),
+    ] {
         for max_tile in [8, 16, 8192] {
             for mode in [DecodeMode::D3d10, DecodeMode::Mesa] {
                 let file = sample_file(n, channels, format, max_tile);
@@ -28,7 +36,8 @@ fn gather_equals_dense_matvec_of_the_decoded_matrix() {
                     for k in 0..3 {
                         let mut want = 0f64;
                         for c in 0..n {
-                            let v = dense[(r * n + c) * channels + if channels == 1 { 0 } else { k }];
+                            let v =
+                                dense[(r * n + c) * channels + if channels == 1 { 0 } else { k }];
                             want += f64::from(v) * f64::from(x[c].channel(k));
                         }
                         // Both sums are f64 over the same f32 products; only the order differs
@@ -58,7 +67,11 @@ fn grey_matrix_carries_coloured_light() {
     g.gather(&white, &mut yw).unwrap();
     g.gather(&red, &mut yr).unwrap();
     for i in 0..n {
-        assert!(yw[i].is_grey() && yw[i].r > 0.0, "white in, grey out: {:?}", yw[i]);
+        assert!(
+            yw[i].is_grey() && yw[i].r > 0.0,
+            "white in, grey out: {:?}",
+            yw[i]
+        );
         assert_eq!(yr[i], Rgb::new(yw[i].r, 0.0, 0.0), "red in, red out");
     }
 }
@@ -69,9 +82,23 @@ fn gather_refuses_bad_arguments() {
     let mut g = ReferenceGather::new(sample_file(n, 3, Format::Bc1, 8).matrix, DecodeMode::D3d10);
     let mut y = vec![Rgb::ZERO; n];
     let short = vec![Rgb::ONE; n - 1];
-    assert_eq!(g.gather(&short, &mut y), Err(GatherError::Length { expected: n, exitance: n - 1, irradiance: n }));
+    assert_eq!(
+        g.gather(&short, &mut y),
+        Err(GatherError::Length {
+            expected: n,
+            exitance: n - 1,
+            irradiance: n
+        })
+    );
     let mut x = vec![Rgb::ONE; n];
     x[4].g = f32::NAN;
-    assert_eq!(g.gather(&x, &mut y), Err(GatherError::NonFinite { index: 4 }));
-    assert!(GatherError::NonFinite { index: 4 }.to_string().contains("patch 4"));
+    assert_eq!(
+        g.gather(&x, &mut y),
+        Err(GatherError::NonFinite { index: 4 })
+    );
+    assert!(
+        GatherError::NonFinite { index: 4 }
+            .to_string()
+            .contains("patch 4")
+    );
 }

@@ -1,0 +1,518 @@
+//! The whole bake: scene → patches → form factors → effect plan → transfer → order → encode →
+//! [`RadFile`], with a report of every decision, error estimate and timing.
+
+use crate::BakeError;
+use crate::bvh::Occluders;
+use crate::effects::{self, Effect, Effects};
+use crate::encode::EncodeError;
+use crate::encode::{EncodeParams, encode_dense};
+use crate::form_factor::{FormFactorParams, Progress, Visibility, form_factors};
+use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
+use crate::scene::Scene;
+use crate::transfer::{
+    BounceSpec, Dense, TransferError, analyse_closure, enforce_closure, transfer_matrix,
+};
+use crate::voxel::{Patches, VoxelParams, simplify};
+use radiosity_core::{
+    Bounces, DecodeMode, Format, Gather, Patch, RadFile, ReferenceGather, Rgb, TransferMatrix,
+};
+use serde::Serialize;
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// Which storage format to use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FormatChoice {
+    /// BC1 for colour scenes, BC4 for grey ones (BC1 cannot store a single channel).
+    #[default]
+    Auto,
+    /// This format (BC1 on a grey scene is an error).
+    Fixed(Format),
+}
+
+/// Everything a bake can be told. Presets: [`BakeParams::fast`], [`BakeParams::high_quality`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeParams {
+    /// Simplification: target patch count or voxel size. More patches: finer lighting, n²
+    /// memory and n³ transfer time.
+    pub voxel: VoxelParams,
+    /// Form-factor quadrature and visibility rays (rays are switched off by the effect plan when
+    /// nothing can occlude).
+    pub form_factors: FormFactorParams,
+    /// Bounces carried by M.
+    pub bounces: BounceSpec,
+    /// Storage format.
+    pub format: FormatChoice,
+    /// Patch numbering (rows and columns together) before compression.
+    pub order: OrderKind,
+    /// Quantiser range, tile size and sparse fraction (its `format` is ignored: see `format`).
+    pub encode: EncodeParams,
+    /// A scene is treated as closed when every row of F sums to 1 within this; its rows are then
+    /// rebalanced to sum to exactly 1 (the correction is reported).
+    pub closure_tolerance: f64,
+    /// Seed of the random order.
+    pub seed: u64,
+}
+
+impl Default for BakeParams {
+    fn default() -> Self {
+        Self {
+            voxel: VoxelParams::default(),
+            form_factors: FormFactorParams::default(),
+            bounces: BounceSpec::default(),
+            format: FormatChoice::Auto,
+            order: OrderKind::Best,
+            encode: EncodeParams::default(),
+            closure_tolerance: 0.02,
+            seed: 1,
+        }
+    }
+}
+
+impl BakeParams {
+    /// Coarse and quick: previews.
+    pub fn fast() -> Self {
+        Self {
+            voxel: VoxelParams::fast(),
+            form_factors: FormFactorParams::fast(),
+            order: OrderKind::Spatial,
+            ..Self::default()
+        }
+    }
+
+    /// Fine and slow: final bakes.
+    pub fn high_quality() -> Self {
+        Self {
+            voxel: VoxelParams::high_quality(),
+            form_factors: FormFactorParams::high_quality(),
+            encode: EncodeParams::high_quality(Format::Bc1),
+            ..Self::default()
+        }
+    }
+}
+
+/// Callbacks for a front end: stage names as they start, and form-factor progress.
+#[derive(Clone, Copy, Default)]
+pub struct Hooks<'a> {
+    /// Called with a stage name when it starts.
+    pub stage: Option<&'a (dyn Fn(&str) + Sync)>,
+    /// Form-factor rows done / total.
+    pub progress: Option<Progress<'a>>,
+}
+
+/// Sizes in bytes.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Bytes {
+    /// The whole `.rad` file.
+    pub total: usize,
+    /// Block data.
+    pub blocks: usize,
+    /// Sparse arrays.
+    pub sparse: usize,
+}
+
+/// What the bake did and measured: the `bake --json` object (DESIGN.md), also stored in the
+/// file's REPORT section for `inspect`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BakeReport {
+    /// Patches in the matrix.
+    pub patches: usize,
+    /// Stored channels.
+    pub channels: usize,
+    /// Storage format.
+    pub format: &'static str,
+    /// Patch order used.
+    pub order: &'static str,
+    /// Bounces (a number, or "infinite").
+    pub bounces: serde_json::Value,
+    /// Sizes.
+    pub bytes: Bytes,
+    /// Shadow rays cast for form factors.
+    pub rays_cast: u64,
+    /// Relative Frobenius error of the decoded matrix, per order measured (the chosen one
+    /// exactly, the others estimated on sampled blocks when the order was `best`).
+    pub compression_rmse: BTreeMap<String, f64>,
+    /// Relative L2 error of the irradiance from the scene's own emitters caused by compression
+    /// (`null` without emitters).
+    pub lighting_error: Option<f64>,
+    /// Every effect decision with its reason.
+    pub effects: Effects,
+    /// Row sums of F before any correction, and the correction applied.
+    pub closure: ClosureReport,
+    /// Largest reciprocity error of F.
+    pub reciprocity_error: f64,
+    /// Milliseconds per stage.
+    pub timings_ms: BTreeMap<&'static str, f64>,
+    /// Warnings from loading and simplification.
+    pub warnings: Vec<String>,
+}
+
+/// Closure measurements.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClosureReport {
+    /// Smallest row sum of F over patches that see anything.
+    pub min_row_sum: f64,
+    /// Largest row sum.
+    pub max_row_sum: f64,
+    /// Largest relative change of a row sum made by the closure correction (0 when open).
+    pub correction: f64,
+}
+
+/// A finished bake.
+#[derive(Clone, Debug)]
+pub struct BakeOutput {
+    /// The file to write.
+    pub file: RadFile<'static>,
+    /// What happened.
+    pub report: BakeReport,
+    /// For each file patch, its index in the simplification (`Patches::patches`).
+    pub patch_source: Vec<u32>,
+}
+
+/// Bakes `scene`. Errors: an empty scene, impossible parameters, a transfer that cannot converge.
+pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
+    let stage = |s: &str| {
+        if let Some(f) = hooks.stage {
+            f(s)
+        }
+    };
+    let mut timings = BTreeMap::new();
+    let t_all = Instant::now();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
+        timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
+        clock = Instant::now();
+    };
+
+    stage("simplify");
+    let patches = simplify(scene, &params.voxel)?;
+    lap("simplify", &mut timings);
+
+    let mut effects = Effects::new();
+    let colour = effects::plan_colour(&patches);
+    let channels = if colour.on { 3 } else { 1 };
+    effects.insert("colour", colour);
+    let occlusion = effects::plan_occlusion(scene);
+    let mut ffp = params.form_factors;
+    if !occlusion.on {
+        ffp.visibility = Visibility::Off;
+    }
+    let occluders = occlusion.on.then(|| Occluders::new(scene));
+    effects.insert("occlusion", occlusion);
+    effects.insert("emission", effects::plan_emission(&patches));
+    lap("plan", &mut timings);
+
+    stage("form factors");
+    let ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
+    lap("form_factors", &mut timings);
+
+    let n_all = patches.len();
+    let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());
+    let closure = analyse_closure(&f, params.closure_tolerance);
+    let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    let correction = if closure.closed {
+        enforce_closure(&mut f, &areas)
+    } else {
+        0.0
+    };
+    effects.insert(
+        "closed",
+        if closure.closed {
+            Effect::new(
+                true,
+                format!(
+                    "row sums of F in [{:.5}, {:.5}]: closed; rebalanced to 1 keeping reciprocity (largest correction {:.2e})",
+                    closure.min_row_sum, closure.max_row_sum, correction
+                ),
+            )
+        } else {
+            Effect::new(
+                false,
+                format!("row sums of F in [{:.4}, {:.4}]: light escapes, no closure correction", closure.min_row_sum, closure.max_row_sum),
+            )
+        },
+    );
+
+    // Patches that see nothing (row of F zero) receive and give no indirect light: drop them.
+    let live: Vec<usize> = (0..n_all)
+        .filter(|&i| f.row(i).iter().any(|v| *v > 0.0))
+        .collect();
+    let dark_area: f64 = (0..n_all)
+        .filter(|i| !live.contains(i))
+        .map(|i| areas[i])
+        .sum();
+    effects.insert(
+        "dark_patches",
+        Effect::new(
+            live.len() < n_all,
+            if live.len() < n_all {
+                format!(
+                    "{} of {n_all} patches ({:.3} of the area) see nothing and are dropped from the matrix",
+                    n_all - live.len(),
+                    dark_area / areas.iter().sum::<f64>()
+                )
+            } else {
+                "every patch sees some other patch: none dropped".to_owned()
+            },
+        ),
+    );
+    if live.is_empty() {
+        return Err(BakeError::InvalidParams(
+            "no patch sees any other: nothing to light".into(),
+        ));
+    }
+    let n = live.len();
+    let f_live = Dense::new(
+        n,
+        live.iter()
+            .flat_map(|&i| live.iter().map(move |&j| (i, j)))
+            .map(|(i, j)| f.get(i, j))
+            .collect(),
+    );
+    let reflectance: Vec<[f64; 3]> = live
+        .iter()
+        .map(|&i| patches.patches[i].reflectance.to_array().map(f64::from))
+        .collect();
+
+    stage("transfer");
+    let (m, transfer) =
+        transfer_matrix(&f_live, &reflectance, channels, params.bounces).map_err(|e| match e {
+            TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
+            other => BakeError::InvalidParams(other.to_string()),
+        })?;
+    effects.insert(
+        "bounces",
+        Effect::new(
+            true,
+            match transfer.bounces {
+                Bounces::Infinite => format!(
+                    "{} bounces needed at energy gain {:.4} per bounce: all of them, by LU (cheaper than 3 or more series terms)",
+                    bounces_needed(transfer.max_gain, params.bounces),
+                    transfer.max_gain
+                ),
+                Bounces::Finite(k) => format!(
+                    "{k} bounce(s) leave at most {:.1e} of the energy (gain {:.4} per bounce)",
+                    transfer.energy_left, transfer.max_gain
+                ),
+            },
+        ),
+    );
+    lap("transfer", &mut timings);
+
+    let format = match params.format {
+        FormatChoice::Auto if channels == 1 => Format::Bc4,
+        FormatChoice::Auto => Format::Bc1,
+        FormatChoice::Fixed(f) => f,
+    };
+    let encode_params = EncodeParams {
+        format,
+        ..params.encode
+    };
+
+    stage("order");
+    // Every concrete order is computed and its compression error estimated on sampled blocks
+    // (the report lists them all); `best` then picks among none/paper/spatial.
+    let live_patches: Vec<Patch> = live.iter().map(|&i| to_core_patch(&patches, i)).collect();
+    let dense = DenseMatrix::new(n, channels, &m);
+    let order_params = OrderParams {
+        seed: params.seed,
+        encode: encode_params,
+        ..OrderParams::default()
+    };
+    let candidates = order::evaluate(&OrderKind::CONCRETE, &live_patches, dense, &order_params)
+        .map_err(encode_error)?;
+    let chosen = match params.order {
+        OrderKind::Best => {
+            let eligible: Vec<Candidate> = candidates
+                .iter()
+                .filter(|c| OrderKind::CANDIDATES.contains(&c.kind))
+                .cloned()
+                .collect();
+            eligible[order::choose_best(&eligible)].clone()
+        }
+        kind => candidates
+            .iter()
+            .find(|c| c.kind == kind)
+            .expect("every concrete order evaluated")
+            .clone(),
+    };
+    let m = order::permute(&m, n, channels, &chosen.perm);
+    lap("order", &mut timings);
+
+    stage("encode");
+    let matrix = encode_dense(n, channels, &m, &encode_params).map_err(encode_error)?;
+    lap("encode", &mut timings);
+
+    stage("measure");
+    let rmse = relative_frobenius(&m, &matrix.decode_dense(DecodeMode::D3d10));
+    let file_patches: Vec<Patch> = order::permute_rows(&live_patches, &chosen.perm);
+    let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
+    let lighting_error = lighting_error(&m, n, channels, &matrix, &emission);
+    let mut compression_rmse: BTreeMap<String, f64> = candidates
+        .iter()
+        .map(|c| (c.kind.name().to_owned(), c.error.relative))
+        .collect();
+    compression_rmse.insert(chosen.kind.name().to_owned(), rmse);
+    lap("measure", &mut timings);
+
+    let patch_source: Vec<u32> = chosen
+        .perm
+        .iter()
+        .map(|&k| live[k as usize] as u32)
+        .collect();
+    let mut file = RadFile {
+        patches: Cow::Owned(file_patches),
+        order: Cow::Owned(chosen.perm.clone()),
+        matrix,
+        objects: scene
+            .objects
+            .iter()
+            .map(|o| Cow::Owned(o.clone()))
+            .collect(),
+        bounces: transfer.bounces,
+        patch_order: chosen.kind.patch_order().expect("a concrete order"),
+        compression_rmse: Some(rmse as f32),
+        lighting_error: lighting_error.map(|e| e as f32),
+        report: None,
+    };
+    let blocks = file.matrix.blocks.len();
+    let sparse = file.matrix.sparse.bytes();
+    timings.insert("total", t_all.elapsed().as_secs_f64() * 1e3);
+    let mut report = BakeReport {
+        patches: n,
+        channels,
+        format: format.name(),
+        order: chosen.kind.name(),
+        bounces: match transfer.bounces {
+            Bounces::Finite(k) => serde_json::json!(k),
+            Bounces::Infinite => serde_json::json!("infinite"),
+        },
+        bytes: Bytes {
+            total: 0,
+            blocks,
+            sparse,
+        },
+        rays_cast: ff.rays_cast,
+        compression_rmse,
+        lighting_error,
+        effects,
+        closure: ClosureReport {
+            min_row_sum: closure.min_row_sum,
+            max_row_sum: closure.max_row_sum,
+            correction,
+        },
+        reciprocity_error: ff.reciprocity_error,
+        timings_ms: timings,
+        warnings: scene
+            .report
+            .warnings
+            .iter()
+            .chain(&patches.warnings)
+            .cloned()
+            .collect(),
+    };
+    // The report stores the file size, which depends on the report: write twice (the size
+    // field has the same width both times only by luck, so measure until it is stable).
+    for _ in 0..3 {
+        file.report = Some(Cow::Owned(
+            serde_json::to_string(&report).expect("report serialises"),
+        ));
+        let total = file
+            .to_bytes()
+            .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?
+            .len();
+        if total == report.bytes.total {
+            break;
+        }
+        report.bytes.total = total;
+    }
+    Ok(BakeOutput {
+        file,
+        report,
+        patch_source,
+    })
+}
+
+fn encode_error(e: EncodeError) -> BakeError {
+    BakeError::InvalidParams(e.to_string())
+}
+
+fn bounces_needed(gain: f64, spec: BounceSpec) -> String {
+    let tol = match spec {
+        BounceSpec::Auto { tolerance } => tolerance,
+        _ => 1e-3,
+    };
+    if gain >= 1.0 || gain <= 0.0 {
+        return "unbounded".into();
+    }
+    format!("{:.0}", (tol.ln() / gain.ln()).ceil())
+}
+
+fn to_core_patch(patches: &Patches, i: usize) -> Patch {
+    let p = &patches.patches[i];
+    Patch {
+        centre: p.centre.as_vec3().to_array(),
+        area: p.area as f32,
+        normal: p.normal.as_vec3().normalize().to_array(),
+        object: p.object,
+        reflectance: p.reflectance,
+        emission: p.emission,
+    }
+}
+
+/// `‖a − b‖ / ‖a‖` over all entries (0 for an all-zero `a` equal to `b`).
+pub fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
+    let num: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+        .sum();
+    let den: f64 = a.iter().map(|x| f64::from(*x).powi(2)).sum();
+    if den == 0.0 {
+        num.sqrt()
+    } else {
+        (num / den).sqrt()
+    }
+}
+
+/// Relative L2 error of `y = M·E` (the scene's own emitters) between the exact dense `m` and
+/// the encoded matrix; `None` when nothing emits.
+pub fn lighting_error(
+    m: &[f32],
+    n: usize,
+    channels: usize,
+    encoded: &TransferMatrix<'_>,
+    emission: &[Rgb],
+) -> Option<f64> {
+    if emission.iter().all(|e| e.max_channel() <= 0.0) {
+        return None;
+    }
+    let mut exact = vec![[0f64; 3]; n];
+    for i in 0..n {
+        for j in 0..n {
+            let e = emission[j].to_array();
+            for k in 0..3 {
+                let v = m[(i * n + j) * channels + if channels == 1 { 0 } else { k }];
+                exact[i][k] += f64::from(v) * f64::from(e[k]);
+            }
+        }
+    }
+    let mut gather = ReferenceGather::new(encoded.clone(), DecodeMode::D3d10);
+    let mut y = vec![Rgb::ZERO; n];
+    gather.gather(emission, &mut y).ok()?;
+    let num: f64 = exact
+        .iter()
+        .zip(&y)
+        .map(|(a, b)| {
+            (0..3)
+                .map(|k| (a[k] - f64::from(b.channel(k))).powi(2))
+                .sum::<f64>()
+        })
+        .sum();
+    let den: f64 = exact
+        .iter()
+        .map(|a| a.iter().map(|v| v * v).sum::<f64>())
+        .sum();
+    (den > 0.0).then(|| (num / den).sqrt())
+}

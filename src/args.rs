@@ -1,0 +1,40 @@
+//! Flags shared by several subcommands.
+
+use anyhow::bail;
+use clap::Args;
+use radiosity_bake::transfer::BounceSpec;
+
+/// How to bake (`bake`, and `solve` on an OBJ).
+#[derive(Args, Clone, Debug)]
+pub(crate) struct BakeArgs {
+    /// Target patch count (hit within ±10%).
+    #[arg(long)]
+    pub(crate) patches: Option<usize>,
+    /// Voxel cell size in scene units (instead of --patches).
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) voxel: Option<f64>,
+    /// Bounces: a number K ≥ 1, `inf`, or `auto` (as few as the energy needs).
+    #[arg(long, default_value = "auto")]
+    pub(crate) bounces: String,
+    /// Storage format: auto, bc1, bc4, u8, f16, f32.
+    #[arg(long, default_value = "auto")]
+    pub(crate) format: String,
+    /// Patch order: none, random, paper, spatial, best.
+    #[arg(long, default_value = "best")]
+    pub(crate) order: String,
+    /// Fraction of the largest entries kept exactly in the sparse list (log formats).
+    #[arg(long)]
+    pub(crate) sparse: Option<f32>,
+}
+
+pub(crate) fn parse_bounces(s: &str) -> anyhow::Result<BounceSpec> {
+    Ok(match s {
+        "auto" => BounceSpec::default(),
+        "inf" | "infinite" => BounceSpec::Infinite,
+        k => match k.parse::<u32>() {
+            Ok(0) => bail!("--bounces must be at least 1"),
+            Ok(k) => BounceSpec::Fixed(k),
+            Err(_) => bail!("--bounces must be a number, `inf` or `auto`, not {k:?}"),
+        },
+    })
+}

@@ -1,0 +1,181 @@
+//! `radiosity bake SCENE.obj -o OUT.rad`: the whole bake, a progress bar, an atomic write.
+
+use crate::args::{BakeArgs, parse_bounces};
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use radiosity_bake::order::OrderKind;
+use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
+use radiosity_bake::scene::Scene;
+use radiosity_bake::voxel::VoxelParams;
+use radiosity_core::Format;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// Builds bake parameters from the shared flags (also used by `solve SCENE.obj`).
+pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
+    let mut p = BakeParams::default();
+    match (args.patches, args.voxel) {
+        (Some(_), Some(_)) => bail!("give --patches or --voxel, not both"),
+        (Some(0), _) => bail!("--patches must be at least 1"),
+        (Some(n), None) => p.voxel = VoxelParams::with_patches(n),
+        (None, Some(s)) if !(s.is_finite() && s > 0.0) => {
+            bail!("--voxel must be a positive size, not {s}")
+        }
+        (None, Some(s)) => p.voxel = VoxelParams::with_cell_size(s),
+        (None, None) => {}
+    }
+    p.bounces = parse_bounces(&args.bounces)?;
+    p.format = match args.format.as_str() {
+        "auto" => FormatChoice::Auto,
+        name => FormatChoice::Fixed(Format::from_name(name).with_context(|| {
+            format!("unknown --format {name:?} (auto, bc1, bc4, u8, f16, f32)")
+        })?),
+    };
+    if let Some(f) = args.sparse {
+        if !(0.0..=1.0).contains(&f) {
+            bail!("--sparse must be a fraction in [0, 1], not {f}");
+        }
+        p.encode.sparse_fraction = f;
+    }
+    p.order = OrderKind::from_name(&args.order).with_context(|| {
+        format!(
+            "unknown --order {:?} (none, random, paper, spatial, best)",
+            args.order
+        )
+    })?;
+    Ok(p)
+}
+
+/// Loads and bakes with a progress bar on stderr.
+pub(crate) fn bake_scene(
+    path: &Path,
+    params: &BakeParams,
+    quiet: bool,
+) -> anyhow::Result<(BakeOutput, f64)> {
+    let t = Instant::now();
+    let scene = Scene::load_obj(path).context("cannot load the scene")?;
+    let load_ms = t.elapsed().as_secs_f64() * 1e3;
+    for w in &scene.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg:<14} {bar:30} {pos}/{len} ({eta})")
+            .expect("static template"),
+    );
+    let stage = |s: &str| {
+        bar.set_message(s.to_owned());
+        bar.tick();
+    };
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let out = bake(
+        &scene,
+        params,
+        Hooks {
+            stage: Some(&stage),
+            progress: Some(&progress),
+        },
+    );
+    bar.finish_and_clear();
+    Ok((
+        out.with_context(|| format!("cannot bake {}", path.display()))?,
+        load_ms,
+    ))
+}
+
+pub(crate) fn run(
+    scene: &Path,
+    output: &Path,
+    args: &BakeArgs,
+    json_out: bool,
+) -> anyhow::Result<()> {
+    let params = params(args)?;
+    // Refuse an unwritable destination before spending minutes on the bake.
+    let dir = output
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        bail!(
+            "cannot write {}: directory {} does not exist",
+            output.display(),
+            dir.display()
+        );
+    }
+    let (mut out, load_ms) = bake_scene(scene, &params, json_out)?;
+    out.report.timings_ms.insert("load", load_ms);
+    let bytes = out
+        .file
+        .to_bytes()
+        .context("internal error: the bake produced an invalid file")?;
+    write_atomically(output, &bytes)?;
+    if json_out {
+        println!("{}", serde_json::to_string_pretty(&out.report)?);
+    } else {
+        let r = &out.report;
+        println!("{} → {}", scene.display(), output.display());
+        println!(
+            "  {} patches, {} channel(s), {}, order {}, bounces {}",
+            r.patches,
+            r.channels,
+            r.format,
+            r.order,
+            r.bounces
+                .as_str()
+                .map_or_else(|| r.bounces.to_string(), str::to_owned)
+        );
+        let dense = (r.patches * r.patches * 3 * 4) as f64;
+        println!(
+            "  {:.2} MiB ({:.1}× smaller than dense f32 RGB), {} rays",
+            bytes.len() as f64 / 1048576.0,
+            dense / bytes.len() as f64,
+            r.rays_cast
+        );
+        for (order, e) in &r.compression_rmse {
+            println!("  compression error ({order}): {e:.4}");
+        }
+        match r.lighting_error {
+            Some(e) => println!("  lighting error from compression: {:.3}%", e * 100.0),
+            None => println!("  lighting error: not measured (no emitters)"),
+        }
+        for (name, e) in &r.effects {
+            println!(
+                "  {:<12} {} {}",
+                name,
+                if e.on { "on " } else { "off" },
+                e.why
+            );
+        }
+        println!(
+            "  {:.1} s in all",
+            r.timings_ms.values().copied().fold(0.0, f64::max) / 1e3
+        );
+    }
+    Ok(())
+}
+
+/// Writes to a temporary file beside `path`, then renames: readers never see half a file, and
+/// a failure leaves nothing behind.
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    tmp.write_all(bytes)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    tmp.as_file().sync_all().ok();
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}

@@ -1,0 +1,121 @@
+//! `radiosity solve SCENE.obj|BAKED.rad [--json]`: light a bake and report per object.
+//!
+//! First version (issue #4): the scene's own emitters are the only light, gathered with the
+//! core's reference gather. Runtime lights, the SIMD and GPU backends come with issues #5/#6.
+
+use crate::args::BakeArgs;
+use anyhow::Context;
+use radiosity_core::{
+    Bounces, DecodeMode, Gather, RadFile, ReferenceGather, Rgb, finish_frame, first_exitance,
+};
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Result<()> {
+    let mut timings: BTreeMap<&str, f64> = BTreeMap::new();
+    let t = Instant::now();
+    let is_rad = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("rad"));
+    let (file, effects) = if is_rad {
+        let bytes =
+            std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+        let file = RadFile::parse(&bytes)
+            .with_context(|| format!("{} is not a valid .rad file", input.display()))?
+            .into_owned();
+        let effects = file
+            .report
+            .as_deref()
+            .and_then(|r| serde_json::from_str::<Value>(r).ok())
+            .and_then(|r| r.get("effects").cloned())
+            .unwrap_or(json!({}));
+        timings.insert("load", t.elapsed().as_secs_f64() * 1e3);
+        (file, effects)
+    } else {
+        let params = crate::bake::params(args)?;
+        let (out, load_ms) = crate::bake::bake_scene(input, &params, json_out)?;
+        timings.insert("load", load_ms);
+        timings.insert(
+            "bake",
+            out.report.timings_ms.get("total").copied().unwrap_or(0.0),
+        );
+        (out.file, serde_json::to_value(&out.report.effects)?)
+    };
+
+    let n = file.n();
+    let direct = vec![Rgb::ZERO; n]; // no runtime lights in this version
+    let mut x = vec![Rgb::ZERO; n];
+    first_exitance(&file.patches, &direct, &mut x);
+    let t = Instant::now();
+    let mut gather = ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10);
+    let mut y = vec![Rgb::ZERO; n];
+    gather.gather(&x, &mut y)?;
+    timings.insert("gather", t.elapsed().as_secs_f64() * 1e3);
+    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
+    finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
+
+    let objects = per_object(&file, &h, &b);
+    if json_out {
+        let out = json!({
+            "patches": n,
+            "bounces": match file.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
+            "backend": gather.name(),
+            "objects": objects,
+            "effects": effects,
+            "timings_ms": timings,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{} ({n} patches, reference gather {:.2} ms)",
+            input.display(),
+            timings["gather"]
+        );
+        println!(
+            "{:<24} {:>12} {:>36} {:>36}",
+            "object", "area", "irradiance W/m² (r g b)", "radiosity W/m² (r g b)"
+        );
+        for o in &objects {
+            let v = |k: &str| -> String {
+                let a = o[k].as_array().cloned().unwrap_or_default();
+                a.iter()
+                    .map(|x| format!("{:>11.4}", x.as_f64().unwrap_or(0.0)))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            println!(
+                "{:<24} {:>12.5} {} {}",
+                o["name"].as_str().unwrap_or(""),
+                o["area"].as_f64().unwrap_or(0.0),
+                v("irradiance"),
+                v("radiosity")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Area-weighted mean irradiance and radiosity per object (objects without patches are listed
+/// with zero area).
+fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
+    let mut acc = vec![(0f64, [0f64; 3], [0f64; 3]); file.objects.len()];
+    for (i, p) in file.patches.iter().enumerate() {
+        let a = &mut acc[p.object as usize];
+        let w = f64::from(p.area);
+        a.0 += w;
+        for k in 0..3 {
+            a.1[k] += w * f64::from(h[i].channel(k));
+            a.2[k] += w * f64::from(b[i].channel(k));
+        }
+    }
+    file.objects
+        .iter()
+        .zip(acc)
+        .map(|(name, (area, hs, bs))| {
+            let mean = |s: [f64; 3]| if area > 0.0 { s.map(|v| v / area) } else { [0.0; 3] };
+            json!({ "name": name.as_ref(), "area": area, "irradiance": mean(hs), "radiosity": mean(bs) })
+        })
+        .collect()
+}

@@ -1,0 +1,225 @@
+//! The whole bake on scenes with known physics: furnace, effect decisions that change the work
+//! done, and compression quality on the Cornell box.
+
+use radiosity_bake::order::OrderKind;
+use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
+use radiosity_bake::scene::Scene;
+use radiosity_bake::transfer::BounceSpec;
+use radiosity_bake::voxel::VoxelParams;
+use radiosity_core::{
+    Bounces, DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
+};
+use radiosity_tests::scenes::{Material, Quad, closed_box, write_scene};
+use std::f64::consts::PI;
+use std::path::Path;
+
+fn params(patches: usize, format: FormatChoice, bounces: BounceSpec) -> BakeParams {
+    BakeParams {
+        voxel: VoxelParams::with_patches(patches),
+        format,
+        bounces,
+        order: OrderKind::Spatial,
+        ..BakeParams::default()
+    }
+}
+
+fn bake_file(path: &Path, p: &BakeParams) -> BakeOutput {
+    let scene = Scene::load_obj(path).unwrap();
+    bake(&scene, p, Hooks::default()).unwrap()
+}
+
+/// Radiosity of every file patch lit by its own emission only.
+fn radiosity(out: &BakeOutput) -> Vec<Rgb> {
+    let f = &out.file;
+    let n = f.n();
+    let direct = vec![Rgb::ZERO; n];
+    let mut x = vec![Rgb::ZERO; n];
+    first_exitance(&f.patches, &direct, &mut x);
+    let mut y = vec![Rgb::ZERO; n];
+    ReferenceGather::new(f.matrix.clone(), DecodeMode::D3d10)
+        .gather(&x, &mut y)
+        .unwrap();
+    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
+    finish_frame(&f.patches, &direct, &y, &mut h, &mut b);
+    b
+}
+
+#[test]
+fn white_furnace_matches_e_over_one_minus_rho() {
+    // Closed box, uniform ρ, every face emitting L = 1/π (E = 1): B = 1/(1 − ρ) everywhere
+    // (shared/reference/multibounce.md §1), whatever the meshing, if rows of F sum to 1. The
+    // issue asks for 0.5%; f32 storage isolates the transfer, the default (BC4 for a grey scene)
+    // adds compression.
+    let dir = tempfile::tempdir().unwrap();
+    for rho in [0.5, 0.9, 0.99, 0.999] {
+        let mats = [Material::new("white", [rho; 3], [1.0 / PI; 3])];
+        let path = write_scene(
+            dir.path(),
+            &format!("furnace{rho}"),
+            &closed_box(2.0, 2, |_, _, _| "white".into()),
+            &mats,
+        );
+        for format in [FormatChoice::Fixed(Format::F32), FormatChoice::Auto] {
+            let out = bake_file(&path, &params(96, format, BounceSpec::Infinite));
+            assert_eq!(out.report.rays_cast, 0, "a box is convex: no rays");
+            assert_eq!(out.report.channels, 1, "grey scene: one channel");
+            let want = 1.0 / (1.0 - rho);
+            for (i, b) in radiosity(&out).iter().enumerate() {
+                let rel = (f64::from(b.r) - want).abs() / want;
+                assert!(
+                    rel < 5e-3,
+                    "ρ = {rho}, {format:?}: patch {i} B = {} vs {want} ({:.3}%)",
+                    b.r,
+                    rel * 100.0
+                );
+            }
+        }
+    }
+}
+
+fn cube_with(
+    occluder: bool,
+    coloured: bool,
+    dark: bool,
+) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut quads = closed_box(2.0, 1, |face, _, _| {
+        if face == "ceiling" {
+            "light".into()
+        } else {
+            "wall".into()
+        }
+    });
+    if occluder {
+        // A floating horizontal card, lit from the ceiling, shadowing the floor.
+        let c = [
+            [0.7, 1.0, 0.7],
+            [1.3, 1.0, 0.7],
+            [1.3, 1.0, 1.3],
+            [0.7, 1.0, 1.3],
+        ];
+        quads.push(Quad::facing("card", "wall", c, [1.0, 2.0, 1.0]));
+    }
+    if dark {
+        // A tile under the floor, facing away from the room: nothing is in front of it.
+        let c = [
+            [0.2, -0.5, 0.2],
+            [0.5, -0.5, 0.2],
+            [0.5, -0.5, 0.5],
+            [0.2, -0.5, 0.5],
+        ];
+        quads.push(Quad::facing("rug", "wall", c, [0.35, -1.0, 0.35]));
+    }
+    let wall = if coloured { [0.7, 0.4, 0.2] } else { [0.6; 3] };
+    let mats = [
+        Material::new("wall", wall, [0.0; 3]),
+        Material::new("light", [0.5; 3], [5.0; 3]),
+    ];
+    let path = write_scene(dir.path(), "cube", &quads, &mats);
+    (dir, path)
+}
+
+#[test]
+fn effect_decisions_change_the_work_done() {
+    let p = params(150, FormatChoice::Fixed(Format::Bc4), BounceSpec::default());
+    let (_d, plain) = cube_with(false, false, false);
+    let base = bake_file(&plain, &p);
+    // Occlusion: none in a convex box, rays once a card floats inside.
+    assert!(!base.report.effects["occlusion"].on);
+    assert_eq!(base.report.rays_cast, 0);
+    let (_d2, card) = cube_with(true, false, false);
+    let occluded = bake_file(&card, &p);
+    assert!(occluded.report.effects["occlusion"].on);
+    assert!(occluded.report.rays_cast > 0, "an occluder must cost rays");
+    // Colour: grey stores one channel, colour three (three times the blocks at equal n).
+    let (_d3, col) = cube_with(false, true, false);
+    let coloured = bake_file(&col, &p);
+    assert_eq!((base.report.channels, coloured.report.channels), (1, 3));
+    assert_eq!(base.file.matrix.layout.planes(), 1);
+    assert_eq!(coloured.file.matrix.layout.planes(), 3);
+    let per_patch2 =
+        |o: &BakeOutput| o.report.bytes.blocks as f64 / (o.report.patches as f64).powi(2);
+    assert!(
+        per_patch2(&coloured) > 2.5 * per_patch2(&base),
+        "colour must cost about 3× the block bytes"
+    );
+    // Dark patches: the rug sees nothing and leaves the matrix.
+    let (_d4, rug) = cube_with(false, false, true);
+    let dark = bake_file(&rug, &p);
+    assert!(
+        dark.report.effects["dark_patches"].on,
+        "{:?}",
+        dark.report.effects["dark_patches"]
+    );
+    assert!(!base.report.effects["dark_patches"].on);
+    // Emission is reported.
+    assert!(base.report.effects["emission"].on);
+}
+
+#[test]
+fn auto_bounces_follow_the_energy() {
+    let dir = tempfile::tempdir().unwrap();
+    let result = |rho: f64| {
+        let mats = [
+            Material::new("m", [rho; 3], [0.0; 3]),
+            Material::new("light", [rho; 3], [1.0; 3]),
+        ];
+        let quads = closed_box(2.0, 1, |f, _, _| {
+            if f == "ceiling" {
+                "light".into()
+            } else {
+                "m".into()
+            }
+        });
+        let path = write_scene(dir.path(), &format!("b{rho}"), &quads, &mats);
+        bake_file(
+            &path,
+            &params(
+                60,
+                FormatChoice::Fixed(Format::F32),
+                BounceSpec::Auto { tolerance: 1e-3 },
+            ),
+        )
+    };
+    // Gain per bounce ≈ ρ in a closed box: 1e-4 ≤ 1e-3 → one bounce; 0.02² = 4e-4 → two.
+    assert_eq!(result(1e-4).file.bounces, Bounces::Finite(1));
+    assert_eq!(result(0.02).file.bounces, Bounces::Finite(2));
+    assert_eq!(result(0.5).file.bounces, Bounces::Infinite);
+}
+
+#[test]
+fn cornell_box_orders_and_compression() {
+    // Issue #4 targets, measured at 4096 patches by `radiosity bake --patches 4096 --json` (see
+    // README): BC1 lighting error ≤ 2%, BC4 ≤ 1%, best order ≥ 3× below random for BC1. This
+    // test runs at 1500 patches to stay quick; errors fall as n grows (a light made of more
+    // patches averages its columns' block errors), so its bounds are the 1500-patch
+    // measurements (BC1 lighting 3.7%, BC4 1.7%, random/best 3.2× for BC1, 2.5× for BC4) with
+    // about 25% headroom: they catch a regression, not tune to a target.
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
+    for (format, max_lighting, min_gain) in [(Format::Bc1, 0.047, 2.5), (Format::Bc4, 0.021, 2.0)] {
+        let mut p = params(1500, FormatChoice::Fixed(format), BounceSpec::Infinite);
+        p.order = OrderKind::Best;
+        let out = bake_file(&path, &p);
+        let r = &out.report;
+        let e = r.lighting_error.expect("the Cornell box emits");
+        let rmse = &r.compression_rmse;
+        eprintln!("{format}: lighting error {e:.4}, compression {rmse:?}");
+        assert!(
+            e <= max_lighting,
+            "{format}: lighting error {e} > {max_lighting}"
+        );
+        let best = rmse[r.order];
+        // The chosen order's error is exact, the others are sampled (≈1% standard error).
+        assert!(
+            best <= rmse["none"] * 1.03,
+            "{format}: best {best} worse than none {}",
+            rmse["none"]
+        );
+        let gain = rmse["random"] / best;
+        assert!(
+            gain >= min_gain,
+            "{format}: best order only {gain:.2}× below random"
+        );
+    }
+}
