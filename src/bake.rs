@@ -36,7 +36,7 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
         if !(0.0..=1.0).contains(&f) {
             bail!("--sparse must be a fraction in [0, 1], not {f}");
         }
-        p.encode.sparse_fraction = f;
+        p.sparse_fraction = Some(f);
     }
     p.order = OrderKind::from_name(&args.order).with_context(|| {
         format!(

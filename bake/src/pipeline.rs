@@ -5,7 +5,7 @@ use crate::BakeError;
 use crate::bvh::Occluders;
 use crate::effects::{self, Effect, Effects};
 use crate::encode::EncodeError;
-use crate::encode::{EncodeParams, encode_dense};
+use crate::encode::{EncodeParams, default_sparse_fraction, encode_dense};
 use crate::form_factor::{FormFactorParams, Progress, Visibility, form_factors};
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -46,8 +46,12 @@ pub struct BakeParams {
     pub format: FormatChoice,
     /// Patch numbering (rows and columns together) before compression.
     pub order: OrderKind,
-    /// Quantiser range, tile size and sparse fraction (its `format` is ignored: see `format`).
+    /// Quantiser range, tile size, BC1 fit (its `format` and `sparse_fraction` are ignored: see
+    /// `format` and `sparse_fraction`).
     pub encode: EncodeParams,
+    /// Fraction of entries kept exact; `None` for [`default_sparse_fraction`] of the format
+    /// (a fixed share of the block bytes).
+    pub sparse_fraction: Option<f32>,
     /// A scene is treated as closed when every row of F sums to 1 within this; its rows are then
     /// rebalanced to sum to exactly 1 (the correction is reported).
     pub closure_tolerance: f64,
@@ -64,6 +68,7 @@ impl Default for BakeParams {
             format: FormatChoice::Auto,
             order: OrderKind::Best,
             encode: EncodeParams::default(),
+            sparse_fraction: None,
             closure_tolerance: 0.02,
             seed: 1,
         }
@@ -307,6 +312,9 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
     };
     let encode_params = EncodeParams {
         format,
+        sparse_fraction: params
+            .sparse_fraction
+            .unwrap_or_else(|| default_sparse_fraction(format, channels)),
         ..params.encode
     };
 
