@@ -22,6 +22,11 @@ impl SplitMix64 {
         (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
     }
 
+    /// Eight random bytes (the next 64 bits, little-endian).
+    pub fn next_bytes(&mut self) -> [u8; 8] {
+        self.next_u64().to_le_bytes()
+    }
+
     /// Uniform in `[0, 1)` with 53 random bits.
     pub fn next_f64(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64

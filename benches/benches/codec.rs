@@ -11,7 +11,7 @@ use std::hint::black_box;
 
 fn random_blocks(count: usize) -> Vec<[u8; 8]> {
     let mut rng = SplitMix64(42);
-    (0..count).map(|_| rng.next_block()).collect()
+    (0..count).map(|_| rng.next_bytes()).collect()
 }
 
 fn decode(c: &mut Criterion) {

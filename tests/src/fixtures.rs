@@ -5,31 +5,9 @@ use radiosity_bake::encode::{EncodeParams, encode_dense};
 use radiosity_core::{Bounces, Format, Patch, PatchOrder, RadFile, Rgb};
 use std::borrow::Cow;
 
-/// SplitMix64: a tiny, well-distributed, seedable generator, so tests need no `rand`
-/// dependency and every run sees the same inputs.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Eight random bytes.
-    pub fn next_block(&mut self) -> [u8; 8] {
-        self.next_u64().to_le_bytes()
-    }
-}
+/// The bake's deterministic generator, so tests need no `rand` and every run sees the same
+/// inputs.
+pub use radiosity_bake::rng::SplitMix64;
 
 /// A dense `n × n × channels` matrix shaped like a transfer matrix: patches on a ring, entries
 /// falling off as `1/(1 + d²)` with distance, zero diagonal, channels scaled by a colour, and a

@@ -22,7 +22,7 @@ const BLOCKS: usize = 1 << 20;
 fn blocks() -> impl Iterator<Item = [u8; 8]> {
     let mut rng = SplitMix64(0x5eed_b10c);
     (0..BLOCKS).map(move |i| {
-        let mut b = rng.next_block();
+        let mut b = rng.next_bytes();
         match i % 8 {
             0 => {
                 b[2] = b[0];
