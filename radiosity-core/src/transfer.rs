@@ -200,6 +200,16 @@ impl<'a> TransferMatrix<'a> {
 }
 
 impl BlockDecoder {
+    /// A decoder for blocks quantised with `scales` (one per tile and channel, in
+    /// [`MatrixLayout::scale_index`] order), e.g. blocks encoded one at a time before a whole
+    /// matrix exists.
+    pub fn from_scales(scales: &[LogScale], mode: DecodeMode) -> Self {
+        BlockDecoder {
+            mode,
+            tables: scales.iter().map(LogScale::table).collect(),
+        }
+    }
+
     /// The decode mode in use.
     pub fn mode(&self) -> DecodeMode {
         self.mode
@@ -227,43 +237,54 @@ impl BlockDecoder {
         let bb = l.format().block_bytes();
         for plane in 0..l.planes() {
             let off = l.block_offset(tile, plane, br, bc);
-            let raw = &m.blocks[off..off + bb];
-            let table = |ch: usize| &self.tables[l.scale_index(tile.index, ch)];
-            match l.format() {
-                Format::Bc1 => {
-                    let block = Bc1Block(raw.try_into().expect("8 bytes"));
-                    let texels = block.decode(self.mode);
-                    for ch in 0..3 {
-                        let t = table(ch);
-                        for i in 0..16 {
-                            out[ch][i] = t[usize::from(texels[i][ch])];
-                        }
+            self.decode_plane(l, tile.index, plane, &m.blocks[off..off + bb], out);
+        }
+    }
+
+    /// Decodes one plane's bytes of one block (`layout.format().block_bytes()` of them) of tile
+    /// `tile_index` into `out`: every channel for BC1, channel `plane` otherwise.
+    pub fn decode_plane(
+        &self,
+        layout: &MatrixLayout,
+        tile_index: usize,
+        plane: usize,
+        raw: &[u8],
+        out: &mut BlockValues,
+    ) {
+        let table = |ch: usize| &self.tables[layout.scale_index(tile_index, ch)];
+        match layout.format() {
+            Format::Bc1 => {
+                let block = Bc1Block(raw.try_into().expect("8 bytes"));
+                let texels = block.decode(self.mode);
+                for ch in 0..3 {
+                    let t = table(ch);
+                    for i in 0..16 {
+                        out[ch][i] = t[usize::from(texels[i][ch])];
                     }
                 }
-                Format::Bc4 => {
-                    let codes = Bc4Block(raw.try_into().expect("8 bytes")).decode(self.mode);
-                    let t = table(plane);
-                    for i in 0..16 {
-                        out[plane][i] = t[usize::from(codes[i])];
-                    }
+            }
+            Format::Bc4 => {
+                let codes = Bc4Block(raw.try_into().expect("8 bytes")).decode(self.mode);
+                let t = table(plane);
+                for i in 0..16 {
+                    out[plane][i] = t[usize::from(codes[i])];
                 }
-                Format::U8 => {
-                    let t = table(plane);
-                    for i in 0..16 {
-                        out[plane][i] = t[usize::from(raw[i])];
-                    }
+            }
+            Format::U8 => {
+                let t = table(plane);
+                for i in 0..16 {
+                    out[plane][i] = t[usize::from(raw[i])];
                 }
-                Format::F16 => {
-                    for i in 0..16 {
-                        out[plane][i] =
-                            f16_to_f32(u16::from_le_bytes([raw[2 * i], raw[2 * i + 1]]));
-                    }
+            }
+            Format::F16 => {
+                for i in 0..16 {
+                    out[plane][i] = f16_to_f32(u16::from_le_bytes([raw[2 * i], raw[2 * i + 1]]));
                 }
-                Format::F32 => {
-                    for i in 0..16 {
-                        let b = &raw[4 * i..4 * i + 4];
-                        out[plane][i] = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-                    }
+            }
+            Format::F32 => {
+                for i in 0..16 {
+                    let b = &raw[4 * i..4 * i + 4];
+                    out[plane][i] = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
                 }
             }
         }

@@ -22,10 +22,7 @@ use crate::encode::{
     tile_scales,
 };
 use crate::rng::SplitMix64;
-use radiosity_core::half::f16_to_f32;
-use radiosity_core::{
-    Bc1Block, Bc4Block, DecodeMode, Format, LogScale, MatrixLayout, TransferMatrix,
-};
+use radiosity_core::{BlockDecoder, DecodeMode, LogScale, MatrixLayout, TransferMatrix};
 use rayon::prelude::*;
 
 /// How [`ErrorMeter::measure`] measures.
@@ -208,7 +205,7 @@ impl<'a> ErrorMeter<'a> {
                 &own_scales
             }
         };
-        let tables: Vec<[f32; 256]> = scales.iter().map(LogScale::table).collect();
+        let decoder = BlockDecoder::from_scales(scales, DECODE);
         let weights = self.block_weights(perm);
         let nonzero = weights.iter().filter(|w| **w > 0.0).count();
         let probability = inclusion_probabilities(&weights, nonzero, sampling);
@@ -235,7 +232,7 @@ impl<'a> ErrorMeter<'a> {
                     }
                 }
                 let (row, col) = (b / side * 4, b % side * 4);
-                let err = self.block_error(&seen, scales, &tables, row, col);
+                let err = self.block_error(&seen, scales, &decoder, row, col);
                 Some((err / p, err * err * (1.0 - p) / (p * p), 1usize))
             })
             .reduce(|| (0.0, 0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
@@ -302,7 +299,7 @@ impl<'a> ErrorMeter<'a> {
         &self,
         seen: &V,
         scales: &[LogScale],
-        tables: &[[f32; 256]],
+        decoder: &BlockDecoder,
         row: usize,
         col: usize,
     ) -> f64
@@ -327,40 +324,7 @@ impl<'a> ErrorMeter<'a> {
                 seen,
                 raw,
             );
-            let table = |ch: usize| &tables[layout.scale_index(tile.index, ch)];
-            match format {
-                Format::Bc1 => {
-                    let texels = Bc1Block(raw[..8].try_into().expect("8 bytes")).decode(DECODE);
-                    for ch in 0..3 {
-                        for i in 0..16 {
-                            decoded[ch][i] = table(ch)[usize::from(texels[i][ch])];
-                        }
-                    }
-                }
-                Format::Bc4 => {
-                    let codes = Bc4Block(raw[..8].try_into().expect("8 bytes")).decode(DECODE);
-                    for i in 0..16 {
-                        decoded[plane][i] = table(plane)[usize::from(codes[i])];
-                    }
-                }
-                Format::U8 => {
-                    for i in 0..16 {
-                        decoded[plane][i] = table(plane)[usize::from(raw[i])];
-                    }
-                }
-                Format::F16 => {
-                    for i in 0..16 {
-                        decoded[plane][i] =
-                            f16_to_f32(u16::from_le_bytes([raw[2 * i], raw[2 * i + 1]]));
-                    }
-                }
-                Format::F32 => {
-                    for i in 0..16 {
-                        let b = &raw[4 * i..4 * i + 4];
-                        decoded[plane][i] = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-                    }
-                }
-            }
+            decoder.decode_plane(layout, tile.index, plane, raw, &mut decoded);
         }
         let n = self.m.n;
         let mut err = 0f64;
