@@ -97,8 +97,10 @@ pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Resu
     Ok(())
 }
 
-/// Area-weighted mean irradiance and radiosity per object (objects without patches are listed
-/// with zero area).
+/// Area-weighted mean irradiance and radiosity per object. The means are over the object's
+/// full-detail area when the bake recorded it (`object_areas` in the file's report): patches
+/// that see nothing were dropped from the matrix and receive no light from the scene, so they
+/// count with zero irradiance and radiosity. Otherwise over the matrix patches.
 fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
     let mut acc = vec![(0f64, [0f64; 3], [0f64; 3]); file.objects.len()];
     for (i, p) in file.patches.iter().enumerate() {
@@ -110,11 +112,25 @@ fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
             a.2[k] += w * f64::from(b[i].channel(k));
         }
     }
+    let recorded: Option<Vec<f64>> = file
+        .report
+        .as_deref()
+        .and_then(|r| serde_json::from_str::<Value>(r).ok())
+        .and_then(|r| serde_json::from_value(r["object_areas"].clone()).ok())
+        .filter(|a: &Vec<f64>| a.len() == file.objects.len());
     file.objects
         .iter()
         .zip(acc)
-        .map(|(name, (area, hs, bs))| {
-            let mean = |s: [f64; 3]| if area > 0.0 { s.map(|v| v / area) } else { [0.0; 3] };
+        .enumerate()
+        .map(|(o, (name, (matrix_area, hs, bs)))| {
+            let area = recorded.as_ref().map_or(matrix_area, |a| a[o].max(matrix_area));
+            let mean = |s: [f64; 3]| {
+                if area > 0.0 {
+                    s.map(|v| v / area)
+                } else {
+                    [0.0; 3]
+                }
+            };
             json!({ "name": name.as_ref(), "area": area, "irradiance": mean(hs), "radiosity": mean(bs) })
         })
         .collect()

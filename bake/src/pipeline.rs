@@ -151,6 +151,9 @@ pub struct BakeReport {
     pub timings_ms: BTreeMap<&'static str, f64>,
     /// Warnings from loading and simplification.
     pub warnings: Vec<String>,
+    /// Full-detail area of each object (file object order), dark patches included: what
+    /// per-object means are taken over.
+    pub object_areas: Vec<f64>,
 }
 
 /// Closure measurements.
@@ -419,6 +422,7 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
             .chain(&patches.warnings)
             .cloned()
             .collect(),
+        object_areas: scene.object_areas(),
     };
     // The report stores the file size, which depends on the report: write twice (the size
     // field has the same width both times only by luck, so measure until it is stable).
