@@ -118,11 +118,11 @@ pub(crate) fn run(
         .context("internal error: the bake produced an invalid file")?;
     write_atomically(output, &bytes)?;
     if json_out {
-        println!("{}", serde_json::to_string_pretty(&out.report)?);
+        outln!("{}", serde_json::to_string_pretty(&out.report)?);
     } else {
         let r = &out.report;
-        println!("{} → {}", scene.display(), output.display());
-        println!(
+        outln!("{} → {}", scene.display(), output.display());
+        outln!(
             "  {} patches, {} channel(s), {}, order {}, bounces {}",
             r.patches,
             r.channels,
@@ -133,28 +133,28 @@ pub(crate) fn run(
                 .map_or_else(|| r.bounces.to_string(), str::to_owned)
         );
         let dense = (r.patches * r.patches * 3 * 4) as f64;
-        println!(
+        outln!(
             "  {:.2} MiB ({:.1}× smaller than dense f32 RGB), {} rays",
             bytes.len() as f64 / 1048576.0,
             dense / bytes.len() as f64,
             r.rays_cast
         );
         for (order, e) in &r.compression_rmse {
-            println!("  compression error ({order}): {e:.4}");
+            outln!("  compression error ({order}): {e:.4}");
         }
         match r.lighting_error {
-            Some(e) => println!("  lighting error from compression: {:.3}%", e * 100.0),
-            None => println!("  lighting error: not measured (no emitters)"),
+            Some(e) => outln!("  lighting error from compression: {:.3}%", e * 100.0),
+            None => outln!("  lighting error: not measured (no emitters)"),
         }
         for (name, e) in &r.effects {
-            println!(
+            outln!(
                 "  {:<12} {} {}",
                 name,
                 if e.on { "on " } else { "off" },
                 e.why
             );
         }
-        println!(
+        outln!(
             "  {:.1} s in all",
             r.timings_ms.values().copied().fold(0.0, f64::max) / 1e3
         );

@@ -18,7 +18,7 @@ pub(crate) fn run(path: &Path, json_out: bool, export_dds: Option<&Path>) -> any
     }
     let summary = summarise(&file, bytes.len());
     if json_out {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        outln!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         print_text(path, &file, &summary);
     }
@@ -71,8 +71,8 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
 fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
     let l = &file.matrix.layout;
     let mib = |b: &Value| b.as_f64().unwrap_or(0.0) / (1024.0 * 1024.0);
-    println!("{}", path.display());
-    println!(
+    outln!("{}", path.display());
+    outln!(
         "  patches      {} ({} objects)",
         file.n(),
         file.objects.len()
@@ -81,18 +81,18 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         Bounces::Finite(k) => format!("{k} bounce(s)"),
         Bounces::Infinite => "all bounces".to_owned(),
     };
-    println!(
+    outln!(
         "  matrix       {} × {} channel(s), {bounces}",
         l.format(),
         l.channels()
     );
-    println!("  order        {}", file.patch_order.name());
-    println!(
+    outln!("  order        {}", file.patch_order.name());
+    outln!(
         "  tiles        {} of up to {}²",
         l.tile_count(),
         l.tile_size()
     );
-    println!(
+    outln!(
         "  bytes        {:.3} MiB total: blocks {:.3} MiB, sparse {:.3} MiB ({} entries)",
         mib(&s["bytes"]["total"]),
         mib(&s["bytes"]["blocks"]),
@@ -100,26 +100,26 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         file.matrix.sparse.nnz()
     );
     let dense_rgb = (file.n() * file.n() * 3 * 4) as f64;
-    println!(
+    outln!(
         "               {:.1}× smaller than a dense f32 RGB matrix",
         dense_rgb / s["bytes"]["total"].as_f64().unwrap_or(1.0)
     );
     match file.compression_rmse {
-        Some(v) => println!("  compression  relative Frobenius error {:.4}", v),
-        None => println!("  compression  error not measured"),
+        Some(v) => outln!("  compression  relative Frobenius error {:.4}", v),
+        None => outln!("  compression  error not measured"),
     }
     if let Some(v) = file.lighting_error {
-        println!("  lighting     relative L2 error {v:.4} (scene's own emitters)");
+        outln!("  lighting     relative L2 error {v:.4} (scene's own emitters)");
     }
     if let Some(effects) = s.get("effects").and_then(Value::as_object) {
-        println!("  effects");
+        outln!("  effects");
         for (name, e) in effects {
             let on = if e["on"].as_bool().unwrap_or(false) {
                 "on "
             } else {
                 "off"
             };
-            println!("    {name:<12} {on} {}", e["why"].as_str().unwrap_or(""));
+            outln!("    {name:<12} {on} {}", e["why"].as_str().unwrap_or(""));
         }
     }
 }

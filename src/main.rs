@@ -2,6 +2,15 @@
 //! arguments and calls a library function; every error leaves as one `error: …` line on stderr
 //! and a non-zero exit status.
 
+/// `print!`/`println!` for command output: a closed pipe (`radiosity … | head`) ends the
+/// program quietly with status 0 instead of panicking; any other write error is a one-line error.
+macro_rules! out {
+    ($($t:tt)*) => { $crate::write_stdout(format_args!($($t)*), false) };
+}
+macro_rules! outln {
+    ($($t:tt)*) => { $crate::write_stdout(format_args!($($t)*), true) };
+}
+
 mod args;
 mod bake;
 mod export_dds;
@@ -69,6 +78,26 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         export_dds: Option<PathBuf>,
     },
+}
+
+pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>, newline: bool) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    let result = out.write_fmt(args).and_then(|()| {
+        if newline {
+            out.write_all(b"\n")
+        } else {
+            Ok(())
+        }
+    });
+    match result {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) => {
+            eprintln!("error: cannot write to standard output: {e}");
+            std::process::exit(1);
+        }
+    }
 }
 
 fn main() -> ExitCode {

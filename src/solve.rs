@@ -66,16 +66,19 @@ pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Resu
             "effects": effects,
             "timings_ms": timings,
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        outln!("{}", serde_json::to_string_pretty(&out)?);
     } else {
-        println!(
+        outln!(
             "{} ({n} patches, reference gather {:.2} ms)",
             input.display(),
             timings["gather"]
         );
-        println!(
+        outln!(
             "{:<24} {:>12} {:>36} {:>36}",
-            "object", "area", "irradiance W/m² (r g b)", "radiosity W/m² (r g b)"
+            "object",
+            "area",
+            "irradiance W/m² (r g b)",
+            "radiosity W/m² (r g b)"
         );
         for o in &objects {
             let v = |k: &str| -> String {
@@ -85,7 +88,7 @@ pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Resu
                     .collect::<Vec<_>>()
                     .join(" ")
             };
-            println!(
+            outln!(
                 "{:<24} {:>12.5} {} {}",
                 o["name"].as_str().unwrap_or(""),
                 o["area"].as_f64().unwrap_or(0.0),

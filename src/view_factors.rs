@@ -31,7 +31,7 @@ pub(crate) fn run(scene_path: &Path, json_out: bool) -> anyhow::Result<()> {
             "areas": vf.areas,
             "matrix": vf.matrix,
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        outln!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print_table(scene_path, &vf);
     }
@@ -40,7 +40,7 @@ pub(crate) fn run(scene_path: &Path, json_out: bool) -> anyhow::Result<()> {
 
 /// A readable table: one row per emitting object, its area, the factors and the row sum.
 fn print_table(path: &Path, vf: &ViewFactors) {
-    println!(
+    outln!(
         "view factors of {} (row: from, column: to; rows sum to 1 in a closed scene)",
         path.display()
     );
@@ -58,17 +58,17 @@ fn print_table(path: &Path, vf: &ViewFactors) {
             n.to_owned()
         }
     };
-    print!("{:<w$} {:>12}", "from \\ to", "area");
+    out!("{:<w$} {:>12}", "from \\ to", "area");
     for name in &vf.objects {
-        print!(" {:>w$}", short(name));
+        out!(" {:>w$}", short(name));
     }
-    println!(" {:>9}", "sum");
+    outln!(" {:>9}", "sum");
     for (a, row) in vf.matrix.iter().enumerate() {
-        print!("{:<w$} {:>12.6e}", short(&vf.objects[a]), vf.areas[a]);
+        out!("{:<w$} {:>12.6e}", short(&vf.objects[a]), vf.areas[a]);
         for f in row {
-            print!(" {:>w$.6}", f);
+            out!(" {:>w$.6}", f);
         }
-        println!(" {:>9.6}", row.iter().sum::<f64>());
+        outln!(" {:>9.6}", row.iter().sum::<f64>());
     }
-    println!("({} shadow rays)", vf.rays_cast);
+    outln!("({} shadow rays)", vf.rays_cast);
 }

@@ -284,3 +284,21 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
         "no temporary files left: {leftovers:?}"
     );
 }
+
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    // `radiosity inspect x.rad | head -1`: the reader goes away before the output is written.
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_sample(dir.path());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .args(["inspect", path.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // close the read end at once
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+}
