@@ -1,5 +1,279 @@
-//! CPU backend for the radiosity gather.
+//! Fast CPU gather for radiosity transfer matrices: `y = M · x` straight from the stored blocks.
 //!
-//! **Status:** the SIMD (`wide`) + `rayon` gather arrives with the CPU-runtime issue. Until then
-//! this crate offers nothing of its own: use [`radiosity_core::ReferenceGather`], the scalar
-//! oracle every backend is tested against.
+//! [`CpuGather`] implements [`radiosity_core::Gather`] for every format (BC1, BC4, u8, f16, f32;
+//! one or three channels) including the exact sparse list. It gives the same answer as
+//! [`radiosity_core::ReferenceGather`] under [`DecodeMode::D3d10`](radiosity_core::DecodeMode)
+//! up to f32 summation order: the decoded entries are bit-identical (same palette rules, same
+//! per-tile `LogScale::table()`), only the accumulation differs (f32, eight lanes, then the
+//! sparse corrections row by row).
+//!
+//! # How it runs
+//!
+//! - Each block row of the matrix owns four output rows, so rayon splits the output into
+//!   four-row chunks and threads never share an output. The serial path is the same body over
+//!   `chunks_mut` instead of `par_chunks_mut` ([`CpuGather::set_parallel`]).
+//! - Per block: decode the palette once (BC1: 4 entries × 3 channels, BC4: 8 entries through
+//!   the tile's 256-entry table, built once in [`CpuGather::new`]), expand the 16 texels through
+//!   the 2- or 3-bit indices, then two `f32x8` fused multiply-adds per channel (two block rows
+//!   per register) against the exitance, which is re-laid out once per gather into one `f32x8`
+//!   per column block and channel (a buffer reused across gathers).
+//!
+//! # SIMD dispatch
+//!
+//! `wide` picks its instructions when it is compiled: a plain `x86_64` build only has SSE2.
+//! This crate dispatches at run time instead of asking for a build setting: the block-row
+//! body is compiled twice, once plain and once inside `#[target_feature(enable = "avx2,fma")]`,
+//! and [`CpuGather::new`] takes the AVX2 one when `is_x86_feature_detected!` says the CPU has
+//! it. A binary built for plain x86-64 therefore uses AVX2 where it exists and still runs
+//! everywhere; `-C target-cpu=native` (which would make `wide` itself use AVX2/AVX-512) is not
+//! needed and would make a binary that faults on older CPUs. The measurements behind this
+//! choice are in `ARCHITECTURE.md`'s backend section and the issue report; [`CpuGather::path`]
+//! names the path that runs so benches can print it.
+//!
+//! # Example
+//!
+//! ```
+//! use radiosity_backend_cpu::CpuGather;
+//! use radiosity_core::{Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix};
+//! use std::borrow::Cow;
+//!
+//! // A 4×4 grey u8 matrix whose every entry is code 255 (= v_max = 0.5).
+//! let layout = MatrixLayout::new(4, 1, Format::U8, 8192).unwrap();
+//! let matrix = TransferMatrix {
+//!     layout,
+//!     scales: Cow::Owned(vec![LogScale::new(0.5, 6.9)]),
+//!     blocks: Cow::Owned(vec![255; 16]),
+//!     sparse: SparseRows::empty(4),
+//! };
+//! let mut gather = CpuGather::new(matrix);
+//! let x = vec![Rgb::new(1.0, 2.0, 0.0); 4];
+//! let mut y = vec![Rgb::ZERO; 4];
+//! gather.gather(&x, &mut y).unwrap();
+//! assert_eq!(y[0], Rgb::new(2.0, 4.0, 0.0));
+//! println!("gathered on the {} path", gather.path());
+//! ```
+
+mod decode;
+mod kernel;
+
+use radiosity_core::{Format, Gather, GatherError, Rgb, Tile, TransferMatrix, check_gather_args};
+use rayon::prelude::*;
+use wide::f32x8;
+
+/// Which compiled copy of the gather body runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SimdPath {
+    /// The body compiled for the build's own target features (plain x86-64: SSE2).
+    Baseline,
+    /// The body compiled with `avx2`, `fma` and `f16c` enabled (every AVX2 CPU has F16C);
+    /// palette expansion, gathers and f16 conversion through `std::arch`.
+    Avx2Fma,
+}
+
+impl SimdPath {
+    /// The fastest path this CPU supports.
+    pub fn detect() -> SimdPath {
+        if Self::Avx2Fma.is_available() {
+            SimdPath::Avx2Fma
+        } else {
+            SimdPath::Baseline
+        }
+    }
+
+    /// Whether this CPU can run the path.
+    pub fn is_available(self) -> bool {
+        match self {
+            SimdPath::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            SimdPath::Avx2Fma => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                    && std::arch::is_x86_feature_detected!("f16c")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            SimdPath::Avx2Fma => false,
+        }
+    }
+
+    /// A short name for logs: `"avx2+fma"`, or the baseline's compile-time features
+    /// (`"sse2"` on plain x86-64, `"avx512 (build)"` / `"avx2+fma (build)"` when the build
+    /// targets a newer CPU, `"portable"` elsewhere).
+    pub fn name(self) -> &'static str {
+        match self {
+            SimdPath::Avx2Fma => "avx2+fma",
+            SimdPath::Baseline => {
+                if cfg!(target_feature = "avx512f") {
+                    "avx512 (build)"
+                } else if cfg!(all(target_feature = "avx2", target_feature = "fma")) {
+                    "avx2+fma (build)"
+                } else if cfg!(target_feature = "sse2") {
+                    "sse2"
+                } else {
+                    "portable"
+                }
+            }
+        }
+    }
+}
+
+/// The SIMD + rayon CPU gather. Build once per matrix ([`CpuGather::new`] precomputes the
+/// per-tile decode tables); every [`Gather::gather`] then reuses its buffers.
+#[derive(Debug)]
+pub struct CpuGather<'m> {
+    matrix: TransferMatrix<'m>,
+    /// One 256-entry decode table per tile and channel (empty for f16/f32).
+    tables: Vec<[f32; 256]>,
+    /// BC1 only: each tile's palettes decoded to values (`decode::Bc1Palettes`).
+    bc1: Vec<decode::Bc1Palettes>,
+    /// Every tile, in storage order.
+    tiles: Vec<Tile>,
+    /// F16 on the baseline path only: `decode::f16_table()`.
+    f16: Vec<f32>,
+    /// Exitance re-laid out per gather: `[column block][channel]`, each the block's four
+    /// columns twice (two block rows per register).
+    xs: Vec<f32x8>,
+    simd: SimdPath,
+    parallel: bool,
+    name: String,
+}
+
+impl<'m> CpuGather<'m> {
+    /// A gather over `matrix` on the fastest path this CPU has, parallel over block rows.
+    ///
+    /// The matrix must be valid ([`TransferMatrix::validate`]; a parsed `.rad` file is).
+    pub fn new(matrix: TransferMatrix<'m>) -> Self {
+        Self::build(matrix, SimdPath::detect())
+    }
+
+    /// A gather on a chosen path; an error saying why when this CPU cannot run it.
+    pub fn with_path(matrix: TransferMatrix<'m>, simd: SimdPath) -> Result<Self, GatherError> {
+        if !simd.is_available() {
+            return Err(GatherError::Backend(format!(
+                "the {} path needs a CPU with AVX2, FMA and F16C",
+                simd.name()
+            )));
+        }
+        Ok(Self::build(matrix, simd))
+    }
+
+    fn build(matrix: TransferMatrix<'m>, simd: SimdPath) -> Self {
+        let l = matrix.layout;
+        assert_eq!(
+            matrix.blocks.len() as u64,
+            l.block_bytes(),
+            "block data does not match the layout"
+        );
+        assert_eq!(matrix.scales.len(), l.scale_count(), "scale count");
+        let tables: Vec<[f32; 256]> = matrix.scales.iter().map(|s| s.table()).collect();
+        let tiles: Vec<Tile> = l.tiles().collect();
+        let bc1 = if l.format() == Format::Bc1 {
+            tiles
+                .par_iter()
+                .map(|t| {
+                    let tab = |c: usize| &tables[l.scale_index(t.index, c)];
+                    decode::Bc1Palettes::new([tab(0), tab(1), tab(2)])
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let f16 = if l.format() == Format::F16 && simd == SimdPath::Baseline {
+            decode::f16_table()
+        } else {
+            Vec::new()
+        };
+        let xs = vec![f32x8::ZERO; l.padded() / 4 * 3];
+        let name = format!("cpu-{}", l.format().name());
+        Self {
+            matrix,
+            tables,
+            bc1,
+            tiles,
+            f16,
+            xs,
+            simd,
+            parallel: true,
+            name,
+        }
+    }
+
+    /// The SIMD path in use, for logs and benches (`"avx2+fma"`, `"sse2"`, …).
+    pub fn path(&self) -> &'static str {
+        self.simd.name()
+    }
+
+    /// The SIMD path in use.
+    pub fn simd(&self) -> SimdPath {
+        self.simd
+    }
+
+    /// Runs over rayon's pool (`true`, the default) or on the calling thread.
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.parallel = parallel;
+    }
+
+    /// The matrix gathered from.
+    pub fn matrix(&self) -> &TransferMatrix<'m> {
+        &self.matrix
+    }
+
+    /// Address of the reusable exitance buffer: the same across gathers, since gathers never
+    /// reallocate (the tests check this).
+    pub fn scratch_ptr(&self) -> *const u8 {
+        self.xs.as_ptr().cast()
+    }
+}
+
+impl Gather for CpuGather<'_> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn patches(&self) -> usize {
+        self.matrix.layout.n()
+    }
+
+    fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
+        let n = self.matrix.layout.n();
+        check_gather_args(n, exitance, irradiance)?;
+        for (j, xs) in self.xs.chunks_exact_mut(3).enumerate() {
+            for (k, v) in xs.iter_mut().enumerate() {
+                let col = |c: usize| exitance.get(4 * j + c).map_or(0.0, |x| x.to_array()[k]);
+                let q = [col(0), col(1), col(2), col(3)];
+                *v = f32x8::from([q[0], q[1], q[2], q[3], q[0], q[1], q[2], q[3]]);
+            }
+        }
+        let ctx = kernel::Ctx {
+            matrix: &self.matrix,
+            tables: &self.tables,
+            bc1: &self.bc1,
+            tiles: &self.tiles,
+            f16: &self.f16,
+            xs: &self.xs,
+            exitance,
+        };
+        match self.matrix.layout.format() {
+            Format::Bc1 => run::<decode::Bc1>(&ctx, self.simd, self.parallel, irradiance),
+            Format::Bc4 => run::<decode::Bc4>(&ctx, self.simd, self.parallel, irradiance),
+            Format::U8 => run::<decode::U8>(&ctx, self.simd, self.parallel, irradiance),
+            Format::F16 => run::<decode::F16>(&ctx, self.simd, self.parallel, irradiance),
+            Format::F32 => run::<decode::F32>(&ctx, self.simd, self.parallel, irradiance),
+        }
+        Ok(())
+    }
+}
+
+/// Runs every block row, in parallel or not: the same body either way.
+fn run<K: decode::Kernel>(
+    ctx: &kernel::Ctx<'_, '_>,
+    simd: SimdPath,
+    parallel: bool,
+    irradiance: &mut [Rgb],
+) {
+    let body = |(r, out): (usize, &mut [Rgb])| kernel::block_row_dispatch::<K>(ctx, simd, r, out);
+    if parallel {
+        irradiance.par_chunks_mut(4).enumerate().for_each(body);
+    } else {
+        irradiance.chunks_mut(4).enumerate().for_each(body);
+    }
+}

@@ -1,0 +1,115 @@
+//! The block-row body: decode each block of four matrix rows, multiply-add against the
+//! exitance, add the sparse corrections. Compiled once per format and SIMD path.
+
+use crate::SimdPath;
+use crate::decode::{Baseline, Bc1Palettes, Isa, Kernel, TileTables};
+use radiosity_core::{Rgb, Tile, TransferMatrix};
+use wide::f32x8;
+
+/// What every block row reads.
+pub(crate) struct Ctx<'a, 'm> {
+    pub(crate) matrix: &'a TransferMatrix<'m>,
+    pub(crate) tables: &'a [[f32; 256]],
+    /// BC1 palette tables per tile (empty for other formats).
+    pub(crate) bc1: &'a [Bc1Palettes],
+    pub(crate) tiles: &'a [Tile],
+    /// `decode::f16_table()` for F16 on the baseline path, else empty.
+    pub(crate) f16: &'a [f32],
+    pub(crate) xs: &'a [f32x8],
+    pub(crate) exitance: &'a [Rgb],
+}
+
+/// Block row `r` (output rows `4r..4r + out.len()`) on the chosen path.
+#[inline]
+pub(crate) fn block_row_dispatch<K: Kernel>(
+    ctx: &Ctx<'_, '_>,
+    simd: SimdPath,
+    r: usize,
+    out: &mut [Rgb],
+) {
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        SimdPath::Avx2Fma => {
+            // SAFETY: `CpuGather` only holds `SimdPath::Avx2Fma` after `is_available` saw
+            // AVX2, FMA and F16C on this CPU (`SimdPath::detect` / `CpuGather::with_path`).
+            unsafe { block_row_avx2::<K>(ctx, r, out) }
+        }
+        _ => block_row::<K, Baseline>(ctx, r, out),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,f16c")]
+fn block_row_avx2<K: Kernel>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
+    block_row::<K, crate::decode::Avx2>(ctx, r, out);
+}
+
+#[inline(always)]
+fn block_row<K: Kernel, I: Isa>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
+    let m = ctx.matrix;
+    let blocks: &[u8] = &m.blocks;
+    let l = &m.layout;
+    let (ch, planes) = (l.channels(), l.planes());
+    let grey = ch == 1;
+    let row = 4 * r;
+    let tps = l.tiles_per_side();
+    let ty = row / l.tile_size();
+    let mut acc = [[f32x8::ZERO; 2]; 3];
+    let mut vals = [[f32x8::ZERO; 2]; 3];
+    let zero = [0f32; 256];
+    for tile in &ctx.tiles[ty * tps..(ty + 1) * tps] {
+        let br = (row - tile.row0) / 4;
+        let mut t = TileTables {
+            log: [&zero; 3],
+            bc1: ctx.bc1.get(tile.index),
+            f16: ctx.f16,
+        };
+        if !ctx.tables.is_empty() {
+            for c in 0..ch {
+                t.log[c] = &ctx.tables[l.scale_index(tile.index, c)];
+            }
+        }
+        let bw = tile.blocks_wide();
+        let xs = &ctx.xs[tile.col0 / 4 * 3..(tile.col0 / 4 + bw) * 3];
+        // Each plane's block row is contiguous: `bw` blocks.
+        let mut rows: [&[u8]; 3] = [&[]; 3];
+        for p in 0..planes {
+            let start = l.block_offset(tile, p, br, 0);
+            rows[p] = &blocks[start..start + bw * K::BLOCK_BYTES];
+        }
+        for (bc, x) in xs.chunks_exact(3).enumerate() {
+            for p in 0..planes {
+                let raw = &rows[p][bc * K::BLOCK_BYTES..(bc + 1) * K::BLOCK_BYTES];
+                K::decode::<I>(raw, &t, p, &mut vals);
+            }
+            for k in 0..3 {
+                let v = &vals[if grey { 0 } else { k }];
+                acc[k][0] = I::mul_add(v[0], x[k], acc[k][0]);
+                acc[k][1] = I::mul_add(v[1], x[k], acc[k][1]);
+            }
+        }
+    }
+    let sums: [[f32; 8]; 6] = [
+        acc[0][0].to_array(),
+        acc[0][1].to_array(),
+        acc[1][0].to_array(),
+        acc[1][1].to_array(),
+        acc[2][0].to_array(),
+        acc[2][1].to_array(),
+    ];
+    for (i, y) in out.iter_mut().enumerate() {
+        let (h, q) = (i / 2, (i % 2) * 4);
+        let mut v = [0f32; 3];
+        for k in 0..3 {
+            let s = &sums[2 * k + h][q..q + 4];
+            v[k] = (s[0] + s[1]) + (s[2] + s[3]);
+        }
+        for (c, s) in m.sparse.row(row + i, ch) {
+            let x = ctx.exitance[c].to_array();
+            for k in 0..3 {
+                v[k] += s[if grey { 0 } else { k }] * x[k];
+            }
+        }
+        *y = Rgb::from_array(v);
+    }
+}
