@@ -108,11 +108,12 @@ mod avx2 {
     impl Isa for Avx2 {
         #[inline(always)]
         fn expand4(pal: &[f32; 4], bits: u32) -> [f32x8; 2] {
-            // SAFETY: only reached inside `#[target_feature(enable = "avx2,fma")]` functions,
-            // entered after runtime detection (see `kernel::block_row_dispatch`); the load
-            // reads exactly the 16 bytes of `pal`.
+            // SAFETY: only reached inside `#[target_feature(enable = "avx2,fma,f16c")]` functions,
+            // entered after runtime detection (see `kernel::block_row_dispatch`); the unaligned
+            // load reads exactly the 16 bytes of `pal`.
             unsafe {
-                let p = _mm256_broadcast_ps(&*(pal as *const [f32; 4] as *const __m128));
+                let q = _mm_loadu_ps(pal.as_ptr()); // folds into an unaligned vbroadcastf128
+                let p = _mm256_set_m128(q, q);
                 let b = _mm256_set1_epi32(bits as i32);
                 let lo = _mm256_srlv_epi32(b, _mm256_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14));
                 let hi = _mm256_srlv_epi32(b, _mm256_setr_epi32(16, 18, 20, 22, 24, 26, 28, 30));
@@ -202,25 +203,34 @@ pub(crate) struct Bc1Palettes {
 
 const BITS: [u32; 3] = [5, 6, 5];
 
+/// Tiles with fewer blocks than this decode BC1 palettes per block instead of building
+/// [`Bc1Palettes`] (196 KiB): at this size the tables are at most 38% of the tile's block
+/// bytes and cost under one palette per 5 blocks to build.
+pub(crate) const BC1_TABLE_MIN_BLOCKS: usize = 65536;
+
+/// The D3D10 palette codes of one BC1 channel for `key` = (four-colour flag, endpoint 0,
+/// endpoint 1) in 1 + 2·w bits (w = 5, 6, 5 for R, G, B).
+#[inline(always)]
+fn bc1_channel_palette(ch: usize, key: usize) -> [u32; 4] {
+    let w = BITS[ch];
+    let key = key as u32;
+    let expand = |v: u32| (v << (8 - w)) | (v >> (2 * w - 8));
+    let four = key >> (2 * w) != 0;
+    let mask = (1 << w) - 1;
+    let (a, b) = (expand((key >> w) & mask), expand(key & mask));
+    let (p2, p3) = if four {
+        ((2 * a + b) / 3, (a + 2 * b) / 3)
+    } else {
+        ((a + b) / 2, 0)
+    };
+    [a, b, p2, p3]
+}
+
 impl Bc1Palettes {
     pub(crate) fn new(tables: [&[f32; 256]; 3]) -> Self {
         let channels = core::array::from_fn(|ch| {
-            let w = BITS[ch];
-            let expand = |v: u32| (v << (8 - w)) | (v >> (2 * w - 8));
-            (0..2u32 << (2 * w))
-                .map(|key| {
-                    let four = key >> (2 * w) != 0;
-                    let (a, b) = (
-                        expand((key >> w) & ((1 << w) - 1)),
-                        expand(key & ((1 << w) - 1)),
-                    );
-                    let (p2, p3) = if four {
-                        ((2 * a + b) / 3, (a + 2 * b) / 3)
-                    } else {
-                        ((a + b) / 2, 0)
-                    };
-                    [a, b, p2, p3].map(|q| tables[ch][q as usize])
-                })
+            (0..2usize << (2 * BITS[ch]))
+                .map(|key| bc1_channel_palette(ch, key).map(|q| tables[ch][q as usize]))
                 .collect()
         });
         Self { channels }
@@ -237,7 +247,6 @@ impl Kernel for Bc1 {
     #[inline(always)]
     fn decode<I: Isa>(raw: &[u8], t: &TileTables<'_>, _plane: usize, out: &mut [[f32x8; 2]; 3]) {
         let raw: &[u8; 8] = raw.try_into().expect("8-byte block");
-        let pal = t.bc1.expect("bc1 palettes");
         let c0 = usize::from(u16::from_le_bytes([raw[0], raw[1]]));
         let c1 = usize::from(u16::from_le_bytes([raw[2], raw[3]]));
         let four = usize::from(c0 > c1);
@@ -247,8 +256,19 @@ impl Kernel for Bc1 {
             (four << 12) | (((c0 >> 5) & 0x3f) << 6) | ((c1 >> 5) & 0x3f),
             (four << 10) | ((c0 & 0x1f) << 5) | (c1 & 0x1f),
         ];
-        for ch in 0..3 {
-            out[ch] = I::expand4(pal.get(ch, keys[ch]), bits);
+        match t.bc1 {
+            Some(pal) => {
+                for ch in 0..3 {
+                    out[ch] = I::expand4(pal.get(ch, keys[ch]), bits);
+                }
+            }
+            None => {
+                // A small tile has no palette tables: the same rules, per block.
+                for ch in 0..3 {
+                    let pal = bc1_channel_palette(ch, keys[ch]).map(|q| t.log[ch][q as usize]);
+                    out[ch] = I::expand4(&pal, bits);
+                }
+            }
         }
     }
 }

@@ -10,8 +10,8 @@ use wide::f32x8;
 pub(crate) struct Ctx<'a, 'm> {
     pub(crate) matrix: &'a TransferMatrix<'m>,
     pub(crate) tables: &'a [[f32; 256]],
-    /// BC1 palette tables per tile (empty for other formats).
-    pub(crate) bc1: &'a [Bc1Palettes],
+    /// BC1 palette tables per tile, `None` for small tiles (empty for other formats).
+    pub(crate) bc1: &'a [Option<Bc1Palettes>],
     pub(crate) tiles: &'a [Tile],
     /// `decode::f16_table()` for F16 on the baseline path, else empty.
     pub(crate) f16: &'a [f32],
@@ -61,7 +61,7 @@ fn block_row<K: Kernel, I: Isa>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
         let br = (row - tile.row0) / 4;
         let mut t = TileTables {
             log: [&zero; 3],
-            bc1: ctx.bc1.get(tile.index),
+            bc1: ctx.bc1.get(tile.index).and_then(Option::as_ref),
             f16: ctx.f16,
         };
         if !ctx.tables.is_empty() {

@@ -13,7 +13,9 @@
 //!   four-row chunks and threads never share an output. The serial path is the same body over
 //!   `chunks_mut` instead of `par_chunks_mut` ([`CpuGather::set_parallel`]).
 //! - Per block: decode the palette once (BC1: 4 entries × 3 channels, BC4: 8 entries through
-//!   the tile's 256-entry table, built once in [`CpuGather::new`]), expand the 16 texels through
+//!   the tile's 256-entry table, built once in [`CpuGather::new`]; tiles of at least 65536
+//!   blocks also get BC1 palette tables, 196 KiB indexed by each channel's endpoint pair, so a
+//!   BC1 block costs three 16-byte loads before its expansion), expand the 16 texels through
 //!   the 2- or 3-bit indices, then two `f32x8` fused multiply-adds per channel (two block rows
 //!   per register) against the exitance, which is re-laid out once per gather into one `f32x8`
 //!   per column block and channel (a buffer reused across gathers).
@@ -138,8 +140,8 @@ pub struct CpuGather<'m> {
     matrix: TransferMatrix<'m>,
     /// One 256-entry decode table per tile and channel (empty for f16/f32).
     tables: Vec<[f32; 256]>,
-    /// BC1 only: each tile's palettes decoded to values (`decode::Bc1Palettes`).
-    bc1: Vec<decode::Bc1Palettes>,
+    /// BC1 only: each large tile's palettes decoded to values (`decode::Bc1Palettes`).
+    bc1: Vec<Option<decode::Bc1Palettes>>,
     /// Every tile, in storage order.
     tiles: Vec<Tile>,
     /// F16 on the baseline path only: `decode::f16_table()`.
@@ -186,7 +188,8 @@ impl<'m> CpuGather<'m> {
                 .par_iter()
                 .map(|t| {
                     let tab = |c: usize| &tables[l.scale_index(t.index, c)];
-                    decode::Bc1Palettes::new([tab(0), tab(1), tab(2)])
+                    (t.blocks_high() * t.blocks_wide() >= decode::BC1_TABLE_MIN_BLOCKS)
+                        .then(|| decode::Bc1Palettes::new([tab(0), tab(1), tab(2)]))
                 })
                 .collect()
         } else {

@@ -135,6 +135,13 @@ fn larger_matrix_several_tiles() {
     }
 }
 
+/// A tile of ≥ 65536 blocks: BC1 goes through the per-tile palette tables instead of
+/// per-block palettes (n = 1030: one 1032² tile, partial last block row and column).
+#[test]
+fn large_tile_bc1_palette_tables() {
+    check_against_reference(1030, Format::Bc1, 3, 8192);
+}
+
 #[test]
 fn bad_arguments_give_the_reference_errors() {
     let n = 9;
