@@ -35,17 +35,19 @@
 //!
 //! | format | runtime AVX2 path | plain build, baseline (SSE2) | `target-cpu=native` build, baseline (`wide` on AVX-512) |
 //! |--------|------:|------:|------:|
-//! | bc1    | 1.75–1.88 | 8.3–8.6 | 6.0  |
+//! | bc1    | 1.75–1.92 | 8.0–8.6 | 6.0  |
 //! | bc4    | 6.5–7.3   | 15–17   | 15.4 |
 //! | u8     | 5.3       | 7.1–7.4 | 5.0  |
 //! | f16    | 2.7–3.0   | 22      | 20.5 |
-//! | f32    | 3.8–5.0   | 5.6–7.3 | 4.5  |
+//! | f32    | 3.8–5.4   | 5.6–7.3 | 4.5  |
 //!
-//! `target-cpu=native` alone does not help the bottleneck (decoding: `wide` has no
-//! permute, so the texel expansion stays scalar) and makes a binary that faults on older
-//! CPUs; the runtime path is 3–7× faster on the decode-bound formats and runs everywhere.
-//! The measurements show the choice matters only through the explicit AVX2 kernels, so the
-//! project keeps plain x86-64 builds. [`CpuGather::path`] names the path that runs.
+//! (The `native` column is one run of an earlier revision of the same body.) `target-cpu=native`
+//! alone does not reach the bottleneck, decoding: `wide` has no permute, so the texel expansion
+//! stays scalar whatever the target. The explicit AVX2 kernels are 2–7× faster on BC1, BC4 and
+//! f16, equal on u8 and f32 (within 6%, scalar table look-ups and memory bandwidth bound both),
+//! and a plain x86-64 binary with them still runs on any x86-64 CPU, where a `native` build
+//! faults on older ones. So: runtime dispatch, plain builds. [`CpuGather::path`] names the path
+//! that runs.
 //!
 //! # Example
 //!
