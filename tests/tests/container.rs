@@ -4,7 +4,7 @@
 use radiosity_core::bytemuck;
 use radiosity_core::container::{reseal, section_ranges};
 use radiosity_core::{Format, LayoutError, RadError, RadFile, SectionKind};
-use radiosity_tests::fixtures::sample_file;
+use radiosity_tests::fixtures::{FORMAT_CASES, sample_file};
 use std::borrow::Cow;
 
 fn sample_bytes() -> Vec<u8> {
@@ -49,15 +49,7 @@ fn corrupt_meta(f: impl FnOnce(&mut radiosity_core::container::Meta)) -> RadErro
 
 #[test]
 fn round_trip_every_format() {
-    for (format, channels) in [
-        (Format::Bc1, 3),
-        (Format::Bc4, 3),
-        (Format::Bc4, 1),
-        (Format::U8, 3),
-        (Format::U8, 1),
-        (Format::F16, 3),
-        (Format::F32, 1),
-    ] {
+    for (format, channels) in FORMAT_CASES {
         for max_tile in [8, 16, 8192] {
             let file = sample_file(37, channels, format, max_tile);
             let bytes = file.to_bytes().unwrap();

@@ -24,16 +24,8 @@ use radiosity_tests::fixtures::{SplitMix64, sample_file};
 /// Safety factor over the recursive-summation bound (see the module docs).
 const C: f32 = 2.0;
 
-const CASES: [(Format, usize); 8] = [
-    (Format::Bc1, 3),
-    (Format::Bc4, 3),
-    (Format::Bc4, 1),
-    (Format::U8, 3),
-    (Format::U8, 1),
-    (Format::F16, 3),
-    (Format::F16, 1),
-    (Format::F32, 3),
-];
+/// Every storable (format, channels) pair.
+const CASES: [(Format, usize); 9] = radiosity_tests::fixtures::FORMAT_CASES;
 
 fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
     let mut rng = SplitMix64(seed);

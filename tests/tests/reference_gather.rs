@@ -2,7 +2,7 @@
 //! tile size, channel count and decode mode.
 
 use radiosity_core::{DecodeMode, Format, Gather, GatherError, ReferenceGather, Rgb};
-use radiosity_tests::fixtures::{SplitMix64, sample_file};
+use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, sample_file};
 
 fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
     let mut rng = SplitMix64(seed);
@@ -14,15 +14,7 @@ fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
 #[test]
 fn gather_equals_dense_matvec_of_the_decoded_matrix() {
     let n = 37;
-    for (format, channels) in [
-        (Format::Bc1, 3),
-        (Format::Bc4, 3),
-        (Format::Bc4, 1),
-        (Format::U8, 3),
-        (Format::U8, 1),
-        (Format::F16, 3),
-        (Format::F32, 1),
-    ] {
+    for (format, channels) in FORMAT_CASES {
         for max_tile in [8, 16, 8192] {
             for mode in [DecodeMode::D3d10, DecodeMode::Mesa] {
                 let file = sample_file(n, channels, format, max_tile);
