@@ -12,6 +12,7 @@ macro_rules! outln {
 }
 
 mod args;
+mod backend;
 mod bake;
 mod export_dds;
 mod inspect;
@@ -55,6 +56,9 @@ enum Command {
         input: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
+        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+        #[arg(long)]
+        backend: Option<String>,
         /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"}.
         #[arg(long)]
         json: bool,
@@ -132,7 +136,12 @@ fn main() -> ExitCode {
             bake,
             json,
         } => bake::run(&scene, &output, &bake, json),
-        Command::Solve { input, bake, json } => solve::run(&input, &bake, json),
+        Command::Solve {
+            input,
+            bake,
+            backend,
+            json,
+        } => solve::run(&input, &bake, backend.as_deref(), json),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),
         Command::Inspect {
             file,

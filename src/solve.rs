@@ -1,19 +1,23 @@
 //! `radiosity solve SCENE.obj|BAKED.rad [--json]`: light a bake and report per object.
 //!
-//! First version (issue #4): the scene's own emitters are the only light, gathered with the
-//! core's reference gather. Runtime lights, the SIMD and GPU backends come with issues #5/#6.
+//! First version (issue #4): the scene's own emitters are the only light. The gather is the
+//! backend chosen at run time (`--backend`, see `backend.rs`); runtime lights come with issue
+//! #5, the GPU backend with #6.
 
 use crate::args::BakeArgs;
 use anyhow::Context;
-use radiosity_core::{
-    Bounces, DecodeMode, Gather, RadFile, ReferenceGather, Rgb, finish_frame, first_exitance,
-};
+use radiosity_core::{Bounces, RadFile, Rgb, finish_frame, first_exitance};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
-pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Result<()> {
+pub(crate) fn run(
+    input: &Path,
+    args: &BakeArgs,
+    backend: Option<&str>,
+    json_out: bool,
+) -> anyhow::Result<()> {
     let mut timings: BTreeMap<&str, f64> = BTreeMap::new();
     let t = Instant::now();
     let is_rad = input
@@ -48,10 +52,10 @@ pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Resu
     let direct = vec![Rgb::ZERO; n]; // no runtime lights in this version
     let mut x = vec![Rgb::ZERO; n];
     first_exitance(&file.patches, &direct, &mut x);
+    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
     let t = Instant::now();
-    let mut gather = ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10);
     let mut y = vec![Rgb::ZERO; n];
-    gather.gather(&x, &mut y)?;
+    chosen.gather.gather(&x, &mut y)?;
     timings.insert("gather", t.elapsed().as_secs_f64() * 1e3);
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
@@ -61,7 +65,8 @@ pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Resu
         let out = json!({
             "patches": n,
             "bounces": match file.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
-            "backend": gather.name(),
+            "backend": chosen.kind,
+            "gather": chosen.gather.name(),
             "objects": objects,
             "effects": effects,
             "timings_ms": timings,
@@ -69,8 +74,9 @@ pub(crate) fn run(input: &Path, args: &BakeArgs, json_out: bool) -> anyhow::Resu
         outln!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         outln!(
-            "{} ({n} patches, reference gather {:.2} ms)",
+            "{} ({n} patches, {} gather {:.2} ms)",
             input.display(),
+            chosen.gather.name(),
             timings["gather"]
         );
         outln!(

@@ -302,3 +302,58 @@ fn closed_stdout_is_not_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(out.status.code(), Some(0), "{stderr}");
 }
+
+#[test]
+fn solve_backends_agree_and_unavailable_ones_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_sample(dir.path());
+    let p = path.to_str().unwrap();
+    let run = |backend: &str| -> serde_json::Value {
+        let out = radiosity(&["solve", p, "--backend", backend, "--json"]);
+        assert!(
+            out.status.success(),
+            "{backend}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("backend: "),
+            "the choice is printed"
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let (cpu, reference) = (run("cpu"), run("reference"));
+    assert_eq!(
+        (cpu["backend"].as_str(), reference["backend"].as_str()),
+        (Some("cpu"), Some("reference"))
+    );
+    for (a, b) in cpu["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(reference["objects"].as_array().unwrap())
+    {
+        for k in 0..3 {
+            let (x, y) = (
+                a["irradiance"][k].as_f64().unwrap(),
+                b["irradiance"][k].as_f64().unwrap(),
+            );
+            // f32 accumulation in a different order over 37 patches: far below 1e-5 relative
+            // (tests/tests/cpu_gather.rs bounds it per patch).
+            assert!((x - y).abs() <= 1e-5 * y.abs().max(1e-12), "{x} vs {y}");
+        }
+    }
+    assert_one_line_error(
+        &radiosity(&["solve", p, "--backend", "gpu"]),
+        "no GPU backend",
+    );
+    assert_one_line_error(
+        &radiosity(&["solve", p, "--backend", "quantum"]),
+        "unknown backend",
+    );
+    let env = Command::new(env!("CARGO_BIN_EXE_radiosity"))
+        .args(["solve", p])
+        .env("RADIOSITY_BACKEND", "gpu")
+        .output()
+        .unwrap();
+    assert_one_line_error(&env, "RADIOSITY_BACKEND");
+}
