@@ -6,16 +6,10 @@
 //! `ORDER_EXACT=0` to skip the exact errors (the "exact" column then repeats the estimate).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use radiosity_bake::bvh::Occluders;
 use radiosity_bake::encode::EncodeParams;
-use radiosity_bake::form_factor::{FormFactorParams, form_factors};
 use radiosity_bake::order::{self, DenseMatrix, ErrorMeter, OrderKind, OrderParams};
-use radiosity_bake::scene::Scene;
-use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
-use radiosity_bake::voxel::{VoxelParams, simplify};
 use radiosity_core::{Format, Patch};
 use std::hint::black_box;
-use std::path::Path;
 use std::sync::OnceLock;
 use std::time::Instant;
 
@@ -31,35 +25,14 @@ fn cornell() -> &'static Baked {
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(1024);
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell-box/CornellBox-Original.obj");
         let t = Instant::now();
-        let scene = Scene::load_obj(&path).expect("Cornell box loads");
-        let patches = simplify(&scene, &VoxelParams::with_patches(target)).expect("simplifies");
-        let occluders = Occluders::new(&scene);
-        let ff = form_factors(
-            &patches,
-            Some(&occluders),
-            &FormFactorParams::default(),
-            None,
-        );
-        let f = Dense::new(ff.n, ff.matrix.iter().map(|v| f64::from(*v)).collect());
-        let reflectance: Vec<[f64; 3]> = patches
-            .patches
-            .iter()
-            .map(|p| [p.reflectance.r, p.reflectance.g, p.reflectance.b].map(f64::from))
-            .collect();
-        let (m, _) =
-            transfer_matrix(&f, &reflectance, 3, BounceSpec::Infinite).expect("transfer converges");
+        let (patches, m) = radiosity_tests::fixtures::cornell_transfer(target);
         eprintln!(
             "order bench: Cornell box, {} patches, M baked in {:.1} s",
-            ff.n,
+            patches.len(),
             t.elapsed().as_secs_f64()
         );
-        Baked {
-            patches: patches.to_core(),
-            m,
-        }
+        Baked { patches, m }
     })
 }
 

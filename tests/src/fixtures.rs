@@ -86,3 +86,35 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         report: Some(Cow::Borrowed("{\"note\":\"sample\"}")),
     }
 }
+
+/// The shipped Cornell box (McGuire's CornellBox-Original) simplified to about `patches`
+/// patches, with ray-cast form factors and all bounces (LU): its core patches and the dense RGB
+/// transfer matrix (`n·n·3`, natural order). For order tests and benches that need a real M
+/// before any reordering or encoding.
+pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
+    use radiosity_bake::bvh::Occluders;
+    use radiosity_bake::form_factor::{FormFactorParams, form_factors};
+    use radiosity_bake::scene::Scene;
+    use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
+    use radiosity_bake::voxel::{VoxelParams, simplify};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes/cornell-box/CornellBox-Original.obj");
+    let scene = Scene::load_obj(&path).expect("Cornell box loads");
+    let simplified = simplify(&scene, &VoxelParams::with_patches(patches)).expect("simplifies");
+    let occluders = Occluders::new(&scene);
+    let ff = form_factors(
+        &simplified,
+        Some(&occluders),
+        &FormFactorParams::default(),
+        None,
+    );
+    let f = Dense::new(ff.n, ff.matrix.iter().map(|v| f64::from(*v)).collect());
+    let reflectance: Vec<[f64; 3]> = simplified
+        .patches
+        .iter()
+        .map(|p| p.reflectance.to_array().map(f64::from))
+        .collect();
+    let (m, _) =
+        transfer_matrix(&f, &reflectance, 3, BounceSpec::Infinite).expect("transfer converges");
+    (simplified.to_core(), m)
+}

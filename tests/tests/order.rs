@@ -2,18 +2,12 @@
 //! Cornell box (CornellBox-Original.obj) simplified to about 300 patches, form factors with
 //! ray-cast visibility, all bounces (LU), three channels.
 
-use radiosity_bake::bvh::Occluders;
 use radiosity_bake::encode::{EncodeParams, encode_dense};
-use radiosity_bake::form_factor::{FormFactorParams, form_factors};
 use radiosity_bake::order::{
     self, Candidate, DenseMatrix, ErrorMeter, ErrorSampling, OrderKind, OrderParams,
 };
 use radiosity_bake::rng::SplitMix64;
-use radiosity_bake::scene::Scene;
-use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
-use radiosity_bake::voxel::{VoxelParams, simplify};
 use radiosity_core::{DecodeMode, Format, Patch, Rgb};
-use std::path::Path;
 use std::sync::OnceLock;
 
 /// The Cornell box's patches and its transfer matrix M (3 channels), built once per run.
@@ -35,30 +29,8 @@ impl Baked {
 fn cornell() -> &'static Baked {
     static BAKED: OnceLock<Baked> = OnceLock::new();
     BAKED.get_or_init(|| {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell-box/CornellBox-Original.obj");
-        let scene = Scene::load_obj(&path).expect("Cornell box loads");
-        let patches = simplify(&scene, &VoxelParams::with_patches(300)).expect("simplifies");
-        let occluders = Occluders::new(&scene);
-        let ff = form_factors(
-            &patches,
-            Some(&occluders),
-            &FormFactorParams::default(),
-            None,
-        );
-        let n = ff.n;
-        let f = Dense::new(n, ff.matrix.iter().map(|v| f64::from(*v)).collect());
-        let reflectance: Vec<[f64; 3]> = patches
-            .patches
-            .iter()
-            .map(|p| [p.reflectance.r, p.reflectance.g, p.reflectance.b].map(f64::from))
-            .collect();
-        let (m, _) =
-            transfer_matrix(&f, &reflectance, 3, BounceSpec::Infinite).expect("transfer converges");
-        Baked {
-            patches: patches.to_core(),
-            m,
-        }
+        let (patches, m) = radiosity_tests::fixtures::cornell_transfer(300);
+        Baked { patches, m }
     })
 }
 
