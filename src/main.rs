@@ -14,8 +14,10 @@ macro_rules! outln {
 mod args;
 mod backend;
 mod bake;
+mod camera;
 mod export_dds;
 mod inspect;
+mod lights;
 mod solve;
 mod view_factors;
 

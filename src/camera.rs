@@ -1,0 +1,299 @@
+//! The pinhole camera of `render` (and of the reference path tracer's images).
+//!
+//! Camera file (JSON), every field but `position` and `look_at` optional:
+//!
+//! ```json
+//! {"position":[x,y,z], "look_at":[x,y,z], "up":[0,1,0], "fov_deg":40, "width":512, "height":512}
+//! ```
+//!
+//! `fov_deg` is the vertical field of view. Without a file, [`Camera::frame`] chooses one from
+//! the geometry.
+
+use anyhow::{Context, bail};
+use glam::DVec3;
+use radiosity_bake::bvh::Occluders;
+use serde::Deserialize;
+use std::path::Path;
+
+/// Largest image side accepted (a typo of 51200 should not allocate gigabytes).
+pub(crate) const MAX_SIDE: u32 = 8192;
+
+/// A pinhole camera with its image size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Camera {
+    pub(crate) position: DVec3,
+    pub(crate) look_at: DVec3,
+    pub(crate) up: DVec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub(crate) fov_deg: f64,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    position: [f64; 3],
+    look_at: [f64; 3],
+    #[serde(default = "default_up")]
+    up: [f64; 3],
+    #[serde(default = "default_fov")]
+    fov_deg: f64,
+    #[serde(default = "default_side")]
+    width: u32,
+    #[serde(default = "default_side")]
+    height: u32,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    40.0
+}
+fn default_side() -> u32 {
+    512
+}
+
+/// A camera's orthonormal frame: right, up, and forward (the viewing direction).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Basis {
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    /// tan(fov/2): half the image height at unit distance.
+    half_h: f64,
+}
+
+impl Camera {
+    /// Parses and validates a camera file's text.
+    pub(crate) fn parse(text: &str) -> anyhow::Result<Self> {
+        let f: CameraFile = serde_json::from_str(text)
+            .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace('\n', " ")))?;
+        let cam = Camera {
+            position: DVec3::from(f.position),
+            look_at: DVec3::from(f.look_at),
+            up: DVec3::from(f.up),
+            fov_deg: f.fov_deg,
+            width: f.width,
+            height: f.height,
+        };
+        cam.validate()?;
+        Ok(cam)
+    }
+
+    /// Reads, parses and validates a camera file.
+    pub(crate) fn load(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read camera file {}", path.display()))?;
+        Self::parse(&text).with_context(|| format!("bad camera file {}", path.display()))
+    }
+
+    /// Checks the values: finite, a viewing direction, an up vector not along it, a field of
+    /// view in (0, 180) degrees and an image of 1 to [`MAX_SIDE`] pixels a side.
+    pub(crate) fn validate(&self) -> anyhow::Result<()> {
+        if ![self.position, self.look_at, self.up]
+            .iter()
+            .all(|v| v.is_finite())
+            || !self.fov_deg.is_finite()
+        {
+            bail!("camera has a NaN or infinite value");
+        }
+        let view = self.look_at - self.position;
+        if !(view.length() > 0.0) {
+            bail!("camera look_at equals its position");
+        }
+        if !(self.up.length() > 0.0) || view.normalize().cross(self.up.normalize()).length() < 1e-6
+        {
+            bail!("camera up is zero or along the viewing direction");
+        }
+        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            bail!("camera fov_deg must be in (0, 180), got {}", self.fov_deg);
+        }
+        for (name, side) in [("width", self.width), ("height", self.height)] {
+            if side == 0 || side > MAX_SIDE {
+                bail!("camera {name} must be 1 to {MAX_SIDE} pixels, got {side}");
+            }
+        }
+        Ok(())
+    }
+
+    /// The camera's frame. Call on a validated camera.
+    pub(crate) fn basis(&self) -> Basis {
+        let forward = (self.look_at - self.position).normalize();
+        let right = forward.cross(self.up).normalize();
+        let up = right.cross(forward);
+        Basis {
+            right,
+            up,
+            forward,
+            half_h: (self.fov_deg.to_radians() * 0.5).tan(),
+        }
+    }
+
+    /// The unit direction through image point `(x, y)` in pixels from the top-left corner
+    /// (pixel `(i, j)` spans `[i, i+1) × [j, j+1)`; its centre is `(i + 0.5, j + 0.5)`).
+    pub(crate) fn ray(&self, b: &Basis, x: f64, y: f64) -> DVec3 {
+        let aspect = f64::from(self.width) / f64::from(self.height);
+        let sx = (2.0 * x / f64::from(self.width) - 1.0) * b.half_h * aspect;
+        let sy = (1.0 - 2.0 * y / f64::from(self.height)) * b.half_h;
+        (b.forward + b.right * sx + b.up * sy).normalize()
+    }
+
+    /// Frames a scene automatically, y up: looks horizontally along the axis (±x or ±z) whose
+    /// view meets the most front-facing area, from far enough out that the scene's bounds fill
+    /// the image. A closed room would show only the backs of its walls from outside, so when
+    /// the first thing the camera sees is a back face, the camera moves inside, near the wall,
+    /// with a wider lens.
+    pub(crate) fn frame(
+        triangles: &[[DVec3; 3]],
+        occ: &Occluders,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for t in triangles {
+            for p in t {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        if triangles.is_empty() || !lo.is_finite() || !hi.is_finite() {
+            (lo, hi) = (DVec3::splat(-1.0), DVec3::splat(1.0));
+        }
+        let centre = (lo + hi) * 0.5;
+        let half = ((hi - lo) * 0.5).max(DVec3::splat(1e-9 * (hi - lo).length().max(1e-30)));
+        // The side to look from: the camera sits at +d and looks along -d, so it sees the
+        // fronts of faces whose normal points along +d.
+        let sides = [DVec3::Z, DVec3::NEG_Z, DVec3::X, DVec3::NEG_X];
+        let score = |d: DVec3| -> f64 {
+            triangles
+                .iter()
+                .map(|[a, b, c]| {
+                    let n2 = (*b - *a).cross(*c - *a); // twice the area times the normal
+                    (n2.dot(d)).max(0.0)
+                })
+                .sum()
+        };
+        let d = sides
+            .into_iter()
+            .max_by(|a, b| score(*a).total_cmp(&score(*b)))
+            .expect("four sides");
+        let fov_deg: f64 = 40.0;
+        let aspect = f64::from(width) / f64::from(height);
+        // Half-extents across the view: vertical is y, horizontal the other horizontal axis.
+        let (across_h, depth) = if d.z != 0.0 {
+            (half.x, half.z)
+        } else {
+            (half.z, half.x)
+        };
+        let tan_v = (fov_deg.to_radians() * 0.5).tan();
+        let dist = (half.y / tan_v).max(across_h / (tan_v * aspect)) * 1.05 + depth;
+        let outside = Camera {
+            position: centre + d * dist,
+            look_at: centre,
+            up: DVec3::Y,
+            fov_deg,
+            width,
+            height,
+        };
+        // Is the first surface seen straight ahead a back face?
+        let toward = -d;
+        let sees_back = occ
+            .closest_hit(outside.position, toward, 0.0, f64::INFINITY)
+            .is_some_and(|h| {
+                let [a, b, c] = triangles[h.triangle as usize];
+                (b - a).cross(c - a).dot(toward) > 0.0
+            });
+        if !sees_back {
+            return outside;
+        }
+        Camera {
+            position: centre + d * depth * 0.9,
+            look_at: centre,
+            up: DVec3::Y,
+            fov_deg: 70.0,
+            width,
+            height,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::dvec3;
+
+    #[test]
+    fn centre_ray_looks_at_the_target_and_corners_span_the_fov() {
+        let c = Camera::parse(
+            r#"{"position":[0,0,5],"look_at":[0,0,0],"fov_deg":90,"width":200,"height":100}"#,
+        )
+        .unwrap();
+        let b = c.basis();
+        assert!((c.ray(&b, 100.0, 50.0) - dvec3(0.0, 0.0, -1.0)).length() < 1e-12);
+        // Top edge centre: 45° up for a 90° vertical field of view.
+        let top = c.ray(&b, 100.0, 0.0);
+        assert!(
+            (top.y - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-12,
+            "{top}"
+        );
+        // Right edge centre: tan = aspect · tan(45°) = 2.
+        let right = c.ray(&b, 200.0, 50.0);
+        assert!((right.x / -right.z - 2.0).abs() < 1e-12, "{right}");
+    }
+
+    #[test]
+    fn bad_cameras_are_refused() {
+        for (text, needle) in [
+            (
+                r#"{"position":[0,0,0],"look_at":[0,0,0]}"#,
+                "equals its position",
+            ),
+            (
+                r#"{"position":[0,0,1],"look_at":[0,0,0],"up":[0,0,1]}"#,
+                "along the viewing",
+            ),
+            (
+                r#"{"position":[0,0,1],"look_at":[0,0,0],"fov_deg":180}"#,
+                "fov_deg",
+            ),
+            (
+                r#"{"position":[0,0,1],"look_at":[0,0,0],"width":0}"#,
+                "width",
+            ),
+            (
+                r#"{"position":[0,0,1],"look_at":[0,0,0],"height":100000}"#,
+                "height",
+            ),
+            (
+                r#"{"position":[0,0,1e400],"look_at":[0,0,0]}"#,
+                "number out of range",
+            ),
+            (r#"{"position":[0,0,1]}"#, "look_at"),
+            (
+                r#"{"position":[0,0,1],"look_at":[0,0,0],"zoom":2}"#,
+                "unknown field",
+            ),
+        ] {
+            let err = format!("{:#}", Camera::parse(text).unwrap_err());
+            assert!(err.contains(needle), "{text}: {err}");
+        }
+    }
+
+    #[test]
+    fn framing_an_open_box_looks_in_through_the_open_side() {
+        // Floor (y=0, up) and back wall (z=0, facing +z) of a unit box open at +z.
+        let tris = vec![
+            [dvec3(0., 0., 0.), dvec3(0., 0., 1.), dvec3(1., 0., 1.)],
+            [dvec3(0., 0., 0.), dvec3(1., 0., 1.), dvec3(1., 0., 0.)],
+            [dvec3(0., 0., 0.), dvec3(1., 0., 0.), dvec3(1., 1., 0.)],
+            [dvec3(0., 0., 0.), dvec3(1., 1., 0.), dvec3(0., 1., 0.)],
+        ];
+        let occ = Occluders::from_triangles(&tris);
+        let c = Camera::frame(&tris, &occ, 64, 64);
+        c.validate().unwrap();
+        assert!(c.position.z > 1.0, "{c:?}");
+        assert!((c.look_at - dvec3(0.5, 0.5, 0.5)).length() < 1e-12);
+    }
+}

@@ -1,0 +1,161 @@
+//! The lights file of DESIGN.md:
+//!
+//! ```json
+//! {"lights":[{"type":"point","position":[x,y,z],"intensity":[r,g,b]},
+//!            {"type":"spot","position":[..],"direction":[..],"cone_deg":a,"intensity":[..]},
+//!            {"type":"directional","direction":[..],"irradiance":[r,g,b]}]}
+//! ```
+//!
+//! Intensity in W/sr, irradiance in W/m², all finite and non-negative, directions non-zero,
+//! `cone_deg` the cone's half-angle in (0, 180]. Unknown fields are refused (a misspelt
+//! `"intensty"` must not silently become a black light).
+
+use anyhow::{Context, bail};
+use glam::Vec3;
+use radiosity_core::{Light, Rgb};
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightsFile {
+    lights: Vec<LightEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum LightEntry {
+    Point {
+        position: [f32; 3],
+        intensity: [f32; 3],
+    },
+    Spot {
+        position: [f32; 3],
+        direction: [f32; 3],
+        cone_deg: f32,
+        intensity: [f32; 3],
+    },
+    Directional {
+        direction: [f32; 3],
+        irradiance: [f32; 3],
+    },
+}
+
+impl From<&LightEntry> for Light {
+    fn from(e: &LightEntry) -> Self {
+        let rgb = |c: [f32; 3]| Rgb::new(c[0], c[1], c[2]);
+        match *e {
+            LightEntry::Point {
+                position,
+                intensity,
+            } => Light::Point {
+                position: Vec3::from(position),
+                intensity: rgb(intensity),
+            },
+            LightEntry::Spot {
+                position,
+                direction,
+                cone_deg,
+                intensity,
+            } => Light::Spot {
+                position: Vec3::from(position),
+                direction: Vec3::from(direction),
+                cone_deg,
+                intensity: rgb(intensity),
+            },
+            LightEntry::Directional {
+                direction,
+                irradiance,
+            } => Light::Directional {
+                direction: Vec3::from(direction),
+                irradiance: rgb(irradiance),
+            },
+        }
+    }
+}
+
+/// Parses and validates a lights file's text.
+pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
+    let file: LightsFile = serde_json::from_str(text).map_err(|e| {
+        // serde_json's messages carry the line and column; keep them on one line.
+        anyhow::anyhow!("{}", e.to_string().replace('\n', " "))
+    })?;
+    let mut lights = Vec::with_capacity(file.lights.len());
+    for (i, e) in file.lights.iter().enumerate() {
+        let light = Light::from(e);
+        // f32 fields of huge JSON numbers (1e39) become infinite here; validate catches them.
+        if let Err(why) = light.validate() {
+            bail!("light {i}: {why}");
+        }
+        lights.push(light);
+    }
+    Ok(lights)
+}
+
+/// Reads, parses and validates a lights file.
+pub(crate) fn load(path: &Path) -> anyhow::Result<Vec<Light>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read lights file {}", path.display()))?;
+    parse(&text).with_context(|| format!("bad lights file {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_kind() {
+        let l = parse(
+            r#"{"lights":[
+                {"type":"point","position":[0,1,2],"intensity":[1,2,3]},
+                {"type":"spot","position":[0,1,2],"direction":[0,-1,0],"cone_deg":30,"intensity":[4,4,4]},
+                {"type":"directional","direction":[0,-1,0.5],"irradiance":[5,5,5]}]}"#,
+        )
+        .unwrap();
+        assert_eq!(l.len(), 3);
+        assert!(matches!(l[1], Light::Spot { cone_deg, .. } if cone_deg == 30.0));
+        assert!(
+            matches!(l[2], Light::Directional { irradiance, .. } if irradiance == Rgb::splat(5.0))
+        );
+    }
+
+    #[test]
+    fn refuses_bad_files_with_the_reason() {
+        for (text, needle) in [
+            (
+                r#"{"lights":[{"type":"point","position":[0,0,0],"intensity":[-1,0,0]}]}"#,
+                "negative",
+            ),
+            (
+                r#"{"lights":[{"type":"spot","position":[0,0,0],"direction":[0,0,0],"cone_deg":10,"intensity":[1,1,1]}]}"#,
+                "direction is zero",
+            ),
+            (
+                r#"{"lights":[{"type":"spot","position":[0,0,0],"direction":[0,1,0],"cone_deg":0,"intensity":[1,1,1]}]}"#,
+                "cone_deg",
+            ),
+            (
+                r#"{"lights":[{"type":"point","position":[0,0,1e39],"intensity":[1,1,1]}]}"#,
+                "infinite",
+            ),
+            (
+                r#"{"lights":[{"type":"point","position":[0,0,0],"intensty":[1,1,1]}]}"#,
+                "unknown field",
+            ),
+            (
+                r#"{"lights":[{"type":"area","position":[0,0,0]}]}"#,
+                "unknown variant",
+            ),
+            (
+                r#"{"lights":[{"type":"point","position":[0,0],"intensity":[1,1,1]}]}"#,
+                "length",
+            ),
+            (r#"{"lights": NaN}"#, "expected value"),
+            ("", "EOF"),
+        ] {
+            let err = format!("{:#}", parse(text).unwrap_err());
+            assert!(err.contains(needle), "{text}: {err}");
+            assert!(!err.contains('\n'), "{err}");
+        }
+    }
+}
