@@ -15,6 +15,7 @@ mod args;
 mod backend;
 mod bake;
 mod camera;
+mod embedded;
 mod export_dds;
 mod inspect;
 mod lights;
