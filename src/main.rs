@@ -19,6 +19,7 @@ mod embedded;
 mod export_dds;
 mod inspect;
 mod lights;
+mod picture;
 mod solve;
 mod view_factors;
 
