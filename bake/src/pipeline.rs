@@ -178,15 +178,68 @@ pub struct BakeOutput {
     pub patch_source: Vec<u32>,
 }
 
+/// The discretised system every bake starts from: patches, their closure-corrected form
+/// factors and reflectances, with the patches that see nothing removed. Independent of the
+/// bounces, format, order and sparse threshold, so one `Discretised` serves many bakes
+/// ([`bake_discretised`]) and the exact solution of the same patches
+/// (`(I − F^C)⁻¹ F`, for measuring errors).
+#[derive(Clone, Debug)]
+pub struct Discretised {
+    /// The simplification (all patches, dark ones included).
+    pub patches: Patches,
+    /// Simplification index of each matrix patch: the patches that see something.
+    pub live: Vec<usize>,
+    /// Form factors among the live patches (closure-corrected when the scene is closed).
+    pub f: Dense,
+    /// Reflectance of each live patch.
+    pub reflectance: Vec<[f64; 3]>,
+    /// The live patches as the core stores them (bake numbering).
+    pub core_patches: Vec<Patch>,
+    /// Stored channels: 3, or 1 for an all-grey scene.
+    pub channels: usize,
+    /// Decisions so far (colour, occlusion, emission, closed, dark patches).
+    pub effects: Effects,
+    /// Row sums of F and the closure correction.
+    pub closure: ClosureReport,
+    /// Shadow rays cast for the form factors.
+    pub rays_cast: u64,
+    /// Largest reciprocity error of F.
+    pub reciprocity_error: f64,
+    /// Milliseconds of `simplify`, `plan` and `form_factors`.
+    pub timings_ms: BTreeMap<&'static str, f64>,
+}
+
+impl Discretised {
+    /// Patches in the matrix.
+    pub fn len(&self) -> usize {
+        self.live.len()
+    }
+
+    /// Whether no patch is live (never true for a successful [`discretise`]).
+    pub fn is_empty(&self) -> bool {
+        self.live.is_empty()
+    }
+}
+
 /// Bakes `scene`. Errors: an empty scene, impossible parameters, a transfer that cannot converge.
 pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
+    let system = discretise(scene, params, hooks)?;
+    bake_discretised(scene, &system, params, hooks)
+}
+
+/// The first half of [`bake`]: simplify, plan, form factors, closure, dark patches (uses
+/// `params.voxel`, `params.form_factors` and `params.closure_tolerance`).
+pub fn discretise(
+    scene: &Scene,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<Discretised, BakeError> {
     let stage = |s: &str| {
         if let Some(f) = hooks.stage {
             f(s)
         }
     };
     let mut timings = BTreeMap::new();
-    let t_all = Instant::now();
     let mut clock = Instant::now();
     let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
         timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
@@ -270,9 +323,8 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
             "no patch sees any other: nothing to light".into(),
         ));
     }
-    let n = live.len();
     let f_live = Dense::new(
-        n,
+        live.len(),
         live.iter()
             .flat_map(|&i| live.iter().map(move |&j| (i, j)))
             .map(|(i, j)| f.get(i, j))
@@ -282,10 +334,57 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
         .iter()
         .map(|&i| patches.patches[i].reflectance.to_array().map(f64::from))
         .collect();
+    let core_patches: Vec<Patch> = live.iter().map(|&i| to_core_patch(&patches, i)).collect();
+    Ok(Discretised {
+        patches,
+        live,
+        f: f_live,
+        reflectance,
+        core_patches,
+        channels,
+        effects,
+        closure: ClosureReport {
+            min_row_sum: closure.min_row_sum,
+            max_row_sum: closure.max_row_sum,
+            correction,
+        },
+        rays_cast: ff.rays_cast,
+        reciprocity_error: ff.reciprocity_error,
+        timings_ms: timings,
+    })
+}
+
+/// The second half of [`bake`]: transfer, order, encode, measure, for a system from
+/// [`discretise`] (its `voxel`, `form_factors` and `closure_tolerance` params are not looked
+/// at again). Timings include the discretisation's, and `total` is theirs plus this half's.
+pub fn bake_discretised(
+    scene: &Scene,
+    system: &Discretised,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
+    let stage = |s: &str| {
+        if let Some(f) = hooks.stage {
+            f(s)
+        }
+    };
+    let mut timings = system.timings_ms.clone();
+    let t_all = Instant::now();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
+        timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
+        clock = Instant::now();
+    };
+    let mut effects = system.effects.clone();
+    let channels = system.channels;
+    let live = &system.live;
+    let n = live.len();
+    let f_live = &system.f;
+    let reflectance = &system.reflectance;
 
     stage("transfer");
     let (m, transfer) =
-        transfer_matrix(&f_live, &reflectance, channels, params.bounces).map_err(|e| match e {
+        transfer_matrix(f_live, reflectance, channels, params.bounces).map_err(|e| match e {
             TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
             other => BakeError::InvalidParams(other.to_string()),
         })?;
@@ -324,14 +423,14 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
     stage("order");
     // Every concrete order is computed and its compression error estimated on sampled blocks
     // (the report lists them all); `best` then picks among none/paper/spatial.
-    let live_patches: Vec<Patch> = live.iter().map(|&i| to_core_patch(&patches, i)).collect();
+    let live_patches = &system.core_patches;
     let dense = DenseMatrix::new(n, channels, &m);
     let order_params = OrderParams {
         seed: params.seed,
         encode: encode_params,
         ..OrderParams::default()
     };
-    let candidates = order::evaluate(&OrderKind::CONCRETE, &live_patches, dense, &order_params)
+    let candidates = order::evaluate(&OrderKind::CONCRETE, live_patches, dense, &order_params)
         .map_err(encode_error)?;
     let chosen = match params.order {
         OrderKind::Best => {
@@ -357,7 +456,7 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
 
     stage("measure");
     let rmse = relative_frobenius(&m, &matrix.decode_dense(DecodeMode::D3d10));
-    let file_patches: Vec<Patch> = order::permute_rows(&live_patches, &chosen.perm);
+    let file_patches: Vec<Patch> = order::permute_rows(live_patches, &chosen.perm);
     let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
     let lighting_error = lighting_error(&m, n, channels, &matrix, &emission);
     let mut compression_rmse: BTreeMap<String, f64> = candidates
@@ -372,6 +471,13 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
         .iter()
         .map(|&k| live[k as usize] as u32)
         .collect();
+    // The runtime mesh: full-detail triangles, corner weights and direct-light samples, in
+    // the file's patch numbering.
+    let mut file_index = vec![None; system.patches.len()];
+    for (i, &k) in patch_source.iter().enumerate() {
+        file_index[k as usize] = Some(i as u32);
+    }
+    let mesh = crate::mesh::runtime_mesh(scene, &system.patches, &file_index);
     let mut file = RadFile {
         patches: Cow::Owned(file_patches),
         order: Cow::Owned(chosen.perm.clone()),
@@ -386,10 +492,12 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
         compression_rmse: Some(rmse as f32),
         lighting_error: lighting_error.map(|e| e as f32),
         report: None,
+        mesh: Some(mesh),
     };
     let blocks = file.matrix.blocks.len();
     let sparse = file.matrix.sparse.bytes();
-    timings.insert("total", t_all.elapsed().as_secs_f64() * 1e3);
+    let discretise_ms: f64 = system.timings_ms.values().sum();
+    timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let mut report = BakeReport {
         patches: n,
         channels,
@@ -404,22 +512,18 @@ pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<Bake
             blocks,
             sparse,
         },
-        rays_cast: ff.rays_cast,
+        rays_cast: system.rays_cast,
         compression_rmse,
         lighting_error,
         effects,
-        closure: ClosureReport {
-            min_row_sum: closure.min_row_sum,
-            max_row_sum: closure.max_row_sum,
-            correction,
-        },
-        reciprocity_error: ff.reciprocity_error,
+        closure: system.closure.clone(),
+        reciprocity_error: system.reciprocity_error,
         timings_ms: timings,
         warnings: scene
             .report
             .warnings
             .iter()
-            .chain(&patches.warnings)
+            .chain(&system.patches.warnings)
             .cloned()
             .collect(),
         object_areas: scene.object_areas(),
