@@ -23,6 +23,7 @@ pub mod bvh;
 pub mod error;
 pub mod form_factor;
 pub mod kernel;
+pub mod mesh;
 mod obj;
 pub mod order;
 pub mod pipeline;

@@ -22,6 +22,7 @@ compile_error!("the .rad zero-copy parser assumes a little-endian target");
 
 use crate::checksum::{Crc32, crc32};
 use crate::layout::{Format, MatrixLayout};
+use crate::mesh::Mesh;
 use crate::{Patch, RadError, SectionKind, SparseRows, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::string::String;
@@ -184,6 +185,8 @@ pub struct RadFile<'a> {
     pub lighting_error: Option<f32>,
     /// Free text (the bake's JSON report), if any.
     pub report: Option<Cow<'a, str>>,
+    /// The full-detail mesh, if the bake stored it (runtime lights, rendering).
+    pub mesh: Option<Mesh<'a>>,
 }
 
 fn align(x: u64) -> u64 {
@@ -292,6 +295,9 @@ impl<'a> RadFile<'a> {
         if let Bounces::Finite(0) = self.bounces {
             return Err(bad(SectionKind::Meta, 0, "bounces must be at least 1"));
         }
+        if let Some(mesh) = &self.mesh {
+            mesh.validate(n, self.objects.len())?;
+        }
         self.matrix.validate()
     }
 
@@ -339,6 +345,10 @@ impl<'a> RadFile<'a> {
         ];
         if let Some(r) = &self.report {
             sections.push((SectionKind::Report, r.as_bytes()));
+        }
+        let mesh = self.mesh.as_ref().map(Mesh::to_bytes);
+        if let Some(m) = &mesh {
+            sections.push((SectionKind::Mesh, m));
         }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());
@@ -471,6 +481,9 @@ impl<'a> RadFile<'a> {
             compression_rmse: f32_to_opt(meta.compression_rmse),
             lighting_error: f32_to_opt(meta.lighting_error),
             report,
+            mesh: sec(SectionKind::Mesh)
+                .map(|m| Mesh::from_bytes(m, n as usize))
+                .transpose()?,
         };
         file.validate()?;
         Ok(file)
@@ -492,13 +505,14 @@ impl<'a> RadFile<'a> {
             compression_rmse: self.compression_rmse,
             lighting_error: self.lighting_error,
             report: self.report.map(|r| Cow::Owned(r.into_owned())),
+            mesh: self.mesh.map(Mesh::into_owned),
         }
     }
 }
 
 /// The byte-level structure of a file: the header and each known section's bytes.
 struct Structure<'a> {
-    sections: [Option<&'a [u8]>; 10],
+    sections: [Option<&'a [u8]>; SectionKind::ALL.len()],
 }
 
 fn header_checksum(header: &Header, table: &[u8]) -> u32 {
@@ -575,7 +589,7 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
             actual,
         });
     }
-    let mut sections = [None; 10];
+    let mut sections = [None; SectionKind::ALL.len()];
     let mut pos = 32 + 32 * u64::from(header.section_count);
     let mut last_kind = 0u32;
     for (i, e) in entries.iter().enumerate() {
@@ -676,7 +690,7 @@ fn expect_len(kind: SectionKind, bytes: &[u8], expected: u64) -> Result<(), RadE
 
 /// Borrows `bytes` as `[T]` when aligned, copies otherwise. The caller has checked that the
 /// length is a multiple of `size_of::<T>()`.
-fn cast<T: Pod>(bytes: &[u8]) -> Cow<'_, [T]> {
+pub(crate) fn cast<T: Pod>(bytes: &[u8]) -> Cow<'_, [T]> {
     match bytemuck::try_cast_slice(bytes) {
         Ok(s) => Cow::Borrowed(s),
         Err(_) => {

@@ -27,11 +27,13 @@ pub enum SectionKind {
     Objects = 9,
     /// Optional UTF-8 text (the bake's JSON report).
     Report = 10,
+    /// Optional full-detail mesh ([`crate::mesh::Mesh`]).
+    Mesh = 11,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 10] = [
+    pub const ALL: [SectionKind; 11] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -42,6 +44,7 @@ impl SectionKind {
         SectionKind::SparseValues,
         SectionKind::Objects,
         SectionKind::Report,
+        SectionKind::Mesh,
     ];
 
     /// The kind with this code.
@@ -51,7 +54,7 @@ impl SectionKind {
 
     /// Whether every file must have it.
     pub fn required(self) -> bool {
-        self != SectionKind::Report
+        !matches!(self, SectionKind::Report | SectionKind::Mesh)
     }
 
     /// Upper-case name used in messages.
@@ -67,6 +70,7 @@ impl SectionKind {
             SectionKind::SparseValues => "SPARSE_VALUES",
             SectionKind::Objects => "OBJECTS",
             SectionKind::Report => "REPORT",
+            SectionKind::Mesh => "MESH",
         }
     }
 }

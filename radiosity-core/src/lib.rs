@@ -48,6 +48,7 @@
 //!     compression_rmse: None,
 //!     lighting_error: None,
 //!     report: None,
+//!     mesh: None,
 //! };
 //! let bytes = file.to_bytes().unwrap();
 //! let parsed = RadFile::parse(&bytes).unwrap();
@@ -77,6 +78,7 @@ pub mod half;
 mod layout;
 mod light;
 mod math;
+pub mod mesh;
 mod patch;
 mod quantise;
 mod sparse;
@@ -96,6 +98,7 @@ pub use container::{Bounces, PatchOrder, RadFile};
 pub use error::{RadError, SectionKind};
 pub use gather::{Gather, GatherError, ReferenceGather, check_gather_args};
 pub use layout::{DEFAULT_MAX_TILE, Format, LayoutError, MatrixLayout, Tile};
+pub use mesh::{CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
 pub use light::{Light, LightError, ShadowRay, finish_frame, first_exitance};
 pub use patch::Patch;
 pub use quantise::{DEFAULT_SHIFT, LogScale};

@@ -84,6 +84,48 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         compression_rmse: Some(0.0125),
         lighting_error: None,
         report: Some(Cow::Borrowed("{\"note\":\"sample\"}")),
+        mesh: Some(sample_mesh(n)),
+    }
+}
+
+/// A small valid mesh for a file of `n ≥ 1` patches: a unit quad in z = 0 (two triangles of
+/// object 0), every corner interpolating patch 0 and, where it exists, patch `n − 1`; one
+/// direct-light sample per patch.
+pub fn sample_mesh(n: usize) -> radiosity_core::Mesh<'static> {
+    use radiosity_core::{CornerWeight, Mesh, MeshTriangle, PatchSample};
+    let tri = |vertices| MeshTriangle {
+        vertices,
+        object: 0,
+        reflectance: Rgb::new(0.7, 0.5, 0.3),
+        emission: Rgb::ZERO,
+    };
+    let last = (n - 1) as u32;
+    let mut corner_rows = vec![0u32];
+    let mut corner_weights = Vec::new();
+    for c in 0..6 {
+        if c % 2 == 0 || last == 0 {
+            corner_weights.push(CornerWeight { patch: 0, weight: 1.0 });
+        } else {
+            corner_weights.push(CornerWeight { patch: 0, weight: 0.25 });
+            corner_weights.push(CornerWeight { patch: last, weight: 0.75 });
+        }
+        corner_rows.push(corner_weights.len() as u32);
+    }
+    Mesh {
+        positions: Cow::Owned(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
+        triangles: Cow::Owned(vec![tri([0, 1, 2]), tri([0, 2, 3])]),
+        corner_rows: Cow::Owned(corner_rows),
+        corner_weights: Cow::Owned(corner_weights),
+        sample_rows: Cow::Owned((0..=n as u32).collect()),
+        samples: Cow::Owned(
+            (0..n)
+                .map(|i| PatchSample {
+                    position: [i as f32 / n as f32, 0.5, 0.0],
+                    normal: [0.0, 0.0, 1.0],
+                    area: 1.0 / n as f32,
+                })
+                .collect(),
+        ),
     }
 }
 

@@ -338,6 +338,7 @@ pub fn rad_file_around(
         compression_rmse: Some(0.125),
         lighting_error: None,
         report: report.then_some(Cow::Borrowed("{\"fuzz\":true}")),
+        mesh: None,
     }
 }
 
