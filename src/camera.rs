@@ -163,53 +163,58 @@ impl Camera {
         }
         let centre = (lo + hi) * 0.5;
         let half = ((hi - lo) * 0.5).max(DVec3::splat(1e-9 * (hi - lo).length().max(1e-30)));
-        // The side to look from: the camera sits at +d and looks along -d, so it sees the
-        // fronts of faces whose normal points along +d.
-        let sides = [DVec3::Z, DVec3::NEG_Z, DVec3::X, DVec3::NEG_X];
-        let score = |d: DVec3| -> f64 {
-            triangles
-                .iter()
-                .map(|[a, b, c]| {
-                    let n2 = (*b - *a).cross(*c - *a); // twice the area times the normal
-                    (n2.dot(d)).max(0.0)
-                })
-                .sum()
-        };
-        let d = sides
-            .into_iter()
-            .max_by(|a, b| score(*a).total_cmp(&score(*b)))
-            .expect("four sides");
         let fov_deg: f64 = 40.0;
         let aspect = f64::from(width) / f64::from(height);
-        // Half-extents across the view: vertical is y, horizontal the other horizontal axis.
-        let (across_h, depth) = if d.z != 0.0 {
-            (half.x, half.z)
-        } else {
-            (half.z, half.x)
-        };
         let tan_v = (fov_deg.to_radians() * 0.5).tan();
-        let dist = (half.y / tan_v).max(across_h / (tan_v * aspect)) * 1.05 + depth;
-        let outside = Camera {
-            position: centre + d * dist,
-            look_at: centre,
-            up: DVec3::Y,
-            fov_deg,
-            width,
-            height,
+        // The camera sits at +d outside the bounds and looks along -d.
+        let outside = |d: DVec3| -> Camera {
+            // Half-extents across the view: vertical is y, horizontal the other axis.
+            let (across_h, depth) = if d.z != 0.0 {
+                (half.x, half.z)
+            } else {
+                (half.z, half.x)
+            };
+            let dist = (half.y / tan_v).max(across_h / (tan_v * aspect)) * 1.05 + depth;
+            Camera {
+                position: centre + d * dist,
+                look_at: centre,
+                up: DVec3::Y,
+                fov_deg,
+                width,
+                height,
+            }
         };
-        // Is the first surface seen straight ahead a back face?
-        let toward = -d;
-        let sees_back = occ
-            .closest_hit(outside.position, toward, 0.0, f64::INFINITY)
-            .is_some_and(|h| {
-                let [a, b, c] = triangles[h.triangle as usize];
-                (b - a).cross(c - a).dot(toward) > 0.0
-            });
-        if !sees_back {
-            return outside;
+        // How much of the view from side d shows the fronts of surfaces: 9×9 rays, +1 for a
+        // front face, -1 for a back face (a wall seen from outside), 0 for a miss.
+        let score = |d: DVec3| -> i32 {
+            let cam = outside(d);
+            let b = cam.basis();
+            let mut s = 0;
+            for i in 0..9 {
+                for j in 0..9 {
+                    let x = (f64::from(i) + 0.5) / 9.0 * f64::from(width);
+                    let y = (f64::from(j) + 0.5) / 9.0 * f64::from(height);
+                    let dir = cam.ray(&b, x, y);
+                    if let Some(h) = occ.closest_hit(cam.position, dir, 0.0, f64::INFINITY) {
+                        let [p0, p1, p2] = triangles[h.triangle as usize];
+                        s += if (p1 - p0).cross(p2 - p0).dot(dir) < 0.0 { 1 } else { -1 };
+                    }
+                }
+            }
+            s
+        };
+        let sides = [DVec3::Z, DVec3::NEG_Z, DVec3::X, DVec3::NEG_X];
+        let (best, best_score) = sides
+            .into_iter()
+            .map(|d| (d, score(d)))
+            .fold((DVec3::Z, i32::MIN), |a, b| if b.1 > a.1 { b } else { a });
+        if best_score > 0 {
+            return outside(best);
         }
+        // A closed room shows only the backs of its walls from outside: stand inside, near
+        // the wall on the +z side, with a wider lens.
         Camera {
-            position: centre + d * depth * 0.9,
+            position: centre + DVec3::Z * half.z * 0.9,
             look_at: centre,
             up: DVec3::Y,
             fov_deg: 70.0,

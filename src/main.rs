@@ -15,11 +15,14 @@ mod args;
 mod backend;
 mod bake;
 mod camera;
+mod demo;
 mod embedded;
 mod export_dds;
 mod inspect;
 mod lights;
 mod picture;
+mod render;
+mod runtime;
 mod solve;
 mod view_factors;
 
@@ -41,6 +44,18 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Bake the embedded Cornell box and light it: writes demo.png, demo.gif and demo.rad.
+    Demo {
+        /// Directory for demo.png, demo.gif and demo.rad.
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+        #[arg(long)]
+        backend: Option<String>,
+        /// Target patch count of the bake.
+        #[arg(long, default_value_t = 2048)]
+        patches: usize,
+    },
     /// Bake an OBJ scene into a compressed transfer matrix (.rad).
     Bake {
         /// The OBJ file.
@@ -54,18 +69,49 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Light a scene by its own emitters and report per-object irradiance and radiosity.
+    /// Light a scene (its emitters, plus analytic lights) and report per-object irradiance and radiosity.
     Solve {
         /// An OBJ scene (baked first, with the bake flags) or a .rad file.
         input: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
+        /// Analytic lights (JSON: point, spot, directional) added to the scene's emitters.
+        #[arg(long, value_name = "LIGHTS.json")]
+        lights: Option<PathBuf>,
         /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
         #[arg(long)]
         backend: Option<String>,
         /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"}.
         #[arg(long)]
         json: bool,
+    },
+    /// Render an image: ray-cast direct light with shadows plus the baked indirect light.
+    Render {
+        /// An OBJ scene (baked first, with the bake flags) or a .rad file.
+        input: PathBuf,
+        #[command(flatten)]
+        bake: BakeArgs,
+        /// Analytic lights (JSON: point, spot, directional) added to the scene's emitters.
+        #[arg(long, value_name = "LIGHTS.json")]
+        lights: Option<PathBuf>,
+        /// Camera (JSON: position, look_at, up, fov_deg, width, height); default: framed automatically.
+        #[arg(long, value_name = "CAMERA.json")]
+        camera: Option<PathBuf>,
+        /// Where to write the PNG (written atomically).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Image width when the camera is framed automatically.
+        #[arg(long, default_value_t = 512)]
+        width: u32,
+        /// Image height when the camera is framed automatically.
+        #[arg(long, default_value_t = 512)]
+        height: u32,
+        /// Antialiasing: N×N camera samples per pixel (1 to 8).
+        #[arg(long, default_value_t = 2)]
+        aa: u32,
+        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+        #[arg(long)]
+        backend: Option<String>,
     },
     /// Object-to-object view factors of an OBJ scene, from its full-detail geometry.
     ViewFactors {
@@ -143,9 +189,35 @@ fn main() -> ExitCode {
         Command::Solve {
             input,
             bake,
+            lights,
             backend,
             json,
-        } => solve::run(&input, &bake, backend.as_deref(), json),
+        } => solve::run(&input, &bake, lights.as_deref(), backend.as_deref(), json),
+        Command::Demo {
+            out,
+            backend,
+            patches,
+        } => demo::run(&out, backend.as_deref(), patches),
+        Command::Render {
+            input,
+            bake,
+            lights,
+            camera,
+            output,
+            width,
+            height,
+            aa,
+            backend,
+        } => render::run(
+            &input,
+            &bake,
+            lights.as_deref(),
+            camera.as_deref(),
+            &output,
+            (width, height),
+            aa,
+            backend.as_deref(),
+        ),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),
         Command::Inspect {
             file,

@@ -1,58 +1,40 @@
 //! `radiosity solve SCENE.obj|BAKED.rad [--json]`: light a bake and report per object.
 //!
-//! First version (issue #4): the scene's own emitters are the only light. The gather is the
-//! backend chosen at run time (`--backend`, see `backend.rs`); runtime lights come with issue
-//! #5, the GPU backend with #6.
+//! Light comes from the scene's own emitters and from an optional lights file (`--lights`:
+//! direct irradiance with shadow rays through the file's mesh, see `runtime.rs`). The gather is
+//! the backend chosen at run time (`--backend`, see `backend.rs`).
 
 use crate::args::BakeArgs;
-use anyhow::Context;
 use radiosity_core::{Bounces, RadFile, Rgb, finish_frame, first_exitance};
 use serde_json::{Value, json};
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
 pub(crate) fn run(
     input: &Path,
     args: &BakeArgs,
+    lights: Option<&Path>,
     backend: Option<&str>,
     json_out: bool,
 ) -> anyhow::Result<()> {
-    let mut timings: BTreeMap<&str, f64> = BTreeMap::new();
-    let t = Instant::now();
-    let is_rad = input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("rad"));
-    let (file, effects) = if is_rad {
-        let bytes =
-            std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
-        let file = RadFile::parse(&bytes)
-            .with_context(|| format!("{} is not a valid .rad file", input.display()))?
-            .into_owned();
-        let effects = file
-            .report
-            .as_deref()
-            .and_then(|r| serde_json::from_str::<Value>(r).ok())
-            .and_then(|r| r.get("effects").cloned())
-            .unwrap_or(json!({}));
-        timings.insert("load", t.elapsed().as_secs_f64() * 1e3);
-        (file, effects)
-    } else {
-        let params = crate::bake::params(args)?;
-        let (out, load_ms) = crate::bake::bake_scene(input, &params, json_out)?;
-        timings.insert("load", load_ms);
-        timings.insert(
-            "bake",
-            out.report.timings_ms.get("total").copied().unwrap_or(0.0),
-        );
-        (out.file, serde_json::to_value(&out.report.effects)?)
+    // Read the lights first: a bad lights file fails before any bake.
+    let lights = match lights {
+        Some(p) => crate::lights::load(p)?,
+        None => Vec::new(),
     };
-
+    let crate::runtime::Loaded {
+        runtime,
+        effects,
+        mut timings,
+    } = crate::runtime::load(input, args, json_out)?;
+    let file = &runtime.file;
     let n = file.n();
-    let direct = vec![Rgb::ZERO; n]; // no runtime lights in this version
+    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
+    let t = Instant::now();
+    let direct = runtime.direct(&lights)?;
+    timings.insert("direct", t.elapsed().as_secs_f64() * 1e3);
     let mut x = vec![Rgb::ZERO; n];
     first_exitance(&file.patches, &direct, &mut x);
-    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
     let t = Instant::now();
     let mut y = vec![Rgb::ZERO; n];
     chosen.gather.gather(&x, &mut y)?;
@@ -60,10 +42,11 @@ pub(crate) fn run(
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
 
-    let objects = per_object(&file, &h, &b);
+    let objects = per_object(file, &h, &b);
     if json_out {
         let out = json!({
             "patches": n,
+            "lights": lights.len(),
             "bounces": match file.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
             "backend": chosen.kind,
             "gather": chosen.gather.name(),

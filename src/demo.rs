@@ -1,0 +1,168 @@
+//! `radiosity demo [--out DIR] [--backend auto|cpu|gpu]`: the whole product on the embedded
+//! Cornell box. Bakes it (progress bar), then lights it every frame with one gather: writes
+//! `demo.png` (the box lit by its own ceiling light) and `demo.gif` (the ceiling light off, a
+//! point light circling through the box, its colour bleeding off the walls), and prints the
+//! bake time, the file size and the per-frame times.
+
+use crate::args::BakeArgs;
+use crate::picture::LinearImage;
+use crate::runtime::Runtime;
+use anyhow::Context;
+use glam::{DVec3, Vec3};
+use radiosity_core::{Light, Rgb};
+use std::path::Path;
+use std::time::Instant;
+
+/// Frames of the animation (one turn of the light).
+const FRAMES: usize = 36;
+
+pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let scene_dir = tempfile::tempdir().context("cannot create a temporary directory")?;
+    crate::embedded::cornell_box_in(scene_dir.path())?;
+    let obj = scene_dir.path().join("CornellBox-Original.obj");
+
+    let args = BakeArgs {
+        patches: Some(patches),
+        voxel: None,
+        bounces: "auto".into(),
+        format: "auto".into(),
+        order: "best".into(),
+        sparse: None,
+    };
+    let params = crate::bake::params(&args)?;
+    eprintln!("baking the embedded Cornell box (about {patches} patches)…");
+    let t = Instant::now();
+    let (baked, _) = crate::bake::bake_scene(&obj, &params, false)?;
+    let bake_s = t.elapsed().as_secs_f64();
+    let bytes = baked.file.to_bytes()?;
+    let rad = out.join("demo.rad");
+    crate::bake::write_atomically(&rad, &bytes)?;
+    let r = &baked.report;
+    outln!(
+        "bake: {:.1} s, {} patches, {} {} order, {} bounces, lighting error {}",
+        bake_s,
+        r.patches,
+        r.format,
+        r.order,
+        serde_json::to_string(&r.bounces)?,
+        r.lighting_error
+            .map_or("n/a".into(), |e| format!("{:.2}%", 100.0 * e))
+    );
+    let dense = 4.0 * 3.0 * (r.patches as f64).powi(2);
+    outln!(
+        "file: {} ({:.2} MB; a dense f32 RGB matrix would be {:.1} MB, {:.1}x more)",
+        rad.display(),
+        bytes.len() as f64 / 1e6,
+        dense / 1e6,
+        dense / bytes.len() as f64
+    );
+
+    let rt = Runtime::new(baked.file);
+    let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
+
+    // demo.png: the box by its own light.
+    let cam = crate::render::camera(&rt, None, 512, 512)?;
+    let t = Instant::now();
+    let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &[], 1.0)?;
+    let prim = crate::render::primary(&rt, &cam, 2)?;
+    let img = crate::render::shade(&rt, &prim, &frame, &[], 1.0)?;
+    let png = out.join("demo.png");
+    img.save_png(&png, img.auto_exposure())?;
+    outln!(
+        "{}: 512×512, gather {:.2} ms, image {:.0} ms",
+        png.display(),
+        gather_ms,
+        t.elapsed().as_secs_f64() * 1e3 - gather_ms
+    );
+
+    // demo.gif: ceiling light off, a point light circling under the ceiling.
+    let (lo, hi) = bounds(&rt)?;
+    let (centre, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
+    let cam = crate::render::camera(&rt, None, 256, 256)?;
+    let prim = crate::render::primary(&rt, &cam, 1)?;
+    let mut gathers = Vec::with_capacity(FRAMES);
+    let mut frames_ms = Vec::with_capacity(FRAMES);
+    let mut images: Vec<LinearImage> = Vec::with_capacity(FRAMES);
+    for f in 0..FRAMES {
+        let a = std::f64::consts::TAU * f as f64 / FRAMES as f64;
+        let p = DVec3::new(
+            centre.x + 0.55 * half.x * a.cos(),
+            lo.y + 1.55 * half.y,
+            centre.z + 0.55 * half.z * a.sin(),
+        );
+        let lights = [Light::Point {
+            position: p.as_vec3(),
+            // W/sr: a warm white bulb bright enough to light the box like its ceiling light.
+            intensity: Rgb::new(3.0, 2.6, 2.0),
+        }];
+        let t = Instant::now();
+        let (frame, g) = rt.frame(chosen.gather.as_mut(), &lights, 0.0)?;
+        frames_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        gathers.push(g);
+        images.push(crate::render::shade(&rt, &prim, &frame, &lights, 0.0)?);
+    }
+    // One exposure for the whole animation, so that brightness changes are real.
+    let mut exposures: Vec<f32> = images.iter().map(LinearImage::auto_exposure).collect();
+    exposures.sort_by(f32::total_cmp);
+    let exposure = exposures[exposures.len() / 2];
+    let gif = out.join("demo.gif");
+    write_gif(&gif, &images, exposure)?;
+    outln!(
+        "{}: {} frames 256×256, per frame: gather {:.2} ms ({}), direct light + gather {:.2} ms (medians)",
+        gif.display(),
+        FRAMES,
+        median(&mut gathers),
+        chosen.gather.name(),
+        median(&mut frames_ms)
+    );
+    Ok(())
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
+    let mesh = rt.mesh("the demo")?;
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in mesh.positions.iter() {
+        let p = Vec3::from(*p).as_dvec3();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    Ok((lo, hi))
+}
+
+/// Writes an animated GIF (looping, 80 ms per frame) atomically.
+fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Result<()> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    use image::{Delay, Frame};
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let tmp = tempfile::Builder::new()
+        .prefix(".radiosity-")
+        .suffix(".gif")
+        .tempfile_in(dir)
+        .with_context(|| format!("cannot write in {}", dir.display()))?;
+    {
+        let mut enc = GifEncoder::new_with_speed(std::io::BufWriter::new(tmp.as_file()), 10);
+        enc.set_repeat(Repeat::Infinite)?;
+        for img in images {
+            let rgba = image::DynamicImage::ImageRgb8(img.to_srgb8(exposure)).to_rgba8();
+            enc.encode_frame(Frame::from_parts(
+                rgba,
+                0,
+                0,
+                Delay::from_numer_denom_ms(80, 1),
+            ))
+            .with_context(|| format!("cannot encode {}", path.display()))?;
+        }
+    }
+    tmp.persist(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}

@@ -1,0 +1,178 @@
+//! `radiosity render SCENE.obj|BAKED.rad [--lights L] [--camera C] -o OUT.png`: a CPU ray-cast
+//! pinhole camera over the file's full-detail mesh. Per pixel: direct light from the analytic
+//! lights with a shadow ray at the exact hit point, plus the gathered (indirect and
+//! emitter) irradiance interpolated from the patches through the mesh's corner weights;
+//! radiance `(E + ρ∘H)/π`, tone mapped to sRGB.
+
+use crate::camera::Camera;
+use crate::picture::LinearImage;
+use crate::runtime::{Frame, Runtime};
+use glam::{DVec3, Vec3};
+use radiosity_core::{Light, Rgb};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// What a camera sample sees first: the mesh triangle, where on it, and whether its front
+/// faces the camera.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SampleHit {
+    triangle: u32,
+    u: f32,
+    v: f32,
+    point: DVec3,
+    normal: DVec3,
+}
+
+/// Primary visibility of an image: `spp_side²` stratified samples per pixel, cached so that
+/// a static camera pays for it once however many frames it shows.
+pub(crate) struct Primary {
+    width: u32,
+    height: u32,
+    per_pixel: usize,
+    /// `width·height·per_pixel` entries; `None` for a miss or a back face.
+    hits: Vec<Option<SampleHit>>,
+}
+
+/// Casts the camera's primary rays into the runtime's mesh.
+pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Result<Primary> {
+    let mesh = rt.mesh("rendering")?;
+    let occ = rt.occluders().expect("a mesh has a BVH");
+    let basis = cam.basis();
+    let side = spp_side.max(1);
+    let per_pixel = (side * side) as usize;
+    let (w, h) = (cam.width, cam.height);
+    let hits = (0..(w as usize * h as usize * per_pixel))
+        .into_par_iter()
+        .map(|k| {
+            let pixel = k / per_pixel;
+            let s = (k % per_pixel) as u32;
+            let (px, py) = ((pixel % w as usize) as f64, (pixel / w as usize) as f64);
+            let (sx, sy) = (
+                (f64::from(s % side) + 0.5) / f64::from(side),
+                (f64::from(s / side) + 0.5) / f64::from(side),
+            );
+            let dir = cam.ray(&basis, px + sx, py + sy);
+            let hit = occ.closest_hit(cam.position, dir, 0.0, f64::INFINITY)?;
+            let t = hit.triangle as usize;
+            let [a, b, c] = mesh.corners(t).map(|p| Vec3::from(p).as_dvec3());
+            let normal = (b - a).cross(c - a).normalize_or_zero();
+            if normal.dot(dir) >= 0.0 {
+                return None; // the back of a one-sided surface sends nothing
+            }
+            Some(SampleHit {
+                triangle: hit.triangle,
+                u: hit.u,
+                v: hit.v,
+                point: cam.position + dir * hit.distance,
+                normal,
+            })
+        })
+        .collect();
+    Ok(Primary {
+        width: w,
+        height: h,
+        per_pixel,
+        hits,
+    })
+}
+
+/// Shades a frame: radiance `(s·E + ρ∘(H_d + y))/π` per sample, averaged per pixel.
+pub(crate) fn shade(
+    rt: &Runtime,
+    primary: &Primary,
+    frame: &Frame,
+    lights: &[Light],
+    emission: f32,
+) -> anyhow::Result<LinearImage> {
+    let mesh = rt.mesh("rendering")?;
+    let mut img = LinearImage::new(primary.width, primary.height);
+    let inv = 1.0 / primary.per_pixel as f32;
+    img.pixels
+        .par_iter_mut()
+        .zip(primary.hits.par_chunks(primary.per_pixel))
+        .for_each(|(px, samples)| {
+            let mut acc = Rgb::ZERO;
+            for s in samples.iter().flatten() {
+                let tri = &mesh.triangles[s.triangle as usize];
+                let indirect = mesh.interpolate(s.triangle as usize, s.u, s.v, &frame.gathered);
+                let direct = rt.direct_at(lights, s.point, s.normal);
+                let b = tri.emission * emission + tri.reflectance * (direct + indirect);
+                acc += b * (1.0 / std::f32::consts::PI);
+            }
+            let c = acc * inv;
+            *px = Vec3::new(c.r, c.g, c.b);
+        });
+    Ok(img)
+}
+
+/// The camera: from a file, else framed automatically at `width × height`.
+pub(crate) fn camera(
+    rt: &Runtime,
+    file: Option<&Path>,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<Camera> {
+    if let Some(p) = file {
+        return Camera::load(p);
+    }
+    let mesh = rt.mesh("rendering")?;
+    let tris: Vec<[DVec3; 3]> = (0..mesh.triangles.len())
+        .map(|t| mesh.corners(t).map(|c| Vec3::from(c).as_dvec3()))
+        .collect();
+    let cam = Camera::frame(&tris, rt.occluders().expect("a mesh has a BVH"), width, height);
+    cam.validate()?;
+    Ok(cam)
+}
+
+/// The `render` command.
+pub(crate) fn run(
+    input: &Path,
+    args: &crate::args::BakeArgs,
+    lights: Option<&Path>,
+    camera_file: Option<&Path>,
+    output: &Path,
+    size: (u32, u32),
+    spp_side: u32,
+    backend: Option<&str>,
+) -> anyhow::Result<()> {
+    if !(1..=8).contains(&spp_side) {
+        anyhow::bail!("--aa must be 1 to 8 (samples per pixel side), not {spp_side}");
+    }
+    for (name, s) in [("--width", size.0), ("--height", size.1)] {
+        if s == 0 || s > crate::camera::MAX_SIDE {
+            anyhow::bail!("{name} must be 1 to {} pixels, not {s}", crate::camera::MAX_SIDE);
+        }
+    }
+    let lights = match lights {
+        Some(p) => crate::lights::load(p)?,
+        None => Vec::new(),
+    };
+    let cam_from_file = match camera_file {
+        Some(p) => Some(Camera::load(p)?),
+        None => None,
+    };
+    let loaded = crate::runtime::load(input, args, false)?;
+    let rt = &loaded.runtime;
+    rt.mesh("rendering")?;
+    let cam = match cam_from_file {
+        Some(c) => c,
+        None => camera(rt, None, size.0, size.1)?,
+    };
+    let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
+    let t = std::time::Instant::now();
+    let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &lights, 1.0)?;
+    let frame_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = std::time::Instant::now();
+    let prim = primary(rt, &cam, spp_side)?;
+    let img = shade(rt, &prim, &frame, &lights, 1.0)?;
+    let render_ms = t.elapsed().as_secs_f64() * 1e3;
+    img.save_png(output, img.auto_exposure())?;
+    eprintln!(
+        "wrote {} ({}×{}, {} samples/pixel): frame {frame_ms:.1} ms (gather {gather_ms:.2} ms), image {render_ms:.0} ms",
+        output.display(),
+        cam.width,
+        cam.height,
+        spp_side * spp_side
+    );
+    Ok(())
+}

@@ -1,0 +1,330 @@
+//! Runtime lighting around the gather (DESIGN.md "Conventions", runtime per frame):
+//! analytic lights → direct irradiance per patch with shadow rays through a BVH over the
+//! file's full-detail mesh → first exitance → gather → total irradiance and radiosity, and
+//! indirect light interpolated to any point of the mesh.
+
+use anyhow::{Context, bail};
+use glam::{DVec3, Vec3};
+use radiosity_bake::bvh::Occluders;
+use radiosity_core::{Gather, Light, Mesh, RadFile, Rgb, finish_frame, first_exitance};
+
+/// A baked scene ready to light: the file, and the BVH over its mesh when it has one.
+pub(crate) struct Runtime {
+    pub(crate) file: RadFile<'static>,
+    occluders: Option<Occluders>,
+}
+
+/// One frame's per-patch quantities (matrix numbering).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Frame {
+    /// Direct irradiance from the analytic lights, H_d.
+    pub(crate) direct: Vec<Rgb>,
+    /// First exitance x = s·E + ρ∘H_d.
+    pub(crate) exitance: Vec<Rgb>,
+    /// Gathered (indirect, and emitter-direct) irradiance y = M·x.
+    pub(crate) gathered: Vec<Rgb>,
+    /// Total irradiance H = H_d + y.
+    pub(crate) irradiance: Vec<Rgb>,
+    /// Radiosity B = s·E + ρ∘H.
+    pub(crate) radiosity: Vec<Rgb>,
+}
+
+impl Runtime {
+    /// Wraps a file, building the BVH over its mesh (if any).
+    pub(crate) fn new(file: RadFile<'static>) -> Self {
+        let occluders = file.mesh.as_ref().map(|m| {
+            let tris: Vec<[DVec3; 3]> = (0..m.triangles.len())
+                .map(|t| m.corners(t).map(|c| Vec3::from(c).as_dvec3()))
+                .collect();
+            Occluders::from_triangles(&tris)
+        });
+        Self { file, occluders }
+    }
+
+    /// Patches.
+    pub(crate) fn n(&self) -> usize {
+        self.file.n()
+    }
+
+    /// The mesh, or an error saying why it is needed.
+    pub(crate) fn mesh(&self, why: &str) -> anyhow::Result<&Mesh<'static>> {
+        self.file.mesh.as_ref().with_context(|| {
+            format!("this .rad file has no mesh section ({why} needs one); bake it again with this version")
+        })
+    }
+
+    /// The BVH over the mesh, if the file has one.
+    pub(crate) fn occluders(&self) -> Option<&Occluders> {
+        self.occluders.as_ref()
+    }
+
+    /// Direct irradiance at a point with unit `normal` from every light, shadow rays through
+    /// the mesh (or unshadowed when the file has no mesh — callers refuse that case first).
+    pub(crate) fn direct_at(&self, lights: &[Light], point: DVec3, normal: DVec3) -> Rgb {
+        let mut h = Rgb::ZERO;
+        for l in lights {
+            let Some((e, ray)) = l.irradiance_at(point.as_vec3(), normal.as_vec3()) else {
+                continue;
+            };
+            let visible = match &self.occluders {
+                None => true,
+                Some(occ) => {
+                    // A directional light's segment runs past the scene's far side.
+                    let dist = if ray.distance.is_finite() {
+                        f64::from(ray.distance)
+                    } else {
+                        2.0 * occ.extent() + (point.length())
+                    };
+                    let end = point + ray.direction.as_dvec3() * dist;
+                    occ.segment_visible(point, end)
+                }
+            };
+            if visible {
+                h += e;
+            }
+        }
+        h
+    }
+
+    /// Direct irradiance per patch: the area-weighted mean over the patch's samples (one per
+    /// piece of the full-detail surface inside the patch), so that a shadow edge crossing a
+    /// patch dims it in proportion.
+    pub(crate) fn direct(&self, lights: &[Light]) -> anyhow::Result<Vec<Rgb>> {
+        let n = self.n();
+        if lights.is_empty() {
+            return Ok(vec![Rgb::ZERO; n]);
+        }
+        let mesh = self.mesh("lighting from a lights file")?;
+        use rayon::prelude::*;
+        Ok((0..n)
+            .into_par_iter()
+            .map(|p| {
+                let mut acc = Rgb::ZERO;
+                let mut area = 0.0f32;
+                for s in mesh.samples_of(p) {
+                    let pos = Vec3::from(s.position).as_dvec3();
+                    let nrm = Vec3::from(s.normal).as_dvec3();
+                    acc += self.direct_at(lights, pos, nrm) * s.area;
+                    area += s.area;
+                }
+                if area > 0.0 { acc * (1.0 / area) } else { acc }
+            })
+            .collect())
+    }
+
+    /// A whole frame: direct light, first exitance (emitters scaled by `emission`), gather,
+    /// totals.
+    pub(crate) fn frame(
+        &self,
+        gather: &mut dyn Gather,
+        lights: &[Light],
+        emission: f32,
+    ) -> anyhow::Result<(Frame, f64)> {
+        if !(emission.is_finite() && emission >= 0.0) {
+            bail!("emission scale must be finite and non-negative, not {emission}");
+        }
+        let n = self.n();
+        let direct = self.direct(lights)?;
+        let scaled: Vec<radiosity_core::Patch>;
+        let patches: &[radiosity_core::Patch] = if emission == 1.0 {
+            &self.file.patches
+        } else {
+            scaled = self
+                .file
+                .patches
+                .iter()
+                .map(|p| radiosity_core::Patch {
+                    emission: p.emission * emission,
+                    ..*p
+                })
+                .collect();
+            &scaled
+        };
+        let mut f = Frame {
+            direct,
+            exitance: vec![Rgb::ZERO; n],
+            gathered: vec![Rgb::ZERO; n],
+            irradiance: vec![Rgb::ZERO; n],
+            radiosity: vec![Rgb::ZERO; n],
+        };
+        first_exitance(patches, &f.direct, &mut f.exitance);
+        let t = std::time::Instant::now();
+        gather.gather(&f.exitance, &mut f.gathered)?;
+        let gather_ms = t.elapsed().as_secs_f64() * 1e3;
+        finish_frame(
+            patches,
+            &f.direct,
+            &f.gathered,
+            &mut f.irradiance,
+            &mut f.radiosity,
+        );
+        Ok((f, gather_ms))
+    }
+}
+
+/// A scene ready for the runtime, from a `.rad` file or baked from an OBJ on the spot.
+pub(crate) struct Loaded {
+    pub(crate) runtime: Runtime,
+    /// The bake's effect plan (`{}` when the file has no report).
+    pub(crate) effects: serde_json::Value,
+    /// Milliseconds spent loading, and baking when the input was an OBJ.
+    pub(crate) timings: std::collections::BTreeMap<&'static str, f64>,
+}
+
+/// Loads `input`: a `.rad` file, or an OBJ scene baked with `args` (progress bar unless
+/// `quiet`).
+pub(crate) fn load(
+    input: &std::path::Path,
+    args: &crate::args::BakeArgs,
+    quiet: bool,
+) -> anyhow::Result<Loaded> {
+    use serde_json::{Value, json};
+    let mut timings = std::collections::BTreeMap::new();
+    let t = std::time::Instant::now();
+    let is_rad = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("rad"));
+    let (file, effects) = if is_rad {
+        let bytes =
+            std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
+        let file = RadFile::parse(&bytes)
+            .with_context(|| format!("{} is not a valid .rad file", input.display()))?
+            .into_owned();
+        let effects = file
+            .report
+            .as_deref()
+            .and_then(|r| serde_json::from_str::<Value>(r).ok())
+            .and_then(|r| r.get("effects").cloned())
+            .unwrap_or(json!({}));
+        timings.insert("load", t.elapsed().as_secs_f64() * 1e3);
+        (file, effects)
+    } else {
+        let params = crate::bake::params(args)?;
+        let (out, load_ms) = crate::bake::bake_scene(input, &params, quiet)?;
+        timings.insert("load", load_ms);
+        timings.insert(
+            "bake",
+            out.report.timings_ms.get("total").copied().unwrap_or(0.0),
+        );
+        (out.file, serde_json::to_value(&out.report.effects)?)
+    };
+    Ok(Loaded {
+        runtime: Runtime::new(file),
+        effects,
+        timings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use radiosity_core::{
+        Bounces, CornerWeight, DEFAULT_MAX_TILE, Format, MatrixLayout, MeshTriangle, PatchOrder,
+        PatchSample, SparseRows, TransferMatrix,
+    };
+    use std::borrow::Cow;
+
+    /// One patch: a unit floor quad at y = 0 facing up, with a zero matrix; optionally a
+    /// blocker quad at y = 1 (facing down) over half of it.
+    fn floor(blocker: bool) -> Runtime {
+        let layout = MatrixLayout::new(1, 1, Format::F32, DEFAULT_MAX_TILE).unwrap();
+        let mut positions = vec![[0., 0., 0.], [0., 0., 1.], [1., 0., 1.], [1., 0., 0.]];
+        let mut triangles = vec![[0u32, 1, 2], [0, 2, 3]];
+        if blocker {
+            positions.extend([[0., 1., 0.], [0.5, 1., 0.], [0.5, 1., 1.], [0., 1., 1.]]);
+            triangles.extend([[4u32, 5, 6], [4, 6, 7]]);
+        }
+        let nt = triangles.len();
+        let mesh = Mesh {
+            positions: Cow::Owned(positions),
+            triangles: Cow::Owned(
+                triangles
+                    .into_iter()
+                    .map(|vertices| MeshTriangle {
+                        vertices,
+                        object: 0,
+                        reflectance: Rgb::splat(0.5),
+                        emission: Rgb::ZERO,
+                    })
+                    .collect(),
+            ),
+            corner_rows: Cow::Owned((0..=3 * nt as u32).collect()),
+            corner_weights: Cow::Owned(vec![
+                CornerWeight {
+                    patch: 0,
+                    weight: 1.0
+                };
+                3 * nt
+            ]),
+            sample_rows: Cow::Owned(vec![0, 2]),
+            samples: Cow::Owned(vec![
+                PatchSample {
+                    position: [0.25, 0.0, 0.5],
+                    normal: [0.0, 1.0, 0.0],
+                    area: 0.5,
+                },
+                PatchSample {
+                    position: [0.75, 0.0, 0.5],
+                    normal: [0.0, 1.0, 0.0],
+                    area: 0.5,
+                },
+            ]),
+        };
+        let file = RadFile {
+            patches: Cow::Owned(vec![radiosity_core::Patch {
+                centre: [0.5, 0.0, 0.5],
+                area: 1.0,
+                normal: [0.0, 1.0, 0.0],
+                object: 0,
+                reflectance: Rgb::splat(0.5),
+                emission: Rgb::ZERO,
+            }]),
+            order: Cow::Owned(vec![0]),
+            matrix: TransferMatrix {
+                layout,
+                scales: Cow::Owned(vec![]),
+                blocks: Cow::Owned(vec![0; 64]),
+                sparse: SparseRows::empty(1),
+            },
+            objects: vec![Cow::Borrowed("floor")],
+            bounces: Bounces::Infinite,
+            patch_order: PatchOrder::Natural,
+            compression_rmse: None,
+            lighting_error: None,
+            report: None,
+            mesh: Some(mesh),
+        };
+        file.validate().unwrap();
+        Runtime::new(file)
+    }
+
+    #[test]
+    fn direct_light_follows_the_inverse_square_law_and_shadows_halve_it() {
+        let light = [Light::Point {
+            position: Vec3::new(0.5, 2.0, 0.5),
+            intensity: Rgb::splat(8.0),
+        }];
+        let open = floor(false).direct(&light).unwrap()[0];
+        // Samples at horizontal distance 0.25, height 2: E = I·cos/r² = I·h/r³.
+        let r2: f32 = 0.25 * 0.25 + 4.0;
+        let expect = 8.0 * 2.0 / (r2 * r2.sqrt());
+        assert!((open.r - expect).abs() < 1e-5 * expect, "{open:?} vs {expect}");
+        // The blocker (x < 0.5 at y = 1) shadows exactly the sample at x = 0.25.
+        let shadowed = floor(true).direct(&light).unwrap()[0];
+        assert!((shadowed.r - expect / 2.0).abs() < 1e-5 * expect, "{shadowed:?}");
+    }
+
+    #[test]
+    fn lights_need_a_mesh() {
+        let mut rt = floor(false);
+        rt.file.mesh = None;
+        let rt = Runtime::new(rt.file);
+        let light = [Light::Directional {
+            direction: Vec3::NEG_Y,
+            irradiance: Rgb::splat(1.0),
+        }];
+        let err = rt.direct(&light).unwrap_err().to_string();
+        assert!(err.contains("no mesh section"), "{err}");
+        assert_eq!(rt.direct(&[]).unwrap(), vec![Rgb::ZERO]);
+    }
+}
