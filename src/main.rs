@@ -20,6 +20,7 @@ mod embedded;
 mod export_dds;
 mod inspect;
 mod lights;
+mod pathtrace;
 mod picture;
 mod render;
 mod runtime;
@@ -121,6 +122,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Reference Monte-Carlo path tracing: per-object irradiance with standard errors, and an image.
+    Pathtrace(pathtrace::PathtraceArgs),
     /// Print what a .rad file holds: sizes, format, order, effects, error estimates.
     Inspect {
         /// The .rad file.
@@ -219,6 +222,7 @@ fn main() -> ExitCode {
             backend.as_deref(),
         ),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),
+        Command::Pathtrace(args) => pathtrace::run(&args),
         Command::Inspect {
             file,
             json,

@@ -1,5 +1,7 @@
 //! The command line end to end: exit status, one-line errors, JSON shapes.
 
+mod pathtrace;
+
 use radiosity_core::Format;
 use radiosity_tests::fixtures::sample_file;
 use std::path::Path;

@@ -1,0 +1,161 @@
+//! `radiosity pathtrace SCENE.obj [--lights F] [--samples N] [--seed S] [--json]
+//! [--camera CAMERA.json] [-o IMAGE.png] [--spp N]`: the reference solution of a scene, per
+//! object with standard errors, and optionally an image.
+
+use super::{ObjectEstimate, PathTracer};
+use crate::camera::Camera;
+use anyhow::{Context, bail};
+use clap::Args;
+use radiosity_bake::scene::Scene;
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Largest `--samples` accepted: 2^32 paths per object would take days, a typo not a wish.
+const MAX_SAMPLES: usize = 1 << 32;
+
+/// The flags of `radiosity pathtrace`.
+#[derive(Args, Clone, Debug)]
+pub(crate) struct PathtraceArgs {
+    /// The OBJ file.
+    scene: PathBuf,
+    /// Analytic lights (JSON, see DESIGN.md); the scene's own emitters always shine.
+    #[arg(long)]
+    lights: Option<PathBuf>,
+    /// Sample points (one path each) per object; the standard error falls as 1/√N.
+    #[arg(long, default_value_t = 16384)]
+    samples: usize,
+    /// Seed of the random numbers: the same seed gives the same numbers on any thread count.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print JSON: {"samples_per_object", "seed", "objects":[{"name", "area", "irradiance",
+    /// "radiosity", "stderr", "radiosity_stderr"}], "image", "timings_ms"}.
+    #[arg(long)]
+    json: bool,
+    /// Camera file (JSON) for the image; without one the camera frames the scene (512×512).
+    #[arg(long)]
+    camera: Option<PathBuf>,
+    /// Also render an image (tone-mapped PNG, automatic exposure).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Paths per pixel of the image [default: 64].
+    #[arg(long)]
+    spp: Option<u32>,
+}
+
+pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
+    if args.samples < 2 {
+        bail!(
+            "--samples must be at least 2 (a standard error needs two), not {}",
+            args.samples
+        );
+    }
+    if args.samples > MAX_SAMPLES {
+        bail!(
+            "--samples must be at most {MAX_SAMPLES}, not {}",
+            args.samples
+        );
+    }
+    if args.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    if args.output.is_none() && (args.camera.is_some() || args.spp.is_some()) {
+        bail!("--camera and --spp describe the image: give -o IMAGE.png too");
+    }
+    let camera = args.camera.as_deref().map(Camera::load).transpose()?;
+    let lights = match &args.lights {
+        Some(p) => crate::lights::load(p)?,
+        None => Vec::new(),
+    };
+
+    let mut timings = serde_json::Map::new();
+    let mut lap = |name: &str, t: Instant| {
+        timings.insert(name.into(), json!(t.elapsed().as_secs_f64() * 1e3));
+    };
+    let t = Instant::now();
+    let scene = Scene::load_obj(&args.scene).context("cannot load the scene")?;
+    for w in &scene.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    lap("load", t);
+    let t = Instant::now();
+    let tracer = PathTracer::new(&scene, &lights)?;
+    lap("build", t);
+    let t = Instant::now();
+    let objects = tracer.object_irradiance(args.samples, args.seed);
+    lap("objects", t);
+
+    let mut image = serde_json::Value::Null;
+    if let Some(out) = &args.output {
+        let camera = camera.unwrap_or_else(|| {
+            Camera::frame(&tracer.triangle_corners(), tracer.occluders(), 512, 512)
+        });
+        let spp = args.spp.unwrap_or(64);
+        let t = Instant::now();
+        let img = tracer.render(&camera, spp, args.seed);
+        lap("render", t);
+        img.save_png(out, img.auto_exposure())?;
+        image = json!({
+            "path": out.display().to_string(),
+            "width": camera.width,
+            "height": camera.height,
+            "spp": spp,
+        });
+    }
+
+    if args.json {
+        let out = json!({
+            "samples_per_object": args.samples,
+            "seed": args.seed,
+            "lights": lights.len(),
+            "objects": objects.iter().map(object_json).collect::<Vec<_>>(),
+            "image": image,
+            "timings_ms": timings,
+        });
+        outln!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        outln!(
+            "{} (path traced, {} samples per object, seed {}, {:.0} ms)",
+            args.scene.display(),
+            args.samples,
+            args.seed,
+            timings["objects"].as_f64().unwrap_or(0.0)
+        );
+        outln!(
+            "{:<24} {:>12} {:>52} {:>36}",
+            "object",
+            "area",
+            "irradiance W/m² (r g b) ± standard error",
+            "radiosity W/m² (r g b)"
+        );
+        for o in &objects {
+            let h: Vec<String> = (0..3)
+                .map(|c| format!("{:>9.4} ±{:<7.2e}", o.irradiance[c], o.stderr[c]))
+                .collect();
+            let b: Vec<String> = o.radiosity.iter().map(|v| format!("{v:>11.4}")).collect();
+            outln!(
+                "{:<24} {:>12.5} {} {}",
+                o.name,
+                o.area,
+                h.join(" "),
+                b.join(" ")
+            );
+        }
+        if let Some(out) = &args.output {
+            outln!("image: {}", out.display());
+        }
+    }
+    Ok(())
+}
+
+/// The `solve --json` object shape plus the standard errors.
+fn object_json(o: &ObjectEstimate) -> serde_json::Value {
+    json!({
+        "name": o.name,
+        "area": o.area,
+        "irradiance": o.irradiance,
+        "radiosity": o.radiosity,
+        "stderr": o.stderr,
+        "radiosity_stderr": o.radiosity_stderr,
+    })
+}
