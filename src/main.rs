@@ -14,6 +14,7 @@ macro_rules! outln {
 mod args;
 mod backend;
 mod bake;
+mod bench;
 mod camera;
 mod demo;
 mod embedded;
@@ -124,6 +125,19 @@ enum Command {
     },
     /// Reference Monte-Carlo path tracing: per-object irradiance with standard errors, and an image.
     Pathtrace(pathtrace::PathtraceArgs),
+    /// Time the gather in every format against its peers (faer, Jacobi, LU) on the embedded
+    /// Cornell box, with errors and a roofline.
+    Bench {
+        /// Target patch count.
+        #[arg(long, default_value_t = 4096)]
+        patches: usize,
+        /// Timed calls per method (default: about 0.8 s of calls each, 7 to 201).
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Print JSON: {"patches", "rows":[{"method", "ms", "bytes", "rel_error", …}], …}.
+        #[arg(long)]
+        json: bool,
+    },
     /// Print what a .rad file holds: sizes, format, order, effects, error estimates.
     Inspect {
         /// The .rad file.
@@ -222,6 +236,11 @@ fn main() -> ExitCode {
             backend.as_deref(),
         ),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),
+        Command::Bench {
+            patches,
+            runs,
+            json,
+        } => bench::run(patches, json, runs),
         Command::Pathtrace(args) => pathtrace::run(&args),
         Command::Inspect {
             file,

@@ -8,63 +8,16 @@
 //! Run: `cargo bench -p radiosity-benches --bench gather`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use faer::{Accum, Mat, Par};
 use radiosity_backend_cpu::{CpuGather, SimdPath};
 use radiosity_bake::encode::{EncodeParams, encode_dense};
+use radiosity_benches::peers::{FaerDense, dense_rgb};
+use radiosity_benches::timing::{median, ms};
 use radiosity_core::{DecodeMode, Format, Gather, Rgb, TransferMatrix};
 use radiosity_tests::fixtures::{SplitMix64, transfer_like_matrix};
-use rayon::prelude::*;
 use std::hint::black_box;
-use std::time::{Duration, Instant};
-use wide::f32x8;
+use std::time::Instant;
 
 const N: usize = 4096;
-
-/// Dense row-major RGB mat-vec, channels interleaved (`m[(r·n + c)·3 + k]`), rayon over rows,
-/// `f32x8` over 8 columns (24 floats) at a time.
-fn dense_rgb(n: usize, m: &[f32], x: &[f32], y: &mut [Rgb]) {
-    y.par_iter_mut().enumerate().for_each(|(r, y)| {
-        let row = &m[r * n * 3..(r + 1) * n * 3];
-        let mut acc = [f32x8::ZERO; 3];
-        let (rows24, rest) = row.split_at(n / 8 * 24);
-        for (mc, xc) in rows24.chunks_exact(24).zip(x.chunks_exact(24)) {
-            for v in 0..3 {
-                let a: [f32; 8] = mc[8 * v..8 * v + 8].try_into().unwrap();
-                let b: [f32; 8] = xc[8 * v..8 * v + 8].try_into().unwrap();
-                acc[v] = f32x8::from(a).mul_add(f32x8::from(b), acc[v]);
-            }
-        }
-        let mut s = [0f32; 3];
-        for (v, a) in acc.iter().enumerate() {
-            for (i, l) in a.to_array().iter().enumerate() {
-                s[(8 * v + i) % 3] += l;
-            }
-        }
-        let tail = &x[n / 8 * 24..];
-        for (i, (a, b)) in rest.iter().zip(tail).enumerate() {
-            s[i % 3] += a * b;
-        }
-        *y = Rgb::from_array(s);
-    });
-}
-
-/// Median wall time of `runs` calls.
-fn median(runs: usize, mut f: impl FnMut()) -> Duration {
-    f();
-    let mut t: Vec<Duration> = (0..runs)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed()
-        })
-        .collect();
-    t.sort();
-    t[runs / 2]
-}
-
-fn ms(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
 
 fn bench(c: &mut Criterion) {
     let t0 = Instant::now();
@@ -95,30 +48,12 @@ fn bench(c: &mut Criterion) {
 
     // The dense peers use the BC1 matrix decoded (blocks + sparse), as the issue compares.
     let decoded = matrices[0].1.decode_dense(DecodeMode::D3d10);
-    let faer_m: Vec<Mat<f32>> = (0..3)
-        .map(|k| Mat::from_fn(N, N, |r, c| decoded[(r * N + c) * 3 + k]))
-        .collect();
-    let faer_x: Vec<Mat<f32>> = (0..3)
-        .map(|k| Mat::from_fn(N, 1, |r, _| x_flat[r * 3 + k]))
-        .collect();
-    let mut faer_y: Vec<Mat<f32>> = (0..3).map(|_| Mat::zeros(N, 1)).collect();
-    let faer_run = |fy: &mut [Mat<f32>]| {
-        for k in 0..3 {
-            faer::linalg::matmul::matmul(
-                &mut fy[k],
-                Accum::Replace,
-                &faer_m[k],
-                &faer_x[k],
-                1.0,
-                Par::rayon(0),
-            );
-        }
-    };
+    let mut faer = FaerDense::new(N, 3, &decoded);
 
     let mut summary = Vec::new();
     let runs = 31;
     let t_dense = median(runs, || dense_rgb(N, &decoded, &x_flat, &mut y));
-    let t_faer = median(runs, || faer_run(&mut faer_y));
+    let t_faer = median(runs, || faer.gather(&x, &mut y).unwrap());
     summary.push(("dense f32 rgb (rayon+wide)".to_string(), t_dense));
     summary.push(("dense f32 rgb (faer)".to_string(), t_faer));
 
@@ -127,7 +62,9 @@ fn bench(c: &mut Criterion) {
     g.bench_function("dense_f32_rgb_rayon_wide", |b| {
         b.iter(|| dense_rgb(N, black_box(&decoded), black_box(&x_flat), &mut y))
     });
-    g.bench_function("dense_f32_rgb_faer", |b| b.iter(|| faer_run(&mut faer_y)));
+    g.bench_function("dense_f32_rgb_faer", |b| {
+        b.iter(|| faer.gather(black_box(&x), &mut y).unwrap())
+    });
     for (format, m) in &matrices {
         let mut paths = vec![SimdPath::detect()];
         if SimdPath::detect() != SimdPath::Baseline {

@@ -1,5 +1,7 @@
 //! The command line end to end: exit status, one-line errors, JSON shapes.
 
+mod bench;
+
 mod pathtrace;
 
 use radiosity_core::Format;

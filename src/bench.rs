@@ -1,0 +1,477 @@
+//! `radiosity bench [--patches N] [--json] [--runs R]`: the per-frame gather in every format
+//! against its peers (DESIGN.md, "Peers"), on the embedded Cornell box, in one run.
+//!
+//! Setup (progress on stderr): discretise the box into about N patches, compute the exact
+//! transfer matrix `M = (I − F^C)⁻¹ F` (all bounces), order the patches (the paper's neighbour
+//! sort), and encode M in every format. Then each method is a row: a [`Gather`] with the
+//! numbering its vectors are in and its cost per call. Times are medians of repeated calls after
+//! a warm-up; errors are relative L2 norms of the irradiance against the exact f64 solution of
+//! the same patches (an LU solve), for the scene's own light and for a seeded random exitance.
+//! A roofline measured on this machine (streaming-read bandwidth, 256-bit FMA rate) bounds each
+//! row from below.
+//!
+//! Adding a backend is pushing one more [`Row`] (see `rows` in [`run`]).
+
+use crate::embedded;
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use radiosity_backend_cpu::CpuGather;
+use radiosity_bake::encode::{EncodeParams, default_sparse_fraction, encode_dense};
+use radiosity_bake::order::{self, DenseMatrix, OrderKind, OrderParams};
+use radiosity_bake::pipeline::{BakeParams, Hooks, discretise};
+use radiosity_bake::rng::SplitMix64;
+use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
+use radiosity_bake::voxel::VoxelParams;
+use radiosity_benches::peers::{Cost, FaerDense, JacobiBounces, LuSolve, gather_cost};
+use radiosity_benches::roofline::Roofline;
+use radiosity_benches::timing::{median, ms, runs_for};
+use radiosity_core::{Format, Gather, Rgb};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+/// Jacobi bounce iterations per frame for the classical-radiosity peer (DESIGN.md: `jacobi-8`).
+const JACOBI_ITERATIONS: usize = 8;
+/// Largest patch count: the dense peers and the exact solution hold about 80·n² bytes
+/// (5.4 GB at 8192).
+const MAX_PATCHES: usize = 8192;
+/// Bandwidth buffer: 8× a 32 MiB last-level cache.
+const ROOFLINE_BYTES: usize = 256 << 20;
+/// Timed calls per method when `--runs` is not given: about this much time, within the
+/// bounds below.
+const TIME_BUDGET: Duration = Duration::from_millis(800);
+const MIN_RUNS: usize = 7;
+const MAX_RUNS: usize = 201;
+
+/// One method measured: a gather, which numbering its vectors use, and its cost per call.
+pub(crate) struct Row {
+    /// `cpu-bc1`, `faer-dense-f32`, … (DESIGN.md names).
+    pub(crate) method: String,
+    pub(crate) gather: Box<dyn Gather>,
+    /// Vectors in the file's numbering (the encoded matrices) rather than the bake's.
+    pub(crate) file_order: bool,
+    pub(crate) cost: Cost,
+    /// One-off preparation (encoding, factorisation), ms.
+    pub(crate) setup_ms: f64,
+    pub(crate) note: String,
+}
+
+/// A measured row, as printed and as JSON.
+#[derive(Serialize)]
+struct RowOut {
+    method: String,
+    /// Median milliseconds per call.
+    ms: f64,
+    /// Bytes read and written per call.
+    bytes: u64,
+    /// Relative L2 error of the irradiance from the scene's own light against the exact
+    /// solution (`null` if the scene had no light).
+    rel_error: Option<f64>,
+    /// The same for a seeded random exitance on every patch (every column counts).
+    rel_error_random: f64,
+    /// Multiply-adds per call in f32 lanes (an f64 one counts twice).
+    fmas: u64,
+    /// The roofline's lower bound on the time, ms.
+    bound_ms: f64,
+    /// `ms / bound_ms`.
+    from_bound: f64,
+    /// Which roof binds: memory or compute.
+    limit: &'static str,
+    /// Read bandwidth of a working set of this row's size (a cache level when it fits), GB/s.
+    roof_gb_s: f64,
+    /// Bytes per call ÷ time, GB/s.
+    achieved_gb_s: f64,
+    setup_ms: f64,
+    runs: usize,
+    note: String,
+}
+
+#[derive(Serialize)]
+struct RooflineOut {
+    bandwidth_gb_s: f64,
+    fma_gflop_s: f64,
+    fma_path: &'static str,
+    buffer_bytes: usize,
+}
+
+#[derive(Serialize)]
+struct Ratio {
+    method: &'static str,
+    against: &'static str,
+    speedup: f64,
+    target: f64,
+    met: bool,
+}
+
+#[derive(Serialize)]
+struct Report {
+    patches: usize,
+    scene: &'static str,
+    channels: usize,
+    order: &'static str,
+    threads: usize,
+    simd_path: &'static str,
+    roofline: RooflineOut,
+    rows: Vec<RowOut>,
+    ratios: Vec<Ratio>,
+    timings_ms: BTreeMap<&'static str, f64>,
+}
+
+/// Runs the bench and prints the table (or JSON).
+pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Result<()> {
+    if patches == 0 {
+        bail!("--patches must be at least 1");
+    }
+    if patches > MAX_PATCHES {
+        bail!(
+            "--patches {patches} is too many for the dense peers (at most {MAX_PATCHES}: they hold about 80·n² bytes)"
+        );
+    }
+    if runs == Some(0) {
+        bail!("--runs must be at least 1");
+    }
+    let mut timings = BTreeMap::new();
+    let bar = ProgressBar::new(1);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg:<28} {bar:30} {pos}/{len}")
+            .expect("static template"),
+    );
+    let stage = |s: &str| {
+        bar.set_message(s.to_owned());
+        bar.tick();
+    };
+    let progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+
+    // The system: patches, F, reflectance, as a bake sees them.
+    let t = Instant::now();
+    stage("load");
+    let scene = embedded::cornell_box()?;
+    let params = BakeParams {
+        voxel: VoxelParams::with_patches(patches),
+        ..BakeParams::default()
+    };
+    let sys = discretise(
+        &scene,
+        &params,
+        Hooks {
+            stage: Some(&stage),
+            progress: Some(&progress),
+        },
+    )
+    .context("cannot discretise the Cornell box")?;
+    timings.insert("discretise", ms(t.elapsed()));
+    let n = sys.len();
+    let channels = sys.channels;
+
+    // M with every bounce (what the bake stores), in the bake's numbering.
+    stage("transfer (LU)");
+    let t = Instant::now();
+    let (m, _) = transfer_matrix(&sys.f, &sys.reflectance, channels, BounceSpec::Infinite)
+        .context("cannot compute the transfer matrix")?;
+    timings.insert("transfer", ms(t.elapsed()));
+
+    // The exact oracle, which is also the lu-per-frame peer.
+    stage("factorise I − F^C");
+    let t = Instant::now();
+    let mut lu = LuSolve::new(&sys.f, &sys.reflectance);
+    let lu_setup = ms(t.elapsed());
+    timings.insert("lu_factorise", lu_setup);
+    let emission: Vec<Rgb> = sys.core_patches.iter().map(|p| p.emission).collect();
+    let mut rng = SplitMix64(0xbe7c);
+    let random: Vec<Rgb> = (0..n)
+        .map(|_| Rgb::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+        .collect();
+    let to64 =
+        |v: &[Rgb]| -> Vec<[f64; 3]> { v.iter().map(|x| x.to_array().map(f64::from)).collect() };
+    let lit = emission.iter().any(|e| e.max_channel() > 0.0);
+    let exact_emission = lu.solve(&to64(&emission));
+    let exact_random = lu.solve(&to64(&random));
+
+    // Patch order, then every format.
+    stage("order (paper)");
+    let t = Instant::now();
+    let bc1_params = EncodeParams::for_format(Format::Bc1);
+    let perm = order::permutation(
+        OrderKind::Paper,
+        &sys.core_patches,
+        DenseMatrix::new(n, channels, &m),
+        &OrderParams::for_encode(bc1_params),
+    )
+    .context("cannot order the patches")?;
+    let m_file = order::permute(&m, n, channels, &perm);
+    timings.insert("order", ms(t.elapsed()));
+
+    let mut rows: Vec<Row> = Vec::new();
+    for format in Format::ALL {
+        if format == Format::Bc1 && channels == 1 {
+            eprintln!("note: cpu-bc1 skipped: the scene is grey and BC1 cannot hold one channel");
+            continue;
+        }
+        stage(&format!("encode {}", format.name()));
+        let t = Instant::now();
+        let encode = EncodeParams {
+            sparse_fraction: default_sparse_fraction(format, channels),
+            ..EncodeParams::for_format(format)
+        };
+        let matrix = encode_dense(n, channels, &m_file, &encode)
+            .with_context(|| format!("cannot encode in {}", format.name()))?;
+        let setup_ms = ms(t.elapsed());
+        let cost = gather_cost(&matrix);
+        let sparse = matrix.sparse.nnz();
+        let gather = CpuGather::new(matrix);
+        let note = format!("SIMD path {}, {sparse} sparse entries", gather.path());
+        rows.push(Row {
+            method: format!("cpu-{}", format.name()),
+            gather: Box::new(gather),
+            file_order: true,
+            cost,
+            setup_ms,
+            note,
+        });
+    }
+    drop(m_file);
+    timings.insert("encode", rows.iter().map(|r| r.setup_ms).sum());
+
+    stage("peers");
+    let t = Instant::now();
+    let faer = FaerDense::new(n, channels, &m);
+    drop(m);
+    rows.push(Row {
+        method: "faer-dense-f32".into(),
+        cost: faer.cost(),
+        gather: Box::new(faer),
+        file_order: false,
+        setup_ms: ms(t.elapsed()),
+        note: format!("faer matmul, the same M unquantised, {channels} channel matrices"),
+    });
+    let t = Instant::now();
+    let jacobi = JacobiBounces::new(&sys.f, &sys.reflectance, JACOBI_ITERATIONS);
+    rows.push(Row {
+        method: format!("jacobi-{JACOBI_ITERATIONS}"),
+        cost: jacobi.cost(),
+        gather: Box::new(jacobi),
+        file_order: false,
+        setup_ms: ms(t.elapsed()),
+        note: format!(
+            "{JACOBI_ITERATIONS} bounce iterations with F (f32, faer): its error is the bounces it leaves out"
+        ),
+    });
+    rows.push(Row {
+        method: "lu-per-frame".into(),
+        cost: lu.cost(),
+        gather: Box::new(lu),
+        file_order: false,
+        setup_ms: lu_setup,
+        note: "F·x and triangular solves (f64); the factorisation of I − F^C is made once and reused: it depends only on geometry and reflectance".into(),
+    });
+
+    stage("roofline");
+    let t = Instant::now();
+    let roof = Roofline::measure(ROOFLINE_BYTES, 5);
+    timings.insert("roofline", ms(t.elapsed()));
+
+    // Measure every row.
+    let mut out_rows = Vec::new();
+    bar.set_length(rows.len() as u64);
+    for (i, row) in rows.iter_mut().enumerate() {
+        bar.set_position(i as u64);
+        stage(&format!("time {}", row.method));
+        let file = |v: &[Rgb]| -> Vec<Rgb> {
+            if row.file_order {
+                perm.iter().map(|&old| v[old as usize]).collect()
+            } else {
+                v.to_vec()
+            }
+        };
+        let x_emission = file(&emission);
+        let x_random = file(&random);
+        let mut y = vec![Rgb::ZERO; n];
+        let mut error_for = |x: &[Rgb], exact: &[[f64; 3]]| -> anyhow::Result<f64> {
+            row.gather
+                .gather(x, &mut y)
+                .with_context(|| format!("{} failed", row.method))?;
+            let exact_in_order = |i: usize| {
+                if row.file_order {
+                    exact[perm[i] as usize]
+                } else {
+                    exact[i]
+                }
+            };
+            Ok(relative_l2(&y, exact_in_order))
+        };
+        let rel_error = if lit {
+            Some(error_for(&x_emission, &exact_emission)?)
+        } else {
+            None
+        };
+        let rel_error_random = error_for(&x_random, &exact_random)?;
+
+        let t = Instant::now();
+        row.gather
+            .gather(&x_random, &mut y)
+            .with_context(|| format!("{} failed", row.method))?;
+        let runs = runs.unwrap_or_else(|| runs_for(t.elapsed(), TIME_BUDGET, MIN_RUNS, MAX_RUNS));
+        let mut failed = None;
+        let t = median(runs, || {
+            if let Err(e) = row.gather.gather(&x_random, &mut y) {
+                failed = Some(e);
+            }
+        });
+        if let Some(e) = failed {
+            bail!("{} failed: {e}", row.method);
+        }
+        let bound = roof.bound(row.cost);
+        let bound_ms = bound.seconds * 1e3;
+        out_rows.push(RowOut {
+            method: row.method.clone(),
+            ms: ms(t),
+            bytes: row.cost.bytes,
+            rel_error,
+            rel_error_random,
+            fmas: row.cost.fmas_f32,
+            bound_ms,
+            from_bound: ms(t) / bound_ms,
+            limit: bound.limit,
+            roof_gb_s: bound.bandwidth / 1e9,
+            achieved_gb_s: row.cost.bytes as f64 / t.as_secs_f64() / 1e9,
+            setup_ms: row.setup_ms,
+            runs,
+            note: row.note.clone(),
+        });
+    }
+    bar.finish_and_clear();
+
+    let time_of = |name: &str| out_rows.iter().find(|r| r.method == name).map(|r| r.ms);
+    let mut ratios = Vec::new();
+    for (against, target) in [("faer-dense-f32", 4.0), ("jacobi-8", 10.0)] {
+        if let (Some(bc1), Some(other)) = (time_of("cpu-bc1"), time_of(against)) {
+            let speedup = other / bc1;
+            ratios.push(Ratio {
+                method: "cpu-bc1",
+                against,
+                speedup,
+                target,
+                met: speedup >= target,
+            });
+        }
+    }
+    let report = Report {
+        patches: n,
+        scene: "cornell-box (embedded CornellBox-Original)",
+        channels,
+        order: "paper",
+        threads: rayon::current_num_threads(),
+        simd_path: radiosity_backend_cpu::SimdPath::detect().name(),
+        roofline: RooflineOut {
+            bandwidth_gb_s: roof.bandwidth / 1e9,
+            fma_gflop_s: roof.fma_rate / 1e9,
+            fma_path: roof.fma_path,
+            buffer_bytes: roof.buffer_bytes,
+        },
+        rows: out_rows,
+        ratios,
+        timings_ms: timings,
+    };
+    if json {
+        outln!(
+            "{}",
+            serde_json::to_string_pretty(&report).context("cannot serialise the report")?
+        );
+    } else {
+        print_text(&report);
+    }
+    Ok(())
+}
+
+/// `‖y − exact‖ / ‖exact‖` over every patch and channel (`exact(i)` in `y`'s numbering); the
+/// absolute norm when the exact answer is zero.
+fn relative_l2(y: &[Rgb], exact: impl Fn(usize) -> [f64; 3]) -> f64 {
+    let (mut num, mut den) = (0f64, 0f64);
+    for (i, v) in y.iter().enumerate() {
+        let e = exact(i);
+        for k in 0..3 {
+            num += (f64::from(v.channel(k)) - e[k]).powi(2);
+            den += e[k] * e[k];
+        }
+    }
+    if den > 0.0 {
+        (num / den).sqrt()
+    } else {
+        num.sqrt()
+    }
+}
+
+fn print_text(r: &Report) {
+    outln!(
+        "radiosity bench: {} patches ({} channels, {} order) on the {}, {} threads, CPU SIMD path {}",
+        r.patches,
+        r.channels,
+        r.order,
+        r.scene,
+        r.threads,
+        r.simd_path
+    );
+    outln!(
+        "roofline: streaming read {:.1} GB/s from a {} MiB buffer (faster where a working set fits a cache: column roof), {:.1} G f32 FMA/s ({}); bound = max(bytes/roof, FMAs/rate)",
+        r.roofline.bandwidth_gb_s,
+        r.roofline.buffer_bytes >> 20,
+        r.roofline.fma_gflop_s,
+        r.roofline.fma_path
+    );
+    outln!(
+        "times are medians of repeated calls (runs column); errors are relative L2 of the irradiance against the exact f64 solution of the same patches\n"
+    );
+    outln!(
+        "{:<16} {:>9} {:>6} {:>10} {:>8} {:>7} {:>7} {:>9} {:>7} {:>8} {:>10} {:>10} {:>10}",
+        "method",
+        "ms",
+        "runs",
+        "MB/call",
+        "MFMA",
+        "GB/s",
+        "roof",
+        "bound ms",
+        "×bound",
+        "limit",
+        "rel_error",
+        "err(rand)",
+        "setup ms"
+    );
+    for row in &r.rows {
+        outln!(
+            "{:<16} {:>9.3} {:>6} {:>10.2} {:>8.1} {:>7.1} {:>7.1} {:>9.3} {:>7.1} {:>8} {:>10} {:>10.2e} {:>10.0}",
+            row.method,
+            row.ms,
+            row.runs,
+            row.bytes as f64 / 1e6,
+            row.fmas as f64 / 1e6,
+            row.achieved_gb_s,
+            row.roof_gb_s,
+            row.bound_ms,
+            row.from_bound,
+            row.limit,
+            row.rel_error
+                .map_or_else(|| "-".to_owned(), |e| format!("{e:.2e}")),
+            row.rel_error_random,
+            row.setup_ms
+        );
+    }
+    outln!("");
+    for row in &r.rows {
+        outln!("  {}: {}", row.method, row.note);
+    }
+    outln!("");
+    for q in &r.ratios {
+        outln!(
+            "{} is {:.1}× faster than {} (target ≥ {}×: {})",
+            q.method,
+            q.speedup,
+            q.against,
+            q.target,
+            if q.met { "met" } else { "NOT met" }
+        );
+    }
+}
