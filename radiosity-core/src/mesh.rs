@@ -212,7 +212,8 @@ impl<'a> Mesh<'a> {
         )?;
         for (i, s) in self.samples.iter().enumerate() {
             let finite = s.position.iter().chain(&s.normal).all(|v| v.is_finite());
-            if !finite || !(s.area > 0.0 && s.area.is_finite()) {
+            let has_area = s.area > 0.0 && s.area.is_finite();
+            if !(finite && has_area) {
                 return Err(invalid(i, "patch sample not finite or without area"));
             }
             let len2: f32 = s.normal.iter().map(|v| v * v).sum();
