@@ -3,6 +3,7 @@
 mod bench;
 
 mod pathtrace;
+mod runtime;
 
 use radiosity_core::Format;
 use radiosity_tests::fixtures::sample_file;
