@@ -4,9 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# System packages the tests need. None yet: the wgpu tests (GPU-backend issue) will add Debian's
-# software Vulkan driver here (mesa-vulkan-drivers libvulkan1).
-need_packages=()
+# System packages the tests need: Debian's software Vulkan driver (lavapipe) and the loader,
+# so the wgpu gather tests (tests/tests/wgpu_gather.rs) have an adapter on a machine without a
+# GPU. With CI=true (.ci/run) those tests fail rather than skip when no adapter is found.
+need_packages=(mesa-vulkan-drivers libvulkan1)
 missing=()
 for p in "${need_packages[@]}"; do
     dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
@@ -16,4 +17,7 @@ if [ ${#missing[@]} -gt 0 ]; then
     apt-get update -qq && apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
+# Mesa's device-select layer complains about a missing XDG_RUNTIME_DIR on headless machines;
+# the message is harmless, this silences it.
+export NODEVICE_SELECT=1
 cargo test --workspace "$@"

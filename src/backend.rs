@@ -1,16 +1,28 @@
-//! Backend choice at run time: `--backend`, else `RADIOSITY_BACKEND`, else `auto`. The choice
-//! and the reason are printed on stderr; an unavailable backend is an error, never a silent
-//! fallback (only `auto` chooses).
+//! Backend choice at run time: `--backend`, else `RADIOSITY_BACKEND`, else `auto`. The choice,
+//! the reason and (for the GPU) the adapter and decode path are printed on stderr; an
+//! unavailable backend is an error that says why, never a silent fallback (only `auto` chooses).
+//!
+//! - `auto`: the wgpu gather on a **hardware** GPU adapter when there is one and it can hold
+//!   the matrix, else the SIMD CPU gather (a software rasteriser such as llvmpipe is slower
+//!   than the CPU backend on the same cores, so `auto` never picks one).
+//! - `gpu`: the wgpu gather on the best adapter, software rasterisers included; no adapter is
+//!   an error.
+//! - `cpu`, `reference`: the SIMD CPU gather, the scalar oracle.
 
 use anyhow::bail;
 use radiosity_backend_cpu::CpuGather;
+use radiosity_backend_wgpu::{GpuOptions, WgpuGather, adapters};
 use radiosity_core::{DecodeMode, Gather, ReferenceGather, TransferMatrix};
 
-/// A chosen gather with the backend kind (`cpu`, `reference`) for reports.
+/// A chosen gather with the backend kind (`cpu`, `gpu`, `reference`) for reports.
 pub(crate) struct Chosen {
     pub(crate) gather: Box<dyn Gather>,
     pub(crate) kind: &'static str,
     pub(crate) detail: String,
+}
+
+fn gpu_detail(g: &WgpuGather, why: &str) -> String {
+    format!("{why}; adapter {}, {} decode", g.adapter(), g.path().name())
 }
 
 pub(crate) fn choose(
@@ -23,8 +35,8 @@ pub(crate) fn choose(
         (None, Some(e)) if !e.is_empty() => (e.to_owned(), "RADIOSITY_BACKEND"),
         _ => ("auto".to_owned(), "default"),
     };
-    let cpu = |why: &str| {
-        let g = CpuGather::new(matrix.clone());
+    let cpu = |matrix: TransferMatrix<'static>, why: &str| {
+        let g = CpuGather::new(matrix);
         let detail = format!("{why}; SIMD path {}", g.path());
         Chosen {
             gather: Box::new(g),
@@ -33,16 +45,55 @@ pub(crate) fn choose(
         }
     };
     let chosen = match requested.as_str() {
-        "auto" => cpu("auto: this build has no GPU backend yet"),
-        "cpu" => cpu(&format!("requested by {source}")),
+        "auto" => {
+            let all = adapters();
+            match all.iter().find(|a| a.info.is_hardware()) {
+                Some(adapter) => {
+                    match WgpuGather::on_adapter(&matrix, adapter, &GpuOptions::default()) {
+                        Ok(g) => {
+                            let detail = gpu_detail(&g, "auto: a hardware GPU is present");
+                            Chosen {
+                                gather: Box::new(g),
+                                kind: "gpu",
+                                detail,
+                            }
+                        }
+                        Err(e) => cpu(matrix, &format!("auto: the GPU cannot run it ({e})")),
+                    }
+                }
+                None if all.is_empty() => cpu(matrix, "auto: no GPU adapter"),
+                None => {
+                    let names: Vec<String> = all
+                        .iter()
+                        .map(|a| format!("{} via {}", a.info.name, a.info.backend))
+                        .collect();
+                    cpu(
+                        matrix,
+                        &format!(
+                            "auto: no hardware GPU, only software rasterisers ({}; --backend gpu uses them)",
+                            names.join(", ")
+                        ),
+                    )
+                }
+            }
+        }
+        "cpu" => cpu(matrix, &format!("requested by {source}")),
         "reference" => Chosen {
             gather: Box::new(ReferenceGather::new(matrix, DecodeMode::D3d10)),
             kind: "reference",
             detail: format!("requested by {source}: the scalar oracle"),
         },
-        "gpu" => bail!(
-            "backend gpu (from {source}) is not available: this build has no GPU backend yet (issue #6); use auto or cpu"
-        ),
+        "gpu" => match WgpuGather::new(&matrix, &GpuOptions::default()) {
+            Ok(g) => {
+                let detail = gpu_detail(&g, &format!("requested by {source}"));
+                Chosen {
+                    gather: Box::new(g),
+                    kind: "gpu",
+                    detail,
+                }
+            }
+            Err(e) => bail!("backend gpu (from {source}) is not available: {e}"),
+        },
         other => {
             bail!("unknown backend {other:?} (from {source}): use auto, cpu, gpu or reference")
         }

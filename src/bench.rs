@@ -205,6 +205,11 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     timings.insert("order", ms(t.elapsed()));
 
     let mut rows: Vec<Row> = Vec::new();
+    // GPU rows on the best adapter when there is one (DESIGN.md: `gpu-…` when an adapter exists).
+    let gpu = radiosity_backend_wgpu::adapters().into_iter().next();
+    if gpu.is_none() {
+        eprintln!("note: no GPU adapter: gpu-… rows skipped");
+    }
     for format in Format::ALL {
         if format == Format::Bc1 && channels == 1 {
             eprintln!("note: cpu-bc1 skipped: the scene is grey and BC1 cannot hold one channel");
@@ -221,6 +226,9 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         let setup_ms = ms(t.elapsed());
         let cost = gather_cost(&matrix);
         let sparse = matrix.sparse.nnz();
+        if let Some(adapter) = &gpu {
+            gpu_rows(adapter, &matrix, cost, setup_ms, &mut rows)?;
+        }
         let gather = CpuGather::new(matrix);
         let note = format!("SIMD path {}, {sparse} sparse entries", gather.path());
         rows.push(Row {
@@ -382,6 +390,51 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         );
     } else {
         print_text(&report);
+    }
+    Ok(())
+}
+
+/// The `gpu-<format>` row on `adapter` (its default decode path) and, where that is the
+/// texture unit's BC decoding, a `gpu-<format>-software` row decoding in the shader, so both
+/// paths are timed side by side. The roofline of these rows is the CPU's: right for a software
+/// rasteriser (llvmpipe), only a reference for a real GPU.
+fn gpu_rows(
+    adapter: &radiosity_backend_wgpu::Adapter,
+    matrix: &radiosity_core::TransferMatrix<'_>,
+    cost: Cost,
+    setup_ms: f64,
+    rows: &mut Vec<Row>,
+) -> anyhow::Result<()> {
+    use radiosity_backend_wgpu::{DecodePath, GpuOptions, WgpuGather};
+    let format = matrix.layout.format();
+    let mut push = |path: DecodePath, suffix: &str| -> anyhow::Result<DecodePath> {
+        let t = Instant::now();
+        let options = GpuOptions {
+            path,
+            ..GpuOptions::default()
+        };
+        let gather = WgpuGather::on_adapter(matrix, adapter, &options)
+            .with_context(|| format!("cannot build the GPU gather on {}", adapter.info))?;
+        let chosen = gather.path();
+        let note = format!(
+            "{}, {} decode, {} dispatches, {:.1} MB on the device",
+            gather.adapter(),
+            chosen,
+            gather.dispatches(),
+            gather.device_bytes() as f64 / 1e6
+        );
+        rows.push(Row {
+            method: format!("gpu-{}{suffix}", format.name()),
+            gather: Box::new(gather),
+            file_order: true,
+            cost,
+            setup_ms: setup_ms + ms(t.elapsed()),
+            note,
+        });
+        Ok(chosen)
+    };
+    if push(DecodePath::Auto, "")? == DecodePath::HardwareBc {
+        push(DecodePath::Software, "-software")?;
     }
     Ok(())
 }

@@ -1,6 +1,143 @@
-//! GPU backend for the radiosity gather (wgpu compute).
+//! GPU gather for radiosity transfer matrices: `y = M · x` in WGSL compute shaders, on any
+//! adapter wgpu finds (Vulkan, GL, Metal, DX12; hardware GPUs and Mesa's software drivers).
 //!
-//! **Status:** the WGSL gather (software decode from storage buffers, hardware BC sampling where
-//! the adapter has `TEXTURE_COMPRESSION_BC`) arrives with the GPU-backend issue. The core already
-//! offers [`radiosity_core::DecodeMode::Mesa`], the bit-exact model of Mesa's BC decoder that the
-//! GPU tests will compare against.
+//! [`WgpuGather`] implements [`radiosity_core::Gather`] for every format and channel count,
+//! including the exact sparse list, on one of two decode paths ([`DecodePath`]):
+//!
+//! - **software** decoding: the blocks sit in storage buffers and the shader decodes them
+//!   (BC1/BC4 palettes under a chosen [`DecodeMode`], u8 codes, f16 bits, f32). It runs on
+//!   every adapter and, under [`DecodeMode::D3d10`], decodes exactly what the CPU backends do;
+//! - **hardware** BC decoding: BC1/BC4 blocks sit in `Bc1RgbaUnorm`/`Bc4RUnorm` textures and the
+//!   texture unit decodes them (`textureLoad`), where the adapter has
+//!   `TEXTURE_COMPRESSION_BC`. The palette rounding is then the driver's: on Mesa
+//!   (llvmpipe/lavapipe) it is exactly [`DecodeMode::Mesa`] ([`WgpuGather::decode_model`]).
+//!
+//! Either way the result differs from [`radiosity_core::ReferenceGather`] under the same decode
+//! rules only by f32 summation order.
+//!
+//! # How it runs
+//!
+//! - At construction the matrix is cut into **bands** that respect the device's limits
+//!   (`max_storage_buffer_binding_size`, `max_buffer_size`, `max_texture_dimension_2d`,
+//!   `max_compute_workgroups_per_dimension`): block rows inside one tile row, and for textures
+//!   also block columns. Each band's blocks are uploaded once into their own buffer or
+//!   textures; the per-tile log tables (256 floats per tile and channel, the same
+//!   `LogScale::table()` the CPU uses) go up once too.
+//! - Each frame: one upload of `x`, one dispatch per band (a workgroup of 64 invocations per
+//!   block row: each decodes whole blocks and keeps four RGB sums; a tree reduction in workgroup
+//!   memory adds them), one dispatch per sparse band adding the column groups' partial sums
+//!   and the CSR corrections, one copy and **one readback** of `y`. All buffers persist.
+//!
+//! # Example
+//!
+//! ```
+//! use radiosity_backend_wgpu::{GpuOptions, WgpuGather};
+//! use radiosity_core::{Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix};
+//! use std::borrow::Cow;
+//!
+//! // A 4×4 grey u8 matrix whose every entry is code 255 (= v_max = 0.5).
+//! let layout = MatrixLayout::new(4, 1, Format::U8, 8192).unwrap();
+//! let matrix = TransferMatrix {
+//!     layout,
+//!     scales: Cow::Owned(vec![LogScale::new(0.5, 6.9)]),
+//!     blocks: Cow::Owned(vec![255; 16]),
+//!     sparse: SparseRows::empty(4),
+//! };
+//! match WgpuGather::new(&matrix, &GpuOptions::default()) {
+//!     Ok(mut gather) => {
+//!         let x = vec![Rgb::new(1.0, 2.0, 0.0); 4];
+//!         let mut y = vec![Rgb::ZERO; 4];
+//!         gather.gather(&x, &mut y).unwrap();
+//!         assert_eq!(y[0], Rgb::new(2.0, 4.0, 0.0));
+//!         println!("gathered on {} ({})", gather.adapter(), gather.path());
+//!     }
+//!     // No adapter on this machine: the error says why.
+//!     Err(e) => println!("{e}"),
+//! }
+//! ```
+
+mod adapter;
+mod conv;
+mod gather;
+mod plan;
+mod shader;
+
+pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
+pub use gather::WgpuGather;
+pub use radiosity_core::DecodeMode;
+
+use std::fmt;
+
+/// How blocks are decoded on the GPU.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DecodePath {
+    /// Hardware BC decoding when the matrix is BC1/BC4 and the adapter has
+    /// `TEXTURE_COMPRESSION_BC`, software decoding otherwise.
+    #[default]
+    Auto,
+    /// Decode in the shader from storage buffers (every format, every adapter).
+    Software,
+    /// Let the texture unit decode BC1/BC4 textures; an error for other formats or adapters
+    /// without BC support.
+    HardwareBc,
+}
+
+impl DecodePath {
+    /// `"auto"`, `"software"` or `"hardware-bc"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            DecodePath::Auto => "auto",
+            DecodePath::Software => "software",
+            DecodePath::HardwareBc => "hardware-bc",
+        }
+    }
+}
+
+impl fmt::Display for DecodePath {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What a [`WgpuGather`] runs on and how. `Default` is the best adapter, the best path,
+/// D3D10 palettes in software and the device's own limits.
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Which adapter (hardware first by default).
+    pub adapter: AdapterChoice,
+    /// Software or hardware block decoding.
+    pub path: DecodePath,
+    /// Palette rounding of the software path: [`DecodeMode::D3d10`] (default) decodes exactly
+    /// what the bake's encoder and the CPU backends assume; [`DecodeMode::Mesa`] what Mesa's
+    /// texture unit gives. No effect on the hardware path, where the driver rounds.
+    pub software_mode: DecodeMode,
+    /// Caps the storage binding size below the device's limit (tests use it to force several
+    /// bands on small matrices); `None` uses the device's.
+    pub max_binding_bytes: Option<u64>,
+    /// Caps the texture side below the device's `max_texture_dimension_2d`; `None` uses the
+    /// device's.
+    pub max_texture_side: Option<u32>,
+}
+
+/// Why a GPU gather could not be built.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GpuError {
+    /// No adapter matches the choice; says which exist (or that none does).
+    NoAdapter(String),
+    /// The adapter or the matrix cannot take the requested path, or the matrix exceeds a limit.
+    Unsupported(String),
+    /// The device refused something (creation, an allocation, a shader).
+    Device(String),
+}
+
+impl fmt::Display for GpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GpuError::NoAdapter(why) => write!(f, "no GPU adapter: {why}"),
+            GpuError::Unsupported(why) => write!(f, "GPU gather not possible: {why}"),
+            GpuError::Device(why) => write!(f, "GPU device error: {why}"),
+        }
+    }
+}
+
+impl std::error::Error for GpuError {}
