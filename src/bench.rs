@@ -394,9 +394,9 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     Ok(())
 }
 
-/// The `gpu-<format>` row on `adapter` (its default decode path) and, where that is the
-/// texture unit's BC decoding, a `gpu-<format>-software` row decoding in the shader, so both
-/// paths are timed side by side. The roofline of these rows is the CPU's: right for a software
+/// The `gpu-<format>` row on `adapter` (its default decode path) and, for a BC matrix on an
+/// adapter with BC textures, the other path too (`gpu-<format>-software` decoding in the
+/// shader, or `gpu-<format>-hardware` decoding in the texture unit), timed side by side. The roofline of these rows is the CPU's: right for a software
 /// rasteriser (llvmpipe), only a reference for a real GPU.
 fn gpu_rows(
     adapter: &radiosity_backend_wgpu::Adapter,
@@ -433,8 +433,15 @@ fn gpu_rows(
         });
         Ok(chosen)
     };
-    if push(DecodePath::Auto, "")? == DecodePath::HardwareBc {
-        push(DecodePath::Software, "-software")?;
+    // The other decode path of a BC matrix, where the adapter has both.
+    match push(DecodePath::Auto, "")? {
+        DecodePath::HardwareBc => {
+            push(DecodePath::Software, "-software")?;
+        }
+        _ if format.is_block_compressed() && adapter.info.bc => {
+            push(DecodePath::HardwareBc, "-hardware")?;
+        }
+        _ => {}
     }
     Ok(())
 }

@@ -71,8 +71,10 @@ use std::fmt;
 /// How blocks are decoded on the GPU.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum DecodePath {
-    /// Hardware BC decoding when the matrix is BC1/BC4 and the adapter has
-    /// `TEXTURE_COMPRESSION_BC`, software decoding otherwise.
+    /// Hardware BC decoding when the matrix is BC1/BC4 and the adapter is a GPU with
+    /// `TEXTURE_COMPRESSION_BC`; software decoding otherwise, including on software
+    /// rasterisers (llvmpipe/lavapipe), whose texture path is slower than the shader's decode
+    /// and rounds palettes differently from the encoder.
     #[default]
     Auto,
     /// Decode in the shader from storage buffers (every format, every adapter).
