@@ -51,6 +51,10 @@ pub enum BakeError {
         /// The OBJ file.
         path: PathBuf,
     },
+    /// The scene loaded but cannot be baked: its scale is outside what the file's f32 fields
+    /// hold, or no surface sees any other.
+    #[error("{0}")]
+    Unbakeable(String),
     /// A parameter is out of its documented range.
     #[error("invalid parameter: {0}")]
     InvalidParams(String),

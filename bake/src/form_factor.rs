@@ -330,7 +330,17 @@ pub fn form_factors(
             let row: Vec<f64> = (i..n)
                 .map(|j| {
                     let pj = &patches.patches[j];
-                    let (a, b) = if pi.area <= pj.area { (i, j) } else { (j, i) };
+                    // Integrate over the smaller patch. Equal areas (regular grids) take the
+                    // lower index: deciding ties by the rounding of the areas would integrate a
+                    // pair from one side at one scale and from the other side at another, and
+                    // the two quadratures differ by their error (measured 1e-4 to 5e-3 of the
+                    // irradiance between a scene and the same scene ×3).
+                    let tie = (pi.area - pj.area).abs() <= 1e-9 * pi.area.max(pj.area);
+                    let (a, b) = if tie || pi.area < pj.area {
+                        (i, j)
+                    } else {
+                        (j, i)
+                    };
                     exchange(
                         patches.pieces_of(a),
                         patches.pieces_of(b),

@@ -357,9 +357,15 @@ impl Scene {
                 });
             }
             let mut ke = m.emissive.map(|d| d.map(f64::from)).unwrap_or([0.0; 3]);
-            if ke.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            // The stored exitance π·Ke is f32: a radiance whose exitance overflows it would
+            // reach the file as infinity.
+            let exitance_fits = |c: f64| ((std::f64::consts::PI * c) as f32).is_finite();
+            if ke
+                .iter()
+                .any(|c| !c.is_finite() || *c < 0.0 || !exitance_fits(*c))
+            {
                 let e = bad(format!(
-                    "Ke {} {} {} must be finite and non-negative",
+                    "Ke {} {} {} must be finite and non-negative, with an exitance π·Ke below 3.4e38",
                     ke[0], ke[1], ke[2]
                 ));
                 if options.validate_materials {

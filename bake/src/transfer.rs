@@ -191,6 +191,62 @@ pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
     correction
 }
 
+/// Scales down the rows of an open scene's form factors that sum above 1, keeping reciprocity;
+/// returns the largest relative reduction of a row sum (0 when no row exceeds 1).
+///
+/// A row above 1 sends out more light than the patch emits and reflects: energy would be
+/// created at every bounce. It happens beyond quadrature error when faces coincide (coplanar
+/// overlapping faces are both seen through the same solid angle, and neither blocks the
+/// other). With `W = (diag(A) F + (diag(A) F)ᵀ) / 2`, find `d ≤ 1` such that the rows of
+/// `diag(A)⁻¹ D W D` are at most 1, by `d_i ← d_i / sqrt(r_i)` for every row sum `r_i > 1`;
+/// `d` only decreases, so rows at or below 1 stay there. Rows that see nothing stay zero.
+pub fn cap_row_sums(f: &mut Dense, areas: &[f64]) -> f64 {
+    let n = f.n;
+    assert_eq!(areas.len(), n, "one area per patch");
+    let mut w = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            w[i * n + j] = 0.5 * (areas[i] * f.get(i, j) + areas[j] * f.get(j, i));
+        }
+    }
+    let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
+    let mut d = vec![1.0f64; n];
+    let row = |d: &[f64], i: usize| -> f64 {
+        d[i] * w[i * n..(i + 1) * n]
+            .iter()
+            .zip(d)
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+            / areas[i]
+    };
+    for _ in 0..10_000 {
+        let sums: Vec<f64> = (0..n).map(|i| row(&d, i)).collect();
+        let worst = sums.iter().copied().fold(0.0, f64::max);
+        if worst <= 1.0 + 1e-13 {
+            break;
+        }
+        for i in 0..n {
+            if sums[i] > 1.0 {
+                // A hair below the exact root so the iteration ends at or under 1.
+                d[i] /= sums[i].sqrt() * (1.0 + 1e-15);
+            }
+        }
+    }
+    let mut correction = 0f64;
+    for i in 0..n {
+        let mut sum = 0.0;
+        for j in 0..n {
+            let v = d[i] * w[i * n + j] * d[j] / areas[i];
+            f.values[i * n + j] = v;
+            sum += v;
+        }
+        if before[i] > 0.0 {
+            correction = correction.max((before[i] - sum).abs() / before[i]);
+        }
+    }
+    correction
+}
+
 /// The largest row sum of `F^C = F · diag(ρ_c)` over channels, with its row.
 fn max_gain(f: &Dense, reflectance: &[[f64; 3]], channels: usize) -> (f64, usize) {
     let mut best = (0.0, 0);
@@ -411,6 +467,35 @@ mod tests {
         let (_, rep) =
             transfer_matrix(&f, &[[0.5; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
         assert_eq!(rep.bounces, Bounces::Infinite);
+    }
+
+    #[test]
+    fn rows_above_one_are_capped_keeping_reciprocity() {
+        // Patch 0 sees patches 1 and 2 through the same solid angle (coincident faces): its
+        // row sums to 1.4. After capping every row is at most 1 (to rounding), reciprocity is
+        // exact, and rows that were below 1 did not grow.
+        let areas = [1.0, 2.0, 2.0];
+        let mut f = Dense::new(3, vec![0.0, 0.7, 0.7, 0.35, 0.0, 0.0, 0.35, 0.0, 0.0]);
+        let before: Vec<f64> = (0..3).map(|i| f.row(i).iter().sum()).collect();
+        let correction = cap_row_sums(&mut f, &areas);
+        assert!(correction > 0.25 && correction < 0.3, "{correction}");
+        for i in 0..3 {
+            let s: f64 = f.row(i).iter().sum();
+            assert!(s <= 1.0 + 1e-12, "row {i} sums to {s}");
+            assert!(s <= before[i] + 1e-15, "row {i} grew: {s} > {}", before[i]);
+            for j in 0..3 {
+                let (a, b) = (areas[i] * f.get(i, j), areas[j] * f.get(j, i));
+                assert!((a - b).abs() < 1e-15, "reciprocity {i},{j}: {a} vs {b}");
+            }
+        }
+        assert!(
+            (f.row(0).iter().sum::<f64>() - 1.0).abs() < 1e-12,
+            "the capped row is 1"
+        );
+        // Nothing above 1: untouched.
+        let mut g = Dense::new(2, vec![0.0, 0.5, 0.5, 0.0]);
+        assert_eq!(cap_row_sums(&mut g, &[1.0, 1.0]), 0.0);
+        assert_eq!(g.values, vec![0.0, 0.5, 0.5, 0.0]);
     }
 
     #[test]
