@@ -56,9 +56,6 @@ pub(crate) fn bake_scene(
     let t = Instant::now();
     let scene = Scene::load_obj(path).context("cannot load the scene")?;
     let load_ms = t.elapsed().as_secs_f64() * 1e3;
-    for w in &scene.report.warnings {
-        eprintln!("warning: {w}");
-    }
     let bar = if quiet {
         ProgressBar::hidden()
     } else {
@@ -85,10 +82,12 @@ pub(crate) fn bake_scene(
         },
     );
     bar.finish_and_clear();
-    Ok((
-        out.with_context(|| format!("cannot bake {}", path.display()))?,
-        load_ms,
-    ))
+    let out = out.with_context(|| format!("cannot bake {}", path.display()))?;
+    // Warnings only once the bake has succeeded: a failure stays the one `error:` line.
+    for w in &scene.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok((out, load_ms))
 }
 
 pub(crate) fn run(

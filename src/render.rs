@@ -158,6 +158,8 @@ pub(crate) fn run(
         Some(c) => c,
         None => camera(rt, None, size.0, size.1)?,
     };
+    // Lights that overflow are an error before the backend prints its choice (one line).
+    rt.direct(&lights)?;
     let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
     let t = std::time::Instant::now();
     let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &lights, 1.0)?;

@@ -96,7 +96,7 @@ impl Runtime {
         }
         let mesh = self.mesh("lighting from a lights file")?;
         use rayon::prelude::*;
-        Ok((0..n)
+        let direct: Vec<Rgb> = (0..n)
             .into_par_iter()
             .map(|p| {
                 let mut acc = Rgb::ZERO;
@@ -109,7 +109,16 @@ impl Runtime {
                 }
                 if area > 0.0 { acc * (1.0 / area) } else { acc }
             })
-            .collect())
+            .collect();
+        if let Some(p) = direct
+            .iter()
+            .position(|v| !v.to_array().iter().all(|c| c.is_finite()))
+        {
+            bail!(
+                "patch {p}: the direct irradiance from the lights overflows f32 (a light too intense or too close)"
+            );
+        }
+        Ok(direct)
     }
 
     /// A whole frame: direct light, first exitance (emitters scaled by `emission`), gather,
@@ -158,7 +167,24 @@ impl Runtime {
             &mut f.irradiance,
             &mut f.radiosity,
         );
+        ensure_finite(&f.irradiance, &f.radiosity)?;
         Ok((f, gather_ms))
+    }
+}
+
+/// Refuses a frame whose irradiance or radiosity overflowed f32 (emission or light intensities
+/// near f32's limit, amplified by the bounces): an error, never `inf` or `null` in the output.
+pub(crate) fn ensure_finite(irradiance: &[Rgb], radiosity: &[Rgb]) -> anyhow::Result<()> {
+    let finite = |v: &Rgb| v.to_array().iter().all(|c| c.is_finite());
+    match irradiance
+        .iter()
+        .zip(radiosity)
+        .position(|(h, b)| !(finite(h) && finite(b)))
+    {
+        Some(i) => anyhow::bail!(
+            "patch {i}: the irradiance or radiosity overflows f32 (emission or light intensities too large)"
+        ),
+        None => Ok(()),
     }
 }
 

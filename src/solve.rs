@@ -29,18 +29,21 @@ pub(crate) fn run(
     } = crate::runtime::load(input, args, json_out)?;
     let file = &runtime.file;
     let n = file.n();
-    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
     let t = Instant::now();
     let direct = runtime.direct(&lights)?;
     timings.insert("direct", t.elapsed().as_secs_f64() * 1e3);
     let mut x = vec![Rgb::ZERO; n];
     first_exitance(&file.patches, &direct, &mut x);
+    // The backend prints its choice: choose it once the input to the gather is known good, so
+    // a failure before it stays one `error:` line.
+    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
     let t = Instant::now();
     let mut y = vec![Rgb::ZERO; n];
     chosen.gather.gather(&x, &mut y)?;
     timings.insert("gather", t.elapsed().as_secs_f64() * 1e3);
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
+    crate::runtime::ensure_finite(&h, &b)?;
 
     let objects = per_object(file, &h, &b);
     if json_out {
