@@ -1,9 +1,11 @@
 //! The command line end to end: exit status, one-line errors, JSON shapes.
 
+mod bad_input;
 mod bench;
 
 mod pathtrace;
 mod runtime;
+mod solve_physics;
 
 use radiosity_core::Format;
 use radiosity_tests::fixtures::sample_file;
