@@ -297,7 +297,16 @@ pub fn discretise(
         } else {
             Effect::new(
                 false,
-                format!("row sums of F in [{:.4}, {:.4}]: light escapes; rows above 1 + tolerance scaled down to 1 keeping reciprocity (largest correction {:.2e})", closure.min_row_sum, closure.max_row_sum, correction),
+                format!(
+                    "row sums of F in [{:.4}, {:.4}]: light escapes; {}",
+                    closure.min_row_sum,
+                    closure.max_row_sum,
+                    if correction > 0.0 {
+                        format!("rows above 1 + tolerance scaled down to 1 keeping reciprocity (largest correction {correction:.2e})")
+                    } else {
+                        "no closure correction".to_owned()
+                    }
+                ),
             )
         },
     );

@@ -122,3 +122,32 @@ fn thin_wall_does_not_leak_through_solve_json() {
         dark / lit
     );
 }
+
+#[test]
+fn no_emitters_and_no_lights_give_darkness_not_an_error() {
+    // A closed room without Ke, solved with an empty lights file: a valid scene with nothing
+    // lighting it. Every object's irradiance and radiosity must be exactly 0 (no light in, no
+    // light out: the gather of a zero exitance is zero in any format).
+    let dir = tempfile::tempdir().unwrap();
+    let mats = [Material::new("wall", [0.7, 0.6, 0.5], [0.0; 3])];
+    let path = write_scene(
+        dir.path(),
+        "dark",
+        &closed_box(1.0, 2, |_, _, _| "wall".into()),
+        &mats,
+    );
+    let lights = dir.path().join("none.json");
+    std::fs::write(&lights, r#"{"lights":[]}"#).unwrap();
+    let v = solve_json(
+        &path,
+        &["--patches", "24", "--lights", lights.to_str().unwrap()],
+    );
+    assert_eq!(v["lights"], 0);
+    for o in v["objects"].as_array().unwrap() {
+        for key in ["irradiance", "radiosity"] {
+            for k in 0..3 {
+                assert_eq!(channel(o, key, k), 0.0, "{} {key}", o["name"]);
+            }
+        }
+    }
+}
