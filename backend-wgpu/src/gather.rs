@@ -452,7 +452,7 @@ impl WgpuGather {
             });
             dispatches.push(Dispatch {
                 bind_group,
-                workgroups: band.rows as u32,
+                workgroups: band.rows.div_ceil(shader::ROWS) as u32,
             });
         }
 

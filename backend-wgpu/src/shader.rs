@@ -20,6 +20,11 @@ pub(crate) enum Source {
     Texture,
 }
 
+/// Block rows one workgroup gathers: each block column's `x` is loaded once for all of them,
+/// which divides the kernel's `x` traffic (12 bytes a column against a BC1 block's 8 bytes
+/// for four) by this much.
+pub(crate) const ROWS: usize = 4;
+
 /// 32-bit words one block takes in one plane.
 pub(crate) fn words_per_block(format: Format) -> usize {
     format.block_bytes() / 4
@@ -55,18 +60,47 @@ pub(crate) fn gather(format: Format, channels: usize, source: Source, mode: Deco
     } else {
         ""
     };
-    let body = match format {
+    let block = match format {
         Format::Bc1 => bc1_body(source),
         _ => (0..planes)
             .map(|p| plane_body(format, source, p, channels == 1))
             .collect::<Vec<_>>()
             .join("\n"),
     };
+    // The block body once per block row of the workgroup, unrolled here so that every `acc`
+    // index is a constant after the driver unrolls the 16-texel loops (a runtime index would
+    // put the sums in scratch memory on GPUs).
+    let body = (0..ROWS)
+        .map(|q| {
+            format!(
+                "{{\n            let rb = rb0 + {q}u;\n            if rb < band.rows {{\n            {}\n            }}\n            }}",
+                block.replace("acc[i / 4u]", &format!("acc[{}u + i / 4u]", 4 * q))
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let reduce = (0..ROWS)
+        .map(|q| {
+            let o = 4 * q;
+            format!(
+                "reduce(lid, rb0 + {q}u, array<vec3<f32>, 4>(acc[{o}u], acc[{}u], acc[{}u], acc[{}u]));",
+                o + 1,
+                o + 2,
+                o + 3
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n    ");
+    let consts = format!(
+        "{consts}\nconst ROWS: u32 = {ROWS}u;\nconst ACC: u32 = {}u;",
+        4 * ROWS
+    );
     GATHER
         .replace("//#CONSTS", &consts)
         .replace("//#SOURCE", &src)
         .replace("//#TABLES", tables)
         .replace("//#BODY", &body)
+        .replace("//#REDUCE", &reduce)
 }
 
 /// The finish kernel for `channels` stored channels.

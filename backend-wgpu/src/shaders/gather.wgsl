@@ -138,10 +138,11 @@ fn f16_value(h: u32) -> f32 {
 
 @compute @workgroup_size(64)
 fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let rb = wg.x;
-    let grow = band.row0 + rb;
-    let ty = grow / band.tile_blocks;
-    var acc = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    // This workgroup's first block row in the band; it takes ROWS of them (fewer at the end).
+    let rb0 = wg.x * ROWS;
+    let ty = (band.row0 + rb0) / band.tile_blocks;
+    // Four RGB sums per block row: acc[4·q + r] is row r of block row rb0 + q.
+    var acc: array<vec3<f32>, ACC>;
     let end = band.col0 + band.cols;
     var start = band.col0;
     loop {
@@ -154,13 +155,20 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
         for (var gc = start + lid; gc < stop; gc += WG) {
             let cbl = gc - band.col0;
             let col = gc * 4u;
+            // x of the block's four columns, shared by the ROWS blocks below.
             var xc = array<vec3<f32>, 4>(x_at(col), x_at(col + 1u), x_at(col + 2u), x_at(col + 3u));
             //#BODY
         }
         start = stop;
     }
+    //#REDUCE
+}
+
+// Adds the 64 invocations' sums for block row rb0 + q (acc[4q..4q+4] copied to `mine`) and
+// writes its four rows. Every invocation calls it (it has barriers).
+fn reduce(lid: u32, rb: u32, mine: array<vec3<f32>, 4>) {
     for (var r = 0u; r < 4u; r++) {
-        red[lid * 4u + r] = acc[r];
+        red[lid * 4u + r] = mine[r];
     }
     workgroupBarrier();
     for (var s = WG / 2u; s > 0u; s >>= 1u) {
@@ -171,8 +179,8 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
         }
         workgroupBarrier();
     }
-    if lid < 4u {
-        let row = grow * 4u + lid;
+    if lid < 4u && rb < band.rows {
+        let row = (band.row0 + rb) * 4u + lid;
         if row < band.n {
             let o = (band.group * band.n + row) * 3u;
             let v = red[lid];
@@ -181,4 +189,5 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
             partial[o + 2u] = v.z;
         }
     }
+    workgroupBarrier();
 }
