@@ -16,9 +16,9 @@ use radiosity_core::{Gather, RadFile, Rgb, finish_frame, first_exitance};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args()
-        .nth(1)
-        .ok_or("usage: engine_loop BAKED.rad (make one with `radiosity demo` or `radiosity bake`)")?;
+    let path = std::env::args().nth(1).ok_or(
+        "usage: engine_loop BAKED.rad (make one with `radiosity demo` or `radiosity bake`)",
+    )?;
     let bytes = std::fs::read(&path)?;
     // Parsing validates every section; the file can then be borrowed without copies.
     let file = RadFile::parse(&bytes)?;
@@ -30,7 +30,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let centre = file
         .patches
         .iter()
-        .fold([0.0f32; 3], |a, p| [a[0] + p.centre[0], a[1] + p.centre[1], a[2] + p.centre[2]])
+        .fold([0.0f32; 3], |a, p| {
+            [a[0] + p.centre[0], a[1] + p.centre[1], a[2] + p.centre[2]]
+        })
         .map(|c| c / n as f32);
 
     let (mut direct, mut x, mut y) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
@@ -39,9 +41,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         // 1. The engine's own direct lighting per patch (its shadow maps would go here).
         let a = frame as f32 * 0.6;
-        let light = [centre[0] + 0.5 * a.cos(), centre[1] + 0.5, centre[2] + 0.5 * a.sin()];
+        let light = [
+            centre[0] + 0.5 * a.cos(),
+            centre[1] + 0.5,
+            centre[2] + 0.5 * a.sin(),
+        ];
         for (d, p) in direct.iter_mut().zip(file.patches.iter()) {
-            let v = [light[0] - p.centre[0], light[1] - p.centre[1], light[2] - p.centre[2]];
+            let v = [
+                light[0] - p.centre[0],
+                light[1] - p.centre[1],
+                light[2] - p.centre[2],
+            ];
             let r2 = v.iter().map(|c| c * c).sum::<f32>().max(1e-6);
             let cos = (v[0] * p.normal[0] + v[1] * p.normal[1] + v[2] * p.normal[2]) / r2.sqrt();
             *d = Rgb::splat(2.0) * (cos.max(0.0) / r2); // 2 W/sr, inverse-square cosine law

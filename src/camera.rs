@@ -197,7 +197,11 @@ impl Camera {
                     let dir = cam.ray(&b, x, y);
                     if let Some(h) = occ.closest_hit(cam.position, dir, 0.0, f64::INFINITY) {
                         let [p0, p1, p2] = triangles[h.triangle as usize];
-                        s += if (p1 - p0).cross(p2 - p0).dot(dir) < 0.0 { 1 } else { -1 };
+                        s += if (p1 - p0).cross(p2 - p0).dot(dir) < 0.0 {
+                            1
+                        } else {
+                            -1
+                        };
                     }
                 }
             }

@@ -119,7 +119,12 @@ pub(crate) fn camera(
     let tris: Vec<[DVec3; 3]> = (0..mesh.triangles.len())
         .map(|t| mesh.corners(t).map(|c| Vec3::from(c).as_dvec3()))
         .collect();
-    let cam = Camera::frame(&tris, rt.occluders().expect("a mesh has a BVH"), width, height);
+    let cam = Camera::frame(
+        &tris,
+        rt.occluders().expect("a mesh has a BVH"),
+        width,
+        height,
+    );
     cam.validate()?;
     Ok(cam)
 }
@@ -140,7 +145,10 @@ pub(crate) fn run(
     }
     for (name, s) in [("--width", size.0), ("--height", size.1)] {
         if s == 0 || s > crate::camera::MAX_SIDE {
-            anyhow::bail!("{name} must be 1 to {} pixels, not {s}", crate::camera::MAX_SIDE);
+            anyhow::bail!(
+                "{name} must be 1 to {} pixels, not {s}",
+                crate::camera::MAX_SIDE
+            );
         }
     }
     let lights = match lights {

@@ -334,10 +334,16 @@ mod tests {
         // Samples at horizontal distance 0.25, height 2: E = I·cos/r² = I·h/r³.
         let r2: f32 = 0.25 * 0.25 + 4.0;
         let expect = 8.0 * 2.0 / (r2 * r2.sqrt());
-        assert!((open.r - expect).abs() < 1e-5 * expect, "{open:?} vs {expect}");
+        assert!(
+            (open.r - expect).abs() < 1e-5 * expect,
+            "{open:?} vs {expect}"
+        );
         // The blocker (x < 0.5 at y = 1) shadows exactly the sample at x = 0.25.
         let shadowed = floor(true).direct(&light).unwrap()[0];
-        assert!((shadowed.r - expect / 2.0).abs() < 1e-5 * expect, "{shadowed:?}");
+        assert!(
+            (shadowed.r - expect / 2.0).abs() < 1e-5 * expect,
+            "{shadowed:?}"
+        );
     }
 
     #[test]

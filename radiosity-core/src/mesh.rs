@@ -15,7 +15,7 @@
 //! | 4·(n+1) | patch sample row starts, one row per matrix patch |
 //! | 28·s | [`PatchSample`]s |
 
-use crate::{Rgb, RadError, SectionKind};
+use crate::{RadError, Rgb, SectionKind};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
 use bytemuck::{Pod, Zeroable};
@@ -96,7 +96,12 @@ fn invalid(index: usize, reason: &'static str) -> RadError {
 }
 
 /// Checks CSR row starts: `rows` long `count + 1`, from 0, non-decreasing, ending at `total`.
-fn check_rows(rows: &[u32], count: usize, total: usize, what: &'static str) -> Result<(), RadError> {
+fn check_rows(
+    rows: &[u32],
+    count: usize,
+    total: usize,
+    what: &'static str,
+) -> Result<(), RadError> {
     if rows.len() != count + 1 {
         return Err(RadError::Count {
             section: SectionKind::Mesh,
@@ -129,7 +134,9 @@ impl<'a> Mesh<'a> {
 
     /// Corners of triangle `t`.
     pub fn corners(&self, t: usize) -> [[f32; 3]; 3] {
-        self.triangles[t].vertices.map(|v| self.positions[v as usize])
+        self.triangles[t]
+            .vertices
+            .map(|v| self.positions[v as usize])
     }
 
     /// Interpolation weights of corner `c` (0, 1, 2) of triangle `t`.

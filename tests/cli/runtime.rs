@@ -33,7 +33,12 @@ fn floor_scene(dir: &Path, blocker: bool) -> PathBuf {
         quads.push(Quad::facing(
             "blocker",
             "black",
-            [[-1.5, 1., -1.5], [0., 1., -1.5], [0., 1., 1.5], [-1.5, 1., 1.5]],
+            [
+                [-1.5, 1., -1.5],
+                [0., 1., -1.5],
+                [0., 1., 1.5],
+                [-1.5, 1., 1.5],
+            ],
             [0., 0., 0.],
         ));
     }
@@ -166,7 +171,12 @@ fn bad_lights_files_fail_before_baking() {
         );
     }
     assert_one_line_error(
-        &radiosity(&["solve", scene.to_str().unwrap(), "--lights", "/nonexistent.json"]),
+        &radiosity(&[
+            "solve",
+            scene.to_str().unwrap(),
+            "--lights",
+            "/nonexistent.json",
+        ]),
         "cannot read lights file",
     );
 }
@@ -184,7 +194,11 @@ fn render_writes_a_png_of_the_camera_size() {
         "--patches",
         "200",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let lights = write_lights(
         dir.path(),
         r#"{"lights":[{"type":"point","position":[0,1,0],"intensity":[10,10,10]}]}"#,
@@ -206,7 +220,11 @@ fn render_writes_a_png_of_the_camera_size() {
         "-o",
         png.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let img = image::open(&png).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (48, 32));
     // The lit floor fills the image centre; the sky above the wall is black.
@@ -242,7 +260,11 @@ fn demo_writes_its_pictures() {
         "250",
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     for word in ["bake:", "file:", "demo.png", "demo.gif", "gather"] {
         assert!(stdout.contains(word), "{word} missing from {stdout}");
     }
