@@ -104,15 +104,29 @@ pub fn sample_mesh(n: usize) -> radiosity_core::Mesh<'static> {
     let mut corner_weights = Vec::new();
     for c in 0..6 {
         if c % 2 == 0 || last == 0 {
-            corner_weights.push(CornerWeight { patch: 0, weight: 1.0 });
+            corner_weights.push(CornerWeight {
+                patch: 0,
+                weight: 1.0,
+            });
         } else {
-            corner_weights.push(CornerWeight { patch: 0, weight: 0.25 });
-            corner_weights.push(CornerWeight { patch: last, weight: 0.75 });
+            corner_weights.push(CornerWeight {
+                patch: 0,
+                weight: 0.25,
+            });
+            corner_weights.push(CornerWeight {
+                patch: last,
+                weight: 0.75,
+            });
         }
         corner_rows.push(corner_weights.len() as u32);
     }
     Mesh {
-        positions: Cow::Owned(vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
+        positions: Cow::Owned(vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ]),
         triangles: Cow::Owned(vec![tri([0, 1, 2]), tri([0, 2, 3])]),
         corner_rows: Cow::Owned(corner_rows),
         corner_weights: Cow::Owned(corner_weights),
