@@ -24,6 +24,7 @@ mod lights;
 mod pathtrace;
 mod picture;
 mod render;
+mod report;
 mod runtime;
 mod solve;
 mod view_factors;
@@ -138,6 +139,16 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Sweep patches, bounces, format, order and sparse threshold on the Cornell box: bake time,
+    /// size, gather time and error (exact and path-traced) as REPORT.md, CSV and PNG plots.
+    Report {
+        /// A smaller sweep (about 2 minutes on 2 cores) instead of the full one (under 30).
+        #[arg(long)]
+        quick: bool,
+        /// Output directory [default: report].
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Print what a .rad file holds: sizes, format, order, effects, error estimates.
     Inspect {
         /// The .rad file.
@@ -241,6 +252,9 @@ fn main() -> ExitCode {
             runs,
             json,
         } => bench::run(patches, json, runs),
+        Command::Report { quick, output } => {
+            report::output_dir(output).and_then(|dir| report::run(quick, &dir))
+        }
         Command::Pathtrace(args) => pathtrace::run(&args),
         Command::Inspect {
             file,
