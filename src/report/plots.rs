@@ -1,5 +1,6 @@
-//! PNG charts with plotters (bitmap backend, text through `ab_glyph` with the bundled DejaVu
-//! Sans, so no system font library is needed) and matrix images with `image`.
+//! PNG charts with plotters (drawn into memory by its bitmap backend, encoded by `image`; text
+//! through `ab_glyph` with the bundled DejaVu Sans, so no system font library is needed) and
+//! matrix images with `image`.
 
 use anyhow::{Context, anyhow};
 use plotters::prelude::*;
@@ -76,46 +77,49 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 /// Draws `chart` into `path` (960×640).
 pub(crate) fn chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
     register_font()?;
-    let root = BitMapBackend::new(path, (960, 640)).into_drawing_area();
-    root.fill(&WHITE).map_err(pe)?;
-    let all = || chart.series.iter().flat_map(|s| s.points.iter().copied());
-    let (x0, x1) = range(all().map(|p| p.0), chart.log_x);
-    let (y0, y1) = range(all().map(|p| p.1), true);
-    let mut c = ChartBuilder::on(&root);
-    c.caption(chart.title, (FAMILY, 22))
-        .margin(16)
-        .x_label_area_size(48)
-        .y_label_area_size(80);
-    if chart.log_x {
-        let mut cc = c
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(pe)?;
-        cc.configure_mesh()
-            .x_desc(chart.x_label)
-            .y_desc(chart.y_label)
-            .label_style((FAMILY, 14))
-            .x_labels(8)
-            .x_label_formatter(&|v| short(*v))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(pe)?;
-        draw_series(&mut cc, chart)?;
-    } else {
-        let mut cc = c
-            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
-            .map_err(pe)?;
-        cc.configure_mesh()
-            .x_desc(chart.x_label)
-            .y_desc(chart.y_label)
-            .label_style((FAMILY, 14))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(pe)?;
-        draw_series(&mut cc, chart)?;
+    let (w, h) = (960, 640);
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(pe)?;
+        let all = || chart.series.iter().flat_map(|s| s.points.iter().copied());
+        let (x0, x1) = range(all().map(|p| p.0), chart.log_x);
+        let (y0, y1) = range(all().map(|p| p.1), true);
+        let mut c = ChartBuilder::on(&root);
+        c.caption(chart.title, (FAMILY, 22))
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(80);
+        if chart.log_x {
+            let mut cc = c
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .map_err(pe)?;
+            cc.configure_mesh()
+                .x_desc(chart.x_label)
+                .y_desc(chart.y_label)
+                .label_style((FAMILY, 14))
+                .x_labels(8)
+                .x_label_formatter(&|v| short(*v))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(pe)?;
+            draw_series(&mut cc, chart)?;
+        } else {
+            let mut cc = c
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(pe)?;
+            cc.configure_mesh()
+                .x_desc(chart.x_label)
+                .y_desc(chart.y_label)
+                .label_style((FAMILY, 14))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(pe)?;
+            draw_series(&mut cc, chart)?;
+        }
+        root.present().map_err(pe)?;
     }
-    root.present()
-        .map_err(pe)
-        .with_context(|| format!("cannot write {}", path.display()))
+    save(path, w, h, buf)
 }
 
 fn draw_series<'a, 'b: 'a, X, Y>(
@@ -162,6 +166,13 @@ where
     Ok(())
 }
 
+/// Writes an RGB buffer as PNG, atomically (plotters draws into memory; the `image` crate the
+/// rest of the program uses encodes, so plotters needs no encoder of its own).
+fn save(path: &Path, w: u32, h: u32, buf: Vec<u8>) -> anyhow::Result<()> {
+    let img = image::RgbImage::from_raw(w, h, buf).context("plot buffer size")?;
+    crate::picture::save_png_atomic(&img, path)
+}
+
 /// A tick label: `1e-3`-style for very small or large values, else at most 3 significant digits.
 fn short(v: f64) -> String {
     if v != 0.0 && !(1e-2..1e5).contains(&v.abs()) {
@@ -183,61 +194,66 @@ pub(crate) fn bars(
     groups: &[&str],
 ) -> anyhow::Result<()> {
     register_font()?;
-    let root = BitMapBackend::new(path, (960, 640)).into_drawing_area();
-    root.fill(&WHITE).map_err(pe)?;
-    let (y0, y1) = range(bars.iter().map(|b| b.1), true);
-    let n = bars.len().max(1);
-    let labels: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
-    let mut cc = ChartBuilder::on(&root)
-        .caption(title, (FAMILY, 22))
-        .margin(16)
-        .x_label_area_size(90)
-        .y_label_area_size(80)
-        .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (y0..y1).log_scale())
-        .map_err(pe)?;
-    cc.configure_mesh()
-        .disable_x_mesh()
-        .x_labels(n)
-        .x_label_formatter(&|x| {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 {
-                labels.get(i as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        })
-        .x_label_style((FAMILY, 13).into_font().transform(FontTransform::Rotate90))
-        .y_desc(y_label)
-        .label_style((FAMILY, 14))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()
-        .map_err(pe)?;
-    for (i, (_, v, g)) in bars.iter().enumerate() {
-        let colour = COLOURS[g % COLOURS.len()];
-        cc.draw_series(std::iter::once(Rectangle::new(
-            [(i as f64 - 0.35, y0), (i as f64 + 0.35, *v)],
-            colour.filled(),
-        )))
-        .map_err(pe)?;
-    }
-    for (g, name) in groups.iter().enumerate() {
-        let colour = COLOURS[g % COLOURS.len()];
-        cc.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-            .map_err(pe)?
-            .label(*name)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
-    }
-    if !groups.is_empty() {
-        cc.configure_series_labels()
-            .label_font((FAMILY, 14))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
+    let (w, h) = (960, 640);
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(pe)?;
+        let (y0, y1) = range(bars.iter().map(|b| b.1), true);
+        let n = bars.len().max(1);
+        let labels: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
+        let mut cc = ChartBuilder::on(&root)
+            .caption(title, (FAMILY, 22))
+            .margin(16)
+            .x_label_area_size(90)
+            .y_label_area_size(80)
+            .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), (y0..y1).log_scale())
+            .map_err(pe)?;
+        cc.configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n)
+            .x_label_formatter(&|x| {
+                let i = x.round();
+                if (x - i).abs() < 1e-6 && i >= 0.0 {
+                    labels.get(i as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            })
+            .x_label_style((FAMILY, 13).into_font().transform(FontTransform::Rotate90))
+            .y_desc(y_label)
+            .label_style((FAMILY, 14))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(pe)?;
+        for (i, (_, v, g)) in bars.iter().enumerate() {
+            let colour = COLOURS[g % COLOURS.len()];
+            cc.draw_series(std::iter::once(Rectangle::new(
+                [(i as f64 - 0.35, y0), (i as f64 + 0.35, *v)],
+                colour.filled(),
+            )))
+            .map_err(pe)?;
+        }
+        for (g, name) in groups.iter().enumerate() {
+            let colour = COLOURS[g % COLOURS.len()];
+            cc.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+                .map_err(pe)?
+                .label(*name)
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled())
+                });
+        }
+        if !groups.is_empty() {
+            cc.configure_series_labels()
+                .label_font((FAMILY, 14))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()
+                .map_err(pe)?;
+        }
+        root.present().map_err(pe)?;
     }
-    root.present()
-        .map_err(pe)
-        .with_context(|| format!("cannot write {}", path.display()))
+    save(path, w, h, buf)
 }
 
 /// Histograms side by side (the paper's Fig. 1): counts of `log10(value)` of the non-zero
@@ -249,122 +265,123 @@ pub(crate) fn value_histograms(
     sets: &[(&str, &[f32])],
 ) -> anyhow::Result<()> {
     register_font()?;
-    let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
-    root.fill(&WHITE).map_err(pe)?;
-    let (left, right) = root.split_horizontally(600);
-    // Log-scale histogram.
-    let bins_log: Vec<Vec<(f64, f64)>> = sets
-        .iter()
-        .map(|(_, v)| {
-            let mut h = std::collections::BTreeMap::<i64, f64>::new();
-            for x in v.iter().filter(|x| **x > 0.0) {
-                *h.entry((f64::from(*x).log10() * 10.0).floor() as i64)
-                    .or_default() += 1.0;
-            }
-            h.into_iter().map(|(b, c)| (b as f64 / 10.0, c)).collect()
-        })
-        .collect();
-    let l = left
-        .titled(
-            &format!("{title}: log10(value), non-zero entries"),
-            (FAMILY, 18),
-        )
-        .map_err(pe)?;
-    let xs = bins_log.iter().flatten().map(|p| p.0);
-    let (x0, x1) = (
-        xs.clone().fold(f64::INFINITY, f64::min) - 0.2,
-        xs.fold(f64::NEG_INFINITY, f64::max) + 0.3,
-    );
-    let (x0, x1) = if x0.is_finite() {
-        (x0, x1)
-    } else {
-        (-1.0, 1.0)
-    };
-    let ymax = bins_log.iter().flatten().map(|p| p.1).fold(1.0, f64::max) * 1.5;
-    let mut cc = ChartBuilder::on(&l)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, (0.5..ymax).log_scale())
-        .map_err(pe)?;
-    cc.configure_mesh()
-        .x_desc("log10(value)")
-        .y_desc("entries")
-        .label_style((FAMILY, 13))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()
-        .map_err(pe)?;
-    for (k, (bins, (name, _))) in bins_log.iter().zip(sets).enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        cc.draw_series(
-            bins.iter().map(|(x, c)| {
+    let (w, h) = (1200, 520);
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(pe)?;
+        let (left, right) = root.split_horizontally(600);
+        // Log-scale histogram.
+        let bins_log: Vec<Vec<(f64, f64)>> = sets
+            .iter()
+            .map(|(_, v)| {
+                let mut h = std::collections::BTreeMap::<i64, f64>::new();
+                for x in v.iter().filter(|x| **x > 0.0) {
+                    *h.entry((f64::from(*x).log10() * 10.0).floor() as i64)
+                        .or_default() += 1.0;
+                }
+                h.into_iter().map(|(b, c)| (b as f64 / 10.0, c)).collect()
+            })
+            .collect();
+        let l = left
+            .titled(
+                &format!("{title}: log10(value), non-zero entries"),
+                (FAMILY, 18),
+            )
+            .map_err(pe)?;
+        let xs = bins_log.iter().flatten().map(|p| p.0);
+        let (x0, x1) = (
+            xs.clone().fold(f64::INFINITY, f64::min) - 0.2,
+            xs.fold(f64::NEG_INFINITY, f64::max) + 0.3,
+        );
+        let (x0, x1) = if x0.is_finite() {
+            (x0, x1)
+        } else {
+            (-1.0, 1.0)
+        };
+        let ymax = bins_log.iter().flatten().map(|p| p.1).fold(1.0, f64::max) * 1.5;
+        let mut cc = ChartBuilder::on(&l)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, (0.5..ymax).log_scale())
+            .map_err(pe)?;
+        cc.configure_mesh()
+            .x_desc("log10(value)")
+            .y_desc("entries")
+            .label_style((FAMILY, 13))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(pe)?;
+        for (k, (bins, (name, _))) in bins_log.iter().zip(sets).enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            cc.draw_series(bins.iter().map(|(x, c)| {
                 Rectangle::new([(*x, 0.5), (*x + 0.1, *c)], colour.mix(0.5).filled())
-            }),
-        )
-        .map_err(pe)?
-        .label(*name)
-        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
+            }))
+            .map_err(pe)?
+            .label(*name)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
+        }
+        cc.configure_series_labels()
+            .label_font((FAMILY, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(pe)?;
+        // Linear histogram: most entries fall in the first bin (the paper's point).
+        let r = right
+            .titled(&format!("{title}: value, linear bins"), (FAMILY, 18))
+            .map_err(pe)?;
+        let vmax = sets
+            .iter()
+            .flat_map(|(_, v)| v.iter())
+            .fold(0f32, |a, b| a.max(*b))
+            .max(1e-30);
+        let bins_lin: Vec<Vec<f64>> = sets
+            .iter()
+            .map(|(_, v)| {
+                let mut h = vec![0f64; 40];
+                for x in v.iter() {
+                    let b = ((x / vmax) * 40.0) as usize;
+                    h[b.min(39)] += 1.0;
+                }
+                h
+            })
+            .collect();
+        let ymax = bins_lin.iter().flatten().fold(1.0f64, |a, b| a.max(*b)) * 1.5;
+        let w = f64::from(vmax) / 40.0;
+        let mut cc = ChartBuilder::on(&r)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..f64::from(vmax), (0.5..ymax).log_scale())
+            .map_err(pe)?;
+        cc.configure_mesh()
+            .x_desc("value")
+            .y_desc("entries")
+            .label_style((FAMILY, 13))
+            .x_label_formatter(&|v| format!("{v:.1e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(pe)?;
+        for (k, bins) in bins_lin.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            cc.draw_series(
+                bins.iter()
+                    .enumerate()
+                    .filter(|(_, c)| **c > 0.0)
+                    .map(|(b, c)| {
+                        Rectangle::new(
+                            [(b as f64 * w, 0.5), ((b as f64 + 1.0) * w, *c)],
+                            colour.mix(0.5).filled(),
+                        )
+                    }),
+            )
+            .map_err(pe)?;
+        }
+        root.present().map_err(pe)?;
     }
-    cc.configure_series_labels()
-        .label_font((FAMILY, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(pe)?;
-    // Linear histogram: most entries fall in the first bin (the paper's point).
-    let r = right
-        .titled(&format!("{title}: value, linear bins"), (FAMILY, 18))
-        .map_err(pe)?;
-    let vmax = sets
-        .iter()
-        .flat_map(|(_, v)| v.iter())
-        .fold(0f32, |a, b| a.max(*b))
-        .max(1e-30);
-    let bins_lin: Vec<Vec<f64>> = sets
-        .iter()
-        .map(|(_, v)| {
-            let mut h = vec![0f64; 40];
-            for x in v.iter() {
-                let b = ((x / vmax) * 40.0) as usize;
-                h[b.min(39)] += 1.0;
-            }
-            h
-        })
-        .collect();
-    let ymax = bins_lin.iter().flatten().fold(1.0f64, |a, b| a.max(*b)) * 1.5;
-    let w = f64::from(vmax) / 40.0;
-    let mut cc = ChartBuilder::on(&r)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..f64::from(vmax), (0.5..ymax).log_scale())
-        .map_err(pe)?;
-    cc.configure_mesh()
-        .x_desc("value")
-        .y_desc("entries")
-        .label_style((FAMILY, 13))
-        .x_label_formatter(&|v| format!("{v:.1e}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()
-        .map_err(pe)?;
-    for (k, bins) in bins_lin.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        cc.draw_series(
-            bins.iter()
-                .enumerate()
-                .filter(|(_, c)| **c > 0.0)
-                .map(|(b, c)| {
-                    Rectangle::new(
-                        [(b as f64 * w, 0.5), ((b as f64 + 1.0) * w, *c)],
-                        colour.mix(0.5).filled(),
-                    )
-                }),
-        )
-        .map_err(pe)?;
-    }
-    root.present()
-        .map_err(pe)
-        .with_context(|| format!("cannot write {}", path.display()))
+    save(path, w, h, buf)
 }
 
 /// A colour ramp for `t` in [0, 1]: black → blue → orange → white (perceptually ordered).
