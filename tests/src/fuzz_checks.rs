@@ -509,11 +509,14 @@ fn check_u8(v: f32, d: f32, v_max: f32, s: f32, at: &dyn Fn() -> String) {
 
 /// The reference gather against a dense mat-vec of `decode_dense`, both in f64.
 ///
-/// Tolerance, per output channel, with `S = Σ_j |m_ij · x_j|`: every product of two f32 is exact
-/// in f64 and ≤ 48 terms are summed in f64 (relative error below 48·2^-53 < 2^-47 of S) on both
-/// sides; `decode_dense` adds a sparse value to its block texel in f32 (≤ 2^-24 of that entry
-/// when the block texel is not zero) where the gather adds them in f64; each side rounds its
-/// f64 sum to f32 once (≤ 2^-24 of S each). So the difference is below 4·2^-24·S, plus two
+/// Tolerance, per output channel, with `S = Σ_j |m_ij · x_j| + 2·Σ_{sparse j} |s_ij · x_j|`:
+/// every product of two f32 is exact in f64 and ≤ 48 terms are summed in f64 (relative error
+/// below 48·2^-53 < 2^-47 of S) on both sides; `decode_dense` adds a sparse value `s` to its
+/// block texel `b` in f32 where the gather adds them in f64, an error of at most 2^-24 of
+/// `|b + s|`'s operands, `|b| + |s| ≤ |m| + 2|s|` (the sparse value stores exact minus decoded,
+/// so `b` and `s` can cancel: the fuzzer found a texel of a tile's size under an entry of
+/// 1e-19, whose f32 sum kept a rounding residue the f64 sum did not); each side rounds its f64
+/// sum to f32 once (≤ 2^-24 of S each). So the difference is below 4·2^-24·S, plus two
 /// half-ulps of the smallest subnormal where the result underflows.
 fn check_gather(m: &TransferMatrix<'_>, decoded: &[f32], x: &[Rgb]) {
     let (n, ch) = (m.layout.n(), m.layout.channels());
@@ -528,6 +531,12 @@ fn check_gather(m: &TransferMatrix<'_>, decoded: &[f32], x: &[Rgb]) {
                 let t = f64::from(e) * f64::from(x[c].channel(k));
                 sum += t;
                 s += t.abs();
+            }
+            let sp = &m.sparse;
+            for idx in sp.row_ptr[r] as usize..sp.row_ptr[r + 1] as usize {
+                let c = sp.cols[idx] as usize;
+                let v = sp.values[idx * ch + if ch == 1 { 0 } else { k }];
+                s += 2.0 * (f64::from(v) * f64::from(x[c].channel(k))).abs();
             }
             let (got, want) = (y[r].channel(k), sum as f32);
             let tol = 4.0 * s / 16_777_216.0 + 2.0 * f64::from(f32::from_bits(1));
