@@ -514,8 +514,9 @@ fn check_u8(v: f32, d: f32, v_max: f32, s: f32, at: &dyn Fn() -> String) {
 /// below 48·2^-53 < 2^-47 of S) on both sides; `decode_dense` adds a sparse value `s` to its
 /// block texel `b` in f32 where the gather adds them in f64, an error of at most 2^-24 of
 /// `|b + s|`'s operands, `|b| + |s| ≤ |m| + 2|s|` (the sparse value stores exact minus decoded,
-/// so `b` and `s` can cancel: the fuzzer found a texel of a tile's size under an entry of
-/// 1e-19, whose f32 sum kept a rounding residue the f64 sum did not); each side rounds its f64
+/// so `b` and `s` can cancel: the fuzzer found a row that the gather sums to 0 and the dense
+/// decode to 2.6e-19, a rounding residue of that f32 addition, `regressions/encode_roundtrip/
+/// sparse-residual-cancels-block-texel.bin`); each side rounds its f64
 /// sum to f32 once (≤ 2^-24 of S each). So the difference is below 4·2^-24·S, plus two
 /// half-ulps of the smallest subnormal where the result underflows.
 fn check_gather(m: &TransferMatrix<'_>, decoded: &[f32], x: &[Rgb]) {
