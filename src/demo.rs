@@ -139,17 +139,8 @@ fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
 fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Result<()> {
     use image::codecs::gif::{GifEncoder, Repeat};
     use image::{Delay, Frame};
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let tmp = tempfile::Builder::new()
-        .prefix(".radiosity-")
-        .suffix(".gif")
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write in {}", dir.display()))?;
-    {
-        let mut enc = GifEncoder::new_with_speed(std::io::BufWriter::new(tmp.as_file()), 10);
+    crate::picture::write_atomic(path, ".gif", |w| {
+        let mut enc = GifEncoder::new_with_speed(w, 10);
         enc.set_repeat(Repeat::Infinite)?;
         for img in images {
             let rgba = image::DynamicImage::ImageRgb8(img.to_srgb8(exposure)).to_rgba8();
@@ -158,11 +149,8 @@ fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Resu
                 0,
                 0,
                 Delay::from_numer_denom_ms(80, 1),
-            ))
-            .with_context(|| format!("cannot encode {}", path.display()))?;
+            ))?;
         }
-    }
-    tmp.persist(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+        Ok(())
+    })
 }
