@@ -1,8 +1,13 @@
 //! `radiosity render SCENE.obj|BAKED.rad [--lights L] [--camera C] -o OUT.png`: a CPU ray-cast
 //! pinhole camera over the file's full-detail mesh. Per pixel: direct light from the analytic
 //! lights with a shadow ray at the exact hit point, plus the gathered (indirect and
-//! emitter) irradiance interpolated from the patches through the mesh's corner weights;
-//! radiance `(E + ρ∘H)/π`, tone mapped to sRGB.
+//! emitter) irradiance interpolated from the patches around the hit point on the same
+//! surface; radiance `(E + ρ∘H)/π`, tone mapped to sRGB.
+//!
+//! Interpolation is a kernel over nearby patch centres (same orientation, same plane), not
+//! over the triangle's corners: a wall made of two big triangles has its corners in the room's
+//! darkest places, and barycentric blending of corner values would paint the whole wall with
+//! them. The mesh's corner weights remain the fallback where no patch is near.
 
 use crate::camera::Camera;
 use crate::picture::LinearImage;
@@ -31,6 +36,90 @@ pub(crate) struct Primary {
     per_pixel: usize,
     /// `width·height·per_pixel` entries; `None` for a miss or a back face.
     hits: Vec<Option<SampleHit>>,
+    /// Interpolation weights over patches of each hit (row `k` for `hits[k]`, empty for none).
+    rows: Vec<u32>,
+    weights: Vec<(u32, f32)>,
+}
+
+/// Patch centres bucketed in a grid of cells of the kernel radius.
+struct PatchGrid {
+    cell: f64,
+    radius: f64,
+    /// Half the patch size: how far off a hit's plane a patch centre may lie.
+    slab: f64,
+    buckets: std::collections::HashMap<[i64; 3], Vec<u32>>,
+}
+
+/// Smallest cosine between a patch's normal and the surface's for the patch to count.
+const SAME_SURFACE_COS: f64 = 0.8;
+
+impl PatchGrid {
+    fn new(patches: &[radiosity_core::Patch]) -> Self {
+        let mut areas: Vec<f32> = patches.iter().map(|p| p.area).collect();
+        areas.sort_by(f32::total_cmp);
+        let h = f64::from(areas.get(areas.len() / 2).copied().unwrap_or(1.0))
+            .sqrt()
+            .max(1e-12);
+        let radius = 1.5 * h;
+        let mut buckets: std::collections::HashMap<[i64; 3], Vec<u32>> = Default::default();
+        for (i, p) in patches.iter().enumerate() {
+            let c = Vec3::from(p.centre).as_dvec3();
+            buckets
+                .entry((c / radius).floor().as_i64vec3().to_array())
+                .or_default()
+                .push(i as u32);
+        }
+        Self {
+            cell: radius,
+            radius,
+            slab: 0.5 * h,
+            buckets,
+        }
+    }
+
+    /// Kernel weights `area·(1 − d²/r²)²` of the patches near `point` on the surface with unit
+    /// `normal`, normalised; appended to `out`. Returns whether any patch was near.
+    fn weights(
+        &self,
+        patches: &[radiosity_core::Patch],
+        point: DVec3,
+        normal: DVec3,
+        out: &mut Vec<(u32, f32)>,
+    ) -> bool {
+        let start = out.len();
+        let key = (point / self.cell).floor().as_i64vec3();
+        let mut sum = 0.0;
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let k = (key + glam::I64Vec3::new(dx, dy, dz)).to_array();
+                    for &i in self.buckets.get(&k).map_or(&[][..], Vec::as_slice) {
+                        let p = &patches[i as usize];
+                        let d = Vec3::from(p.centre).as_dvec3() - point;
+                        let n = Vec3::from(p.normal).as_dvec3();
+                        if n.dot(normal) < SAME_SURFACE_COS || d.dot(normal).abs() > self.slab {
+                            continue;
+                        }
+                        let q = 1.0 - d.length_squared() / (self.radius * self.radius);
+                        if q > 0.0 {
+                            let w = f64::from(p.area) * q * q;
+                            out.push((i, w as f32));
+                            sum += w;
+                        }
+                    }
+                }
+            }
+        }
+        if sum > 0.0 {
+            for e in &mut out[start..] {
+                e.1 = (f64::from(e.1) / sum) as f32;
+            }
+            true
+        } else {
+            out.truncate(start);
+            false
+        }
+    }
 }
 
 /// Casts the camera's primary rays into the runtime's mesh.
@@ -67,12 +156,40 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
                 normal,
             })
         })
+        .collect::<Vec<Option<SampleHit>>>();
+    // Interpolation weights, once per hit (a static camera reuses them every frame).
+    let grid = PatchGrid::new(&rt.file.patches);
+    let per_hit: Vec<Vec<(u32, f32)>> = hits
+        .par_iter()
+        .map(|h| {
+            let mut out = Vec::new();
+            if let Some(s) = h
+                && !grid.weights(&rt.file.patches, s.point, s.normal, &mut out)
+            {
+                let b = [1.0 - s.u - s.v, s.u, s.v];
+                for (c, bc) in b.into_iter().enumerate() {
+                    for e in mesh.corner(s.triangle as usize, c) {
+                        out.push((e.patch, bc * e.weight));
+                    }
+                }
+            }
+            out
+        })
         .collect();
+    let mut rows = Vec::with_capacity(per_hit.len() + 1);
+    rows.push(0u32);
+    let mut weights = Vec::new();
+    for r in per_hit {
+        weights.extend(r);
+        rows.push(weights.len() as u32);
+    }
     Ok(Primary {
         width: w,
         height: h,
         per_pixel,
         hits,
+        rows,
+        weights,
     })
 }
 
@@ -90,11 +207,18 @@ pub(crate) fn shade(
     img.pixels
         .par_iter_mut()
         .zip(primary.hits.par_chunks(primary.per_pixel))
-        .for_each(|(px, samples)| {
+        .enumerate()
+        .for_each(|(pixel, (px, samples))| {
             let mut acc = Rgb::ZERO;
-            for s in samples.iter().flatten() {
+            for (k, s) in samples.iter().enumerate() {
+                let Some(s) = s else { continue };
+                let row = pixel * primary.per_pixel + k;
+                let range = primary.rows[row] as usize..primary.rows[row + 1] as usize;
+                let mut indirect = Rgb::ZERO;
+                for &(p, w) in &primary.weights[range] {
+                    indirect += frame.gathered[p as usize] * w;
+                }
                 let tri = &mesh.triangles[s.triangle as usize];
-                let indirect = mesh.interpolate(s.triangle as usize, s.u, s.v, &frame.gathered);
                 let direct = rt.direct_at(lights, s.point, s.normal);
                 let b = tri.emission * emission + tri.reflectance * (direct + indirect);
                 acc += b * (1.0 / std::f32::consts::PI);
