@@ -183,6 +183,15 @@ pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>, newline: bool) {
 }
 
 fn main() -> ExitCode {
+    // Mesa's Vulkan device-select layer prints "error: XDG_RUNTIME_DIR is invalid…" to stderr
+    // whenever adapters are listed on a machine without a desktop session, which breaks the
+    // one-line error contract and alarms users for nothing; NODEVICE_SELECT=1 turns the layer
+    // off (it only reorders GPUs). Measured: shared/notes/wgpu-on-cpu.md.
+    if std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: first statement of main, before any thread (rayon, wgpu) exists, so no other
+        // thread can read or write the environment concurrently.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
