@@ -2,7 +2,10 @@
 //! matrices, and a complete sample `.rad` file.
 
 use radiosity_bake::encode::{EncodeParams, encode_dense};
-use radiosity_core::{Bounces, Format, Patch, PatchOrder, RadFile, Rgb};
+use radiosity_core::{
+    Bounces, DecodeMode, Format, Gather, GatherError, Patch, PatchOrder, RadFile, ReferenceGather,
+    Rgb, TransferMatrix, check_gather_args,
+};
 use std::borrow::Cow;
 
 /// The bake's deterministic generator, so tests need no `rand` and every run sees the same
@@ -173,4 +176,48 @@ pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
     let (m, _) =
         transfer_matrix(&f, &reflectance, 3, BounceSpec::Infinite).expect("transfer converges");
     (simplified.to_core(), m)
+}
+
+/// A reproducible exitance vector with channels of different magnitudes (r up to 10, g up to
+/// 1, b up to 0.1), so a backend that mixes channels up shows it.
+pub fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
+    let mut rng = SplitMix64(seed);
+    (0..n)
+        .map(|_| Rgb::new(rng.next_f32() * 10.0, rng.next_f32(), rng.next_f32() * 0.1))
+        .collect()
+}
+
+/// Asserts that `backend`, gathering from `matrix`, refuses wrong lengths and non-finite
+/// exitance (NaN, infinity) with exactly the errors of the reference gather and of
+/// [`check_gather_args`]. `matrix` needs at least 8 patches.
+pub fn assert_argument_errors_match_reference(
+    backend: &mut dyn Gather,
+    matrix: &TransferMatrix<'static>,
+) {
+    let n = matrix.layout.n();
+    let mut reference = ReferenceGather::new(matrix.clone(), DecodeMode::D3d10);
+    let good = exitance(n, 3);
+    let mut nan = good.clone();
+    nan[4].g = f32::NAN;
+    let mut inf = good.clone();
+    inf[7].b = f32::INFINITY;
+    let inputs: [(&[Rgb], usize); 5] = [
+        (&good[..n - 1], n),
+        (&good, n + 1),
+        (&good, 0),
+        (&nan, n),
+        (&inf, n),
+    ];
+    for (x, len) in inputs {
+        let mut y1 = vec![Rgb::ZERO; len];
+        let mut y2 = vec![Rgb::ZERO; len];
+        let e1 = reference.gather(x, &mut y1).unwrap_err();
+        let e2 = backend.gather(x, &mut y2).unwrap_err();
+        assert_eq!(e1, e2);
+        assert_eq!(check_gather_args(n, x, &y2), Err(e2.clone()));
+        assert!(matches!(
+            e2,
+            GatherError::Length { .. } | GatherError::NonFinite { .. }
+        ));
+    }
 }

@@ -17,22 +17,14 @@
 use radiosity_backend_cpu::{CpuGather, SimdPath};
 use radiosity_core::{
     DecodeMode, Format, Gather, GatherError, ReferenceGather, Rgb, SparseRows, TransferMatrix,
-    check_gather_args,
 };
-use radiosity_tests::fixtures::{SplitMix64, sample_file};
+use radiosity_tests::fixtures::{exitance, sample_file};
 
 /// Safety factor over the recursive-summation bound (see the module docs).
 const C: f32 = 2.0;
 
 /// Every storable (format, channels) pair.
 const CASES: [(Format, usize); 9] = radiosity_tests::fixtures::FORMAT_CASES;
-
-fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
-    let mut rng = SplitMix64(seed);
-    (0..n)
-        .map(|_| Rgb::new(rng.next_f32() * 10.0, rng.next_f32(), rng.next_f32() * 0.1))
-        .collect()
-}
 
 fn paths() -> Vec<SimdPath> {
     [SimdPath::Baseline, SimdPath::Avx2Fma]
@@ -136,34 +128,11 @@ fn large_tile_bc1_palette_tables() {
 
 #[test]
 fn bad_arguments_give_the_reference_errors() {
-    let n = 9;
-    let m = sample_file(n, 3, Format::Bc4, 8).matrix;
-    let mut reference = ReferenceGather::new(m.clone(), DecodeMode::D3d10);
-    let mut cpu = CpuGather::new(m);
-    let good = exitance(n, 3);
-    let mut nan = good.clone();
-    nan[4].g = f32::NAN;
-    let mut inf = good.clone();
-    inf[7].b = f32::INFINITY;
-    let inputs: [(&[Rgb], usize); 5] = [
-        (&good[..n - 1], n),
-        (&good, n + 1),
-        (&good, 0),
-        (&nan, n),
-        (&inf, n),
-    ];
-    for (x, len) in inputs {
-        let mut y1 = vec![Rgb::ZERO; len];
-        let mut y2 = vec![Rgb::ZERO; len];
-        let e1 = reference.gather(x, &mut y1).unwrap_err();
-        let e2 = cpu.gather(x, &mut y2).unwrap_err();
-        assert_eq!(e1, e2);
-        assert_eq!(check_gather_args(n, x, &y2), Err(e2.clone()));
-        assert!(matches!(
-            e2,
-            GatherError::Length { .. } | GatherError::NonFinite { .. }
-        ));
-    }
+    let m = sample_file(9, 3, Format::Bc4, 8).matrix;
+    radiosity_tests::fixtures::assert_argument_errors_match_reference(
+        &mut CpuGather::new(m.clone()),
+        &m,
+    );
 }
 
 #[test]

@@ -2,14 +2,7 @@
 //! tile size, channel count and decode mode.
 
 use radiosity_core::{DecodeMode, Format, Gather, GatherError, ReferenceGather, Rgb};
-use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, sample_file};
-
-fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
-    let mut rng = SplitMix64(seed);
-    (0..n)
-        .map(|_| Rgb::new(rng.next_f32() * 10.0, rng.next_f32(), rng.next_f32() * 0.1))
-        .collect()
-}
+use radiosity_tests::fixtures::{FORMAT_CASES, exitance, sample_file};
 
 #[test]
 fn gather_equals_dense_matvec_of_the_decoded_matrix() {

@@ -28,10 +28,9 @@ use radiosity_backend_wgpu::{
     Adapter, AdapterChoice, DecodePath, GpuError, GpuOptions, WgpuGather, adapters,
 };
 use radiosity_core::{
-    DecodeMode, Format, Gather, GatherError, ReferenceGather, Rgb, SparseRows, TransferMatrix,
-    check_gather_args,
+    DecodeMode, Format, Gather, ReferenceGather, Rgb, SparseRows, TransferMatrix,
 };
-use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, sample_file};
+use radiosity_tests::fixtures::{FORMAT_CASES, exitance, sample_file};
 
 /// Safety factor over the recursive-summation bound (module docs).
 const C: f32 = 2.0;
@@ -55,13 +54,6 @@ fn gpu_adapters() -> Vec<Adapter> {
         eprintln!("no GPU adapter (install mesa-vulkan-drivers libvulkan1): skipping");
     }
     list
-}
-
-fn exitance(n: usize, seed: u64) -> Vec<Rgb> {
-    let mut rng = SplitMix64(seed);
-    (0..n)
-        .map(|_| Rgb::new(rng.next_f32() * 10.0, rng.next_f32(), rng.next_f32() * 0.1))
-        .collect()
 }
 
 /// Per row and channel: (Σ_j |b_ij|·|x_j|, Σ_j |s_ij|·|x_j|), blocks and sparse apart.
@@ -327,34 +319,9 @@ fn bad_arguments_give_the_reference_errors() {
     let Some(adapter) = gpu_adapters().into_iter().next() else {
         return;
     };
-    let n = 9;
-    let m = sample_file(n, 3, Format::Bc4, 8).matrix;
-    let mut reference = ReferenceGather::new(m.clone(), DecodeMode::D3d10);
+    let m = sample_file(9, 3, Format::Bc4, 8).matrix;
     let mut gpu = WgpuGather::on_adapter(&m, &adapter, &GpuOptions::default()).unwrap();
-    let good = exitance(n, 3);
-    let mut nan = good.clone();
-    nan[4].g = f32::NAN;
-    let mut inf = good.clone();
-    inf[7].b = f32::INFINITY;
-    let inputs: [(&[Rgb], usize); 5] = [
-        (&good[..n - 1], n),
-        (&good, n + 1),
-        (&good, 0),
-        (&nan, n),
-        (&inf, n),
-    ];
-    for (x, len) in inputs {
-        let mut y1 = vec![Rgb::ZERO; len];
-        let mut y2 = vec![Rgb::ZERO; len];
-        let e1 = reference.gather(x, &mut y1).unwrap_err();
-        let e2 = gpu.gather(x, &mut y2).unwrap_err();
-        assert_eq!(e1, e2);
-        assert_eq!(check_gather_args(n, x, &y2), Err(e2.clone()));
-        assert!(matches!(
-            e2,
-            GatherError::Length { .. } | GatherError::NonFinite { .. }
-        ));
-    }
+    radiosity_tests::fixtures::assert_argument_errors_match_reference(&mut gpu, &m);
 }
 
 /// Impossible requests are errors that say why, never a silent fallback.
