@@ -194,12 +194,21 @@ mod avx2 {
 
 /// BC1 palettes of one tile, decoded to values ahead of time: per channel, indexed by
 /// `(four-colour flag, endpoint 0, endpoint 1)` of that channel (5, 6, 5 bits), the four
-/// palette values through the tile's table. 196 KiB per tile; a block then needs three
-/// 16-byte loads instead of its integer palette arithmetic and twelve table look-ups.
+/// palette values through the tile's table. One flat table of 2¹⁴ palettes (channel `ch` from
+/// [`BC1_KEY_OFFSET`]`[ch]`; 12288 used, 256 KiB) so that a key masked to 14 bits is always in
+/// bounds; a block then needs three 16-byte loads instead of its integer palette arithmetic
+/// and twelve table look-ups.
 #[derive(Debug)]
 pub(crate) struct Bc1Palettes {
-    channels: [Vec<[f32; 4]>; 3],
+    entries: Box<[[f32; 4]; BC1_TABLE_LEN]>,
 }
+
+/// Palettes in a [`Bc1Palettes`] table (a power of two: keys are masked, not bounds-checked).
+pub(crate) const BC1_TABLE_LEN: usize = 1 << 14;
+
+/// Where each channel's palettes start in [`Bc1Palettes`]: red has 2¹¹ keys, green 2¹³, blue
+/// 2¹¹.
+pub(crate) const BC1_KEY_OFFSET: [usize; 3] = [0, 1 << 11, (1 << 11) + (1 << 13)];
 
 const BITS: [u32; 3] = [5, 6, 5];
 
@@ -211,7 +220,7 @@ pub(crate) const BC1_TABLE_MIN_BLOCKS: usize = 65536;
 /// The D3D10 palette codes of one BC1 channel for `key` = (four-colour flag, endpoint 0,
 /// endpoint 1) in 1 + 2·w bits (w = 5, 6, 5 for R, G, B).
 #[inline(always)]
-fn bc1_channel_palette(ch: usize, key: usize) -> [u32; 4] {
+pub(crate) fn bc1_channel_palette(ch: usize, key: usize) -> [u32; 4] {
     let w = BITS[ch];
     let key = key as u32;
     let expand = |v: u32| (v << (8 - w)) | (v >> (2 * w - 8));
@@ -228,17 +237,29 @@ fn bc1_channel_palette(ch: usize, key: usize) -> [u32; 4] {
 
 impl Bc1Palettes {
     pub(crate) fn new(tables: [&[f32; 256]; 3]) -> Self {
-        let channels = core::array::from_fn(|ch| {
-            (0..2usize << (2 * BITS[ch]))
-                .map(|key| bc1_channel_palette(ch, key).map(|q| tables[ch][q as usize]))
-                .collect()
-        });
-        Self { channels }
+        let mut entries: Box<[[f32; 4]; BC1_TABLE_LEN]> = vec![[0f32; 4]; BC1_TABLE_LEN]
+            .into_boxed_slice()
+            .try_into()
+            .expect("BC1_TABLE_LEN entries");
+        for ch in 0..3 {
+            for key in 0..2usize << (2 * BITS[ch]) {
+                entries[BC1_KEY_OFFSET[ch] + key] =
+                    bc1_channel_palette(ch, key).map(|q| tables[ch][q as usize]);
+            }
+        }
+        Self { entries }
     }
 
+    /// The palette of channel `ch` for `key`.
     #[inline(always)]
-    fn get(&self, ch: usize, key: usize) -> &[f32; 4] {
-        &self.channels[ch][key]
+    pub(crate) fn get(&self, ch: usize, key: usize) -> &[f32; 4] {
+        self.flat(BC1_KEY_OFFSET[ch] + key)
+    }
+
+    /// The palette at `key` = [`BC1_KEY_OFFSET`]`[ch]` + the channel's key (masked into range).
+    #[inline(always)]
+    pub(crate) fn flat(&self, key: usize) -> &[f32; 4] {
+        &self.entries[key & (BC1_TABLE_LEN - 1)]
     }
 }
 

@@ -6,6 +6,18 @@ use crate::decode::{Baseline, Bc1Palettes, Isa, Kernel, TileTables};
 use radiosity_core::{Rgb, Tile, TransferMatrix};
 use wide::f32x8;
 
+/// The exitance of one column block and channel for a `zmm` body: its four columns, which the
+/// body broadcasts to all four 128-bit lanes (one per block row). 16 bytes instead of 64: a
+/// block row then streams 48 bytes of exitance per block, and the whole vector of a 4096-patch
+/// matrix (48 KiB) stays near L1.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(crate) struct X4(pub(crate) [f32; 4]);
+
+impl X4 {
+    pub(crate) const ZERO: X4 = X4([0.0; 4]);
+}
+
 /// What every block row reads.
 pub(crate) struct Ctx<'a, 'm> {
     pub(crate) matrix: &'a TransferMatrix<'m>,
@@ -29,9 +41,10 @@ pub(crate) fn block_row_dispatch<K: Kernel>(
 ) {
     match simd {
         #[cfg(target_arch = "x86_64")]
-        SimdPath::Avx2Fma => {
-            // SAFETY: `CpuGather` only holds `SimdPath::Avx2Fma` after `is_available` saw
-            // AVX2, FMA and F16C on this CPU (`SimdPath::detect` / `CpuGather::with_path`).
+        SimdPath::Avx2Fma | SimdPath::Avx512 => {
+            // SAFETY: `CpuGather` only holds `SimdPath::Avx2Fma` or `Avx512` after
+            // `is_available` saw (at least) AVX2, FMA and F16C on this CPU (`SimdPath::detect` /
+            // `CpuGather::with_path`).
             unsafe { block_row_avx2::<K>(ctx, r, out) }
         }
         _ => block_row::<K, Baseline>(ctx, r, out),
@@ -97,13 +110,25 @@ fn block_row<K: Kernel, I: Isa>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
         acc[2][0].to_array(),
         acc[2][1].to_array(),
     ];
-    for (i, y) in out.iter_mut().enumerate() {
-        let (h, q) = (i / 2, (i % 2) * 4);
-        let mut v = [0f32; 3];
-        for k in 0..3 {
+    let rows: [[f32; 4]; 3] = core::array::from_fn(|k| {
+        core::array::from_fn(|i| {
+            let (h, q) = (i / 2, (i % 2) * 4);
             let s = &sums[2 * k + h][q..q + 4];
-            v[k] = (s[0] + s[1]) + (s[2] + s[3]);
-        }
+            (s[0] + s[1]) + (s[2] + s[3])
+        })
+    });
+    finish_rows(ctx, row, rows, out);
+}
+
+/// Writes output rows `row..row + out.len()` from the blocks' row sums (`sums[channel][i]`
+/// for row `row + i`) plus each row's sparse corrections, in column order.
+#[inline(always)]
+pub(crate) fn finish_rows(ctx: &Ctx<'_, '_>, row: usize, sums: [[f32; 4]; 3], out: &mut [Rgb]) {
+    let m = ctx.matrix;
+    let ch = m.layout.channels();
+    let grey = ch == 1;
+    for (i, y) in out.iter_mut().enumerate() {
+        let mut v = [sums[0][i], sums[1][i], sums[2][i]];
         for (c, s) in m.sparse.row(row + i, ch) {
             let x = ctx.exitance[c].to_array();
             for k in 0..3 {

@@ -72,6 +72,8 @@
 //! println!("gathered on the {} path", gather.path());
 //! ```
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod decode;
 mod kernel;
 
@@ -87,12 +89,20 @@ pub enum SimdPath {
     /// The body compiled with `avx2`, `fma` and `f16c` enabled (every AVX2 CPU has F16C);
     /// palette expansion, gathers and f16 conversion through `std::arch`.
     Avx2Fma,
+    /// AVX-512F on top of the AVX2 set: BC1 through `zmm` bodies (one block per register,
+    /// endpoint arithmetic of 16 blocks at a time); the other formats run the AVX2 body.
+    Avx512,
 }
 
 impl SimdPath {
+    /// Every path, slowest first.
+    pub const ALL: [SimdPath; 3] = [SimdPath::Baseline, SimdPath::Avx2Fma, SimdPath::Avx512];
+
     /// The fastest path this CPU supports.
     pub fn detect() -> SimdPath {
-        if Self::Avx2Fma.is_available() {
+        if Self::Avx512.is_available() {
+            SimdPath::Avx512
+        } else if Self::Avx2Fma.is_available() {
             SimdPath::Avx2Fma
         } else {
             SimdPath::Baseline
@@ -109,8 +119,12 @@ impl SimdPath {
                     && std::arch::is_x86_feature_detected!("fma")
                     && std::arch::is_x86_feature_detected!("f16c")
             }
+            #[cfg(target_arch = "x86_64")]
+            SimdPath::Avx512 => {
+                Self::Avx2Fma.is_available() && std::arch::is_x86_feature_detected!("avx512f")
+            }
             #[cfg(not(target_arch = "x86_64"))]
-            SimdPath::Avx2Fma => false,
+            SimdPath::Avx2Fma | SimdPath::Avx512 => false,
         }
     }
 
@@ -120,6 +134,7 @@ impl SimdPath {
     pub fn name(self) -> &'static str {
         match self {
             SimdPath::Avx2Fma => "avx2+fma",
+            SimdPath::Avx512 => "avx512",
             SimdPath::Baseline => {
                 if cfg!(target_feature = "avx512f") {
                     "avx512 (build)"
@@ -151,6 +166,9 @@ pub struct CpuGather<'m> {
     /// Exitance re-laid out per gather: `[column block][channel]`, each the block's four
     /// columns twice (two block rows per register).
     xs: Vec<f32x8>,
+    /// The same for the `zmm` bodies (each column block's four values once); empty unless one
+    /// runs.
+    x16: Vec<kernel::X4>,
     simd: SimdPath,
     parallel: bool,
     name: String,
@@ -168,8 +186,13 @@ impl<'m> CpuGather<'m> {
     pub fn with_path(matrix: TransferMatrix<'m>, simd: SimdPath) -> Result<Self, GatherError> {
         if !simd.is_available() {
             return Err(GatherError::Backend(format!(
-                "the {} path needs a CPU with AVX2, FMA and F16C",
-                simd.name()
+                "the {} path needs a CPU with {}",
+                simd.name(),
+                if simd == SimdPath::Avx512 {
+                    "AVX-512F, AVX2, FMA and F16C"
+                } else {
+                    "AVX2, FMA and F16C"
+                }
             )));
         }
         Ok(Self::build(matrix, simd))
@@ -202,7 +225,16 @@ impl<'m> CpuGather<'m> {
         } else {
             Vec::new()
         };
-        let xs = vec![f32x8::ZERO; l.padded() / 4 * 3];
+        let x16 = if uses_zmm(l.format(), simd) {
+            vec![kernel::X4::ZERO; l.padded() / 4 * 3]
+        } else {
+            Vec::new()
+        };
+        let xs = if x16.is_empty() {
+            vec![f32x8::ZERO; l.padded() / 4 * 3]
+        } else {
+            Vec::new()
+        };
         let name = format!("cpu-{}", l.format().name());
         Self {
             matrix,
@@ -211,6 +243,7 @@ impl<'m> CpuGather<'m> {
             tiles,
             f16,
             xs,
+            x16,
             simd,
             parallel: true,
             name,
@@ -240,7 +273,11 @@ impl<'m> CpuGather<'m> {
     /// Address of the reusable exitance buffer: the same across gathers, since gathers never
     /// reallocate (the tests check this).
     pub fn scratch_ptr(&self) -> *const u8 {
-        self.xs.as_ptr().cast()
+        if self.x16.is_empty() {
+            self.xs.as_ptr().cast()
+        } else {
+            self.x16.as_ptr().cast()
+        }
     }
 }
 
@@ -256,11 +293,17 @@ impl Gather for CpuGather<'_> {
     fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
         let n = self.matrix.layout.n();
         check_gather_args(n, exitance, irradiance)?;
+        let col =
+            |j: usize, c: usize, k: usize| exitance.get(4 * j + c).map_or(0.0, |x| x.channel(k));
         for (j, xs) in self.xs.chunks_exact_mut(3).enumerate() {
             for (k, v) in xs.iter_mut().enumerate() {
-                let col = |c: usize| exitance.get(4 * j + c).map_or(0.0, |x| x.to_array()[k]);
-                let q = [col(0), col(1), col(2), col(3)];
+                let q: [f32; 4] = core::array::from_fn(|c| col(j, c, k));
                 *v = f32x8::from([q[0], q[1], q[2], q[3], q[0], q[1], q[2], q[3]]);
+            }
+        }
+        for (j, xs) in self.x16.chunks_exact_mut(3).enumerate() {
+            for (k, v) in xs.iter_mut().enumerate() {
+                v.0 = core::array::from_fn(|c| col(j, c, k));
             }
         }
         let ctx = kernel::Ctx {
@@ -272,28 +315,54 @@ impl Gather for CpuGather<'_> {
             xs: &self.xs,
             exitance,
         };
+        let (simd, parallel) = (self.simd, self.parallel);
         match self.matrix.layout.format() {
-            Format::Bc1 => run::<decode::Bc1>(&ctx, self.simd, self.parallel, irradiance),
-            Format::Bc4 => run::<decode::Bc4>(&ctx, self.simd, self.parallel, irradiance),
-            Format::U8 => run::<decode::U8>(&ctx, self.simd, self.parallel, irradiance),
-            Format::F16 => run::<decode::F16>(&ctx, self.simd, self.parallel, irradiance),
-            Format::F32 => run::<decode::F32>(&ctx, self.simd, self.parallel, irradiance),
+            #[cfg(target_arch = "x86_64")]
+            Format::Bc1 if uses_zmm(Format::Bc1, simd) => {
+                let x16 = &self.x16[..];
+                run(parallel, irradiance, |r, out| {
+                    // SAFETY: `uses_zmm` holds only on `SimdPath::Avx512`, which `CpuGather`
+                    // holds only after `is_available` saw AVX-512F, AVX2, FMA and F16C.
+                    unsafe { avx512::bc1_block_row(&ctx, x16, r, out) }
+                })
+            }
+            Format::Bc1 => run(parallel, irradiance, |r, out| {
+                kernel::block_row_dispatch::<decode::Bc1>(&ctx, simd, r, out)
+            }),
+            Format::Bc4 => run(parallel, irradiance, |r, out| {
+                kernel::block_row_dispatch::<decode::Bc4>(&ctx, simd, r, out)
+            }),
+            Format::U8 => run(parallel, irradiance, |r, out| {
+                kernel::block_row_dispatch::<decode::U8>(&ctx, simd, r, out)
+            }),
+            Format::F16 => run(parallel, irradiance, |r, out| {
+                kernel::block_row_dispatch::<decode::F16>(&ctx, simd, r, out)
+            }),
+            Format::F32 => run(parallel, irradiance, |r, out| {
+                kernel::block_row_dispatch::<decode::F32>(&ctx, simd, r, out)
+            }),
         }
         Ok(())
     }
 }
 
-/// Runs every block row, in parallel or not: the same body either way.
-fn run<K: decode::Kernel>(
-    ctx: &kernel::Ctx<'_, '_>,
-    simd: SimdPath,
-    parallel: bool,
-    irradiance: &mut [Rgb],
-) {
-    let body = |(r, out): (usize, &mut [Rgb])| kernel::block_row_dispatch::<K>(ctx, simd, r, out);
+/// Whether `format` runs a `zmm` body on `simd` (and so reads the exitance as [`kernel::X4`]).
+fn uses_zmm(format: Format, simd: SimdPath) -> bool {
+    cfg!(target_arch = "x86_64") && simd == SimdPath::Avx512 && format == Format::Bc1
+}
+
+/// Runs `body(block_row, its output rows)` over every block row, in parallel or not: the same
+/// body either way.
+fn run(parallel: bool, irradiance: &mut [Rgb], body: impl Fn(usize, &mut [Rgb]) + Sync) {
     if parallel {
-        irradiance.par_chunks_mut(4).enumerate().for_each(body);
+        irradiance
+            .par_chunks_mut(4)
+            .enumerate()
+            .for_each(|(r, out)| body(r, out));
     } else {
-        irradiance.chunks_mut(4).enumerate().for_each(body);
+        irradiance
+            .chunks_mut(4)
+            .enumerate()
+            .for_each(|(r, out)| body(r, out));
     }
 }

@@ -27,7 +27,7 @@ const C: f32 = 2.0;
 const CASES: [(Format, usize); 9] = radiosity_tests::fixtures::FORMAT_CASES;
 
 fn paths() -> Vec<SimdPath> {
-    [SimdPath::Baseline, SimdPath::Avx2Fma]
+    SimdPath::ALL
         .into_iter()
         .filter(|p| p.is_available())
         .collect()
@@ -120,10 +120,14 @@ fn larger_matrix_several_tiles() {
 }
 
 /// A tile of ≥ 65536 blocks: BC1 goes through the per-tile palette tables instead of
-/// per-block palettes (n = 1030: one 1032² tile, partial last block row and column).
+/// per-block palettes. n = 1030: one 1032² tile, partial last block row and column (258 block
+/// columns: on the AVX-512 path two runs of 128 blocks and a run of 2, which has no full
+/// group of 16); n = 1097: 275 block columns, a last run of 19 (one group of 16 keyed in
+/// vector registers, 3 keyed one by one, an odd block after the pairs).
 #[test]
 fn large_tile_bc1_palette_tables() {
     check_against_reference(1030, Format::Bc1, 3, 8192);
+    check_against_reference(1097, Format::Bc1, 3, 8192);
 }
 
 #[test]
@@ -162,5 +166,10 @@ fn unavailable_path_is_an_error_not_a_fallback() {
     match r {
         Ok(g) => assert_eq!(g.path(), "avx2+fma"),
         Err(e) => assert!(matches!(e, GatherError::Backend(_)), "{e}"),
+    }
+    let m = sample_file(4, 3, Format::Bc1, 8).matrix;
+    match CpuGather::with_path(m, SimdPath::Avx512) {
+        Ok(g) => assert_eq!(g.path(), "avx512"),
+        Err(e) => assert!(e.to_string().contains("AVX-512F"), "{e}"),
     }
 }
