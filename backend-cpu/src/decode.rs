@@ -213,7 +213,7 @@ pub(crate) const BC1_KEY_OFFSET: [usize; 3] = [0, 1 << 11, (1 << 11) + (1 << 13)
 const BITS: [u32; 3] = [5, 6, 5];
 
 /// Tiles with fewer blocks than this decode BC1 palettes per block instead of building
-/// [`Bc1Palettes`] (196 KiB): at this size the tables are at most 38% of the tile's block
+/// [`Bc1Palettes`] (256 KiB): at this size the tables are at most half of the tile's block
 /// bytes and cost under one palette per 5 blocks to build.
 pub(crate) const BC1_TABLE_MIN_BLOCKS: usize = 65536;
 

@@ -14,7 +14,7 @@
 //!   `chunks_mut` instead of `par_chunks_mut` ([`CpuGather::set_parallel`]).
 //! - Per block: decode the palette once (BC1: 4 entries × 3 channels, BC4: 8 entries through
 //!   the tile's 256-entry table, built once in [`CpuGather::new`]; tiles of at least 65536
-//!   blocks also get BC1 palette tables, 196 KiB indexed by each channel's endpoint pair, so a
+//!   blocks also get BC1 palette tables, 256 KiB indexed by each channel's endpoint pair, so a
 //!   BC1 block costs three 16-byte loads before its expansion), expand the 16 texels through
 //!   the 2- or 3-bit indices, then two `f32x8` fused multiply-adds per channel (two block rows
 //!   per register) against the exitance, which is re-laid out once per gather into one `f32x8`
@@ -27,19 +27,27 @@
 //! multiply-add) and compiled twice: the baseline (`wide` as built) and, inside
 //! `#[target_feature(enable = "avx2,fma,f16c")]`, an `std::arch` implementation (`vpsrlvd` to
 //! put the indices in place, `vpermilps`/`vpermps` to expand palettes, `vgatherdps` for the BC4
-//! palette, `vcvtph2ps`, `vfmadd`). [`CpuGather::new`] takes the AVX2 one when
-//! `is_x86_feature_detected!` finds AVX2, FMA and F16C ([`SimdPath::detect`]).
+//! palette, `vcvtph2ps`, `vfmadd`). On CPUs with AVX-512F a third path runs BC1 through its own
+//! `zmm` body (`avx512.rs`): one whole 4×4 block per register, so a block is one `vpsrlvd`,
+//! three palette broadcasts, three `vpermilps` and three `vfmadd`; the endpoint arithmetic that
+//! turns a block into palette-table keys runs for 16 blocks at a time in vector registers, a
+//! run of 128 blocks ahead of their use (keying each group just before its blocks made every
+//! scalar key load wait for the wide vector store it read from: 2.3 → 1.7 ms on one thread).
+//! [`CpuGather::new`] takes the fastest path `is_x86_feature_detected!` allows
+//! ([`SimdPath::detect`]); the other formats run the AVX2 body on the AVX-512 path.
 //!
 //! Measured at n = 4096 (3 channels, 2 threads, Zen 5 EPYC with AVX-512), milliseconds per
-//! gather, `cargo bench -p radiosity-benches --bench gather`:
+//! gather, `cargo bench -p radiosity-benches --bench gather` (AVX-512 column: `radiosity bench
+//! --patches 4096` and `cargo run --release -p radiosity-backend-cpu --example gather_file --
+//! FILE.rad` on a 4106-patch Cornell box):
 //!
-//! | format | runtime AVX2 path | plain build, baseline (SSE2) | `target-cpu=native` build, baseline (`wide` on AVX-512) |
-//! |--------|------:|------:|------:|
-//! | bc1    | 1.75–1.92 | 8.0–8.6 | 6.0  |
-//! | bc4    | 6.5–7.3   | 15–17   | 15.4 |
-//! | u8     | 5.3       | 7.1–7.4 | 5.0  |
-//! | f16    | 2.7–3.0   | 22      | 20.5 |
-//! | f32    | 3.8–5.4   | 5.6–7.3 | 4.5  |
+//! | format | runtime AVX-512 path | runtime AVX2 path | plain build, baseline (SSE2) | `target-cpu=native` build, baseline (`wide` on AVX-512) |
+//! |--------|------:|------:|------:|------:|
+//! | bc1    | 0.81–0.85 | 1.75–1.92 | 8.0–8.6 | 6.0  |
+//! | bc4    | (AVX2)    | 6.5–7.3   | 15–17   | 15.4 |
+//! | u8     | (AVX2)    | 5.3       | 7.1–7.4 | 5.0  |
+//! | f16    | (AVX2)    | 2.7–3.0   | 22      | 20.5 |
+//! | f32    | (AVX2)    | 3.8–5.4   | 5.6–7.3 | 4.5  |
 //!
 //! (The `native` column is one run of an earlier revision of the same body.) `target-cpu=native`
 //! alone does not reach the bottleneck, decoding: `wide` has no permute, so the texel expansion
@@ -47,7 +55,9 @@
 //! f16, equal on u8 and f32 (within 6%, scalar table look-ups and memory bandwidth bound both),
 //! and a plain x86-64 binary with them still runs on any x86-64 CPU, where a `native` build
 //! faults on older ones. So: runtime dispatch, plain builds. [`CpuGather::path`] names the path
-//! that runs.
+//! that runs. Tried on the AVX-512 BC1 body and not kept, because neither measured faster: two
+//! block rows side by side sharing each exitance load, and unchecked palette loads instead of
+//! keys masked into a power-of-two table.
 //!
 //! # Example
 //!

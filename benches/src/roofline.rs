@@ -1,6 +1,7 @@
 //! This machine's two roofs, measured: memory bandwidth (a multi-threaded streaming read of a
-//! buffer much larger than the caches) and multiply-add rate (independent 256-bit FMA chains on
-//! every rayon thread). A method's time bound is the larger of bytes ÷ bandwidth and
+//! buffer much larger than the caches) and multiply-add rate (independent FMA chains on every
+//! rayon thread, 512-bit where the CPU has AVX-512F — as the BC1 gather then uses — else
+//! 256-bit). A method's time bound is the larger of bytes ÷ bandwidth and
 //! multiply-adds ÷ rate; its distance from the roofline is measured time ÷ bound.
 
 use crate::peers::Cost;
@@ -16,8 +17,9 @@ pub struct Roofline {
     pub bandwidth: f64,
     /// f32 multiply-adds per second over all threads (best of the repetitions).
     pub fma_rate: f64,
-    /// What the FMA loop ran on: `"avx2+fma"` (256-bit FMA, the widest the gather kernels use)
-    /// or `"baseline"` (`wide` as built: a separate multiply and add on SSE2).
+    /// What the FMA loop ran on: `"avx512f"` (512-bit FMA, the widest the gather kernels use),
+    /// `"avx2+fma"` (256-bit) or `"baseline"` (`wide` as built: a separate multiply and add on
+    /// SSE2).
     pub fma_path: &'static str,
     /// Size of the bandwidth buffer in bytes.
     pub buffer_bytes: usize,
@@ -123,18 +125,20 @@ pub fn read_bandwidth(bytes: usize, reps: usize) -> f64 {
     best
 }
 
-/// Multiply-adds per chain step of each kernel: 10 independent 8-lane chains (enough to cover
-/// a 4-cycle FMA latency on two FMA ports).
+/// Chains per step of each kernel: 10 independent 8- or 16-lane chains (enough to cover a
+/// 4-cycle FMA latency on two FMA ports).
 const CHAINS: usize = 10;
 const STEPS: usize = 1 << 22;
 
 /// Best f32 multiply-add rate over `reps` runs on every rayon thread, and the path used.
 pub fn fma_rate(reps: usize) -> (f64, &'static str) {
     let threads = rayon::current_num_threads().max(1);
-    let path = if avx2_fma_available() {
-        "avx2+fma"
+    let (path, lanes) = if avx512_available() {
+        ("avx512f", 16)
+    } else if avx2_fma_available() {
+        ("avx2+fma", 8)
     } else {
-        "baseline"
+        ("baseline", 8)
     };
     let mut best = 0f64;
     for _ in 0..reps.max(1) {
@@ -145,9 +149,20 @@ pub fn fma_rate(reps: usize) -> (f64, &'static str) {
             .sum();
         let dt = t.elapsed().as_secs_f64();
         black_box(s);
-        best = best.max((threads * STEPS * CHAINS * 8) as f64 / dt);
+        best = best.max((threads * STEPS * CHAINS * lanes) as f64 / dt);
     }
     (best, path)
+}
+
+fn avx512_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 fn avx2_fma_available() -> bool {
@@ -161,9 +176,14 @@ fn avx2_fma_available() -> bool {
     }
 }
 
-/// `steps` rounds of `CHAINS` independent `a = a·m + c` over 8 lanes; returns a sum so the
-/// work cannot be dropped.
+/// `steps` rounds of `CHAINS` independent `a = a·m + c` over 8 lanes (16 with AVX-512F);
+/// returns a sum so the work cannot be dropped.
 fn fma_chains(steps: usize, seed: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if avx512_available() {
+        // SAFETY: the CPU has AVX-512F (checked just above), all that the function enables.
+        return unsafe { fma_chains_avx512(steps, seed) };
+    }
     #[cfg(target_arch = "x86_64")]
     if avx2_fma_available() {
         // SAFETY: the CPU has AVX2 and FMA (checked just above), all that the function enables.
@@ -202,6 +222,25 @@ fn fma_chains_avx2(steps: usize, seed: f32) -> f32 {
     // SAFETY: `out` holds 8 f32, the 32 bytes the unaligned store writes.
     unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
     out.iter().sum()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn fma_chains_avx512(steps: usize, seed: f32) -> f32 {
+    use std::arch::x86_64::*;
+    let m = _mm512_set1_ps(0.999_999);
+    let c = _mm512_set1_ps(1e-7);
+    let mut acc = [_mm512_set1_ps(seed); CHAINS];
+    for _ in 0..steps {
+        for a in acc.iter_mut() {
+            *a = _mm512_fmadd_ps(*a, m, c);
+        }
+    }
+    let mut sum = _mm512_setzero_ps();
+    for a in acc {
+        sum = _mm512_add_ps(sum, a);
+    }
+    _mm512_reduce_add_ps(sum)
 }
 
 #[cfg(test)]
