@@ -260,9 +260,14 @@ impl<'m> CpuGather<'m> {
         }
     }
 
-    /// The SIMD path in use, for logs and benches (`"avx2+fma"`, `"sse2"`, …).
+    /// The body that runs, for logs and benches (`"avx512"`, `"avx2+fma"`, `"sse2"`, …): on
+    /// the AVX-512 path, formats without a `zmm` body name the AVX2 body they run.
     pub fn path(&self) -> &'static str {
-        self.simd.name()
+        if self.simd == SimdPath::Avx512 && !uses_zmm(self.matrix.layout.format(), self.simd) {
+            SimdPath::Avx2Fma.name()
+        } else {
+            self.simd.name()
+        }
     }
 
     /// The SIMD path in use.
