@@ -1,12 +1,16 @@
 //! AVX-512 block-row bodies: one 4×4 block per `zmm` register (16 lanes, texel `i` in lane
-//! `i`), so a BC1 block costs one index shift, three palette broadcasts, three permutes and
-//! three fused multiply-adds, and the BC1 endpoint arithmetic of 16 blocks at a time runs in
-//! vector registers instead of scalar code.
+//! `i`).
 //!
-//! Only the formats where a `zmm` body measured faster than the AVX2 one have one here (see the
-//! crate docs); [`crate::SimdPath::Avx512`] runs the AVX2 body for the others. Every function
-//! is compiled with `avx512f` (plus the AVX2 set, which every AVX-512 CPU has) and only entered
-//! from [`crate::kernel::block_row_dispatch`] after runtime detection.
+//! - BC1: a block costs one index shift, three palette broadcasts, three permutes and three
+//!   fused multiply-adds; the endpoint arithmetic of 16 blocks at a time runs in vector
+//!   registers instead of scalar code, a run ahead of its use.
+//! - BC4 and u8: log codes become values through the two 16-entry factor tables of
+//!   `LogScale::factors` held in registers (two `vpermps` and a multiply per 16 codes) instead
+//!   of a 256-entry table look-up per code.
+//!
+//! f16 and f32 have no body here: [`crate::SimdPath::Avx512`] runs the AVX2 one for them (see
+//! the crate docs). Every function is compiled with `avx512f` (plus the AVX2 set, which every
+//! AVX-512 CPU has) and only entered after runtime detection.
 
 use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette};
 use crate::kernel::{Ctx, X4, finish_rows};
@@ -21,7 +25,7 @@ const GROUP: usize = 16;
 /// # Safety
 /// The CPU must support AVX-512F, AVX2, FMA and F16C (`SimdPath::Avx512::is_available`).
 #[target_feature(enable = "avx512f,avx2,fma,f16c")]
-pub(crate) unsafe fn bc1_block_row(ctx: &Ctx<'_, '_>, x16: &[X4], r: usize, out: &mut [Rgb]) {
+pub(crate) unsafe fn bc1_block_row(ctx: &Ctx<'_, '_>, x4: &[X4], r: usize, out: &mut [Rgb]) {
     let m = ctx.matrix;
     let l = &m.layout;
     let blocks: &[u8] = &m.blocks;
@@ -34,7 +38,7 @@ pub(crate) unsafe fn bc1_block_row(ctx: &Ctx<'_, '_>, x16: &[X4], r: usize, out:
         let bw = tile.blocks_wide();
         let start = l.block_offset(tile, 0, br, 0);
         let raw = &blocks[start..start + bw * 8];
-        let xs = &x16[tile.col0 / 4 * 3..(tile.col0 / 4 + bw) * 3];
+        let xs = &x4[tile.col0 / 4 * 3..(tile.col0 / 4 + bw) * 3];
         match ctx.bc1.get(tile.index).and_then(Option::as_ref) {
             Some(pal) => bc1_segment(raw, xs, pal, &mut acc),
             None => {
@@ -51,6 +55,127 @@ pub(crate) unsafe fn bc1_block_row(ctx: &Ctx<'_, '_>, x16: &[X4], r: usize, out:
         }
     }
     finish_rows(ctx, row, acc.map(row_sums), out);
+}
+
+/// Block row `r` of a u8 matrix (output rows `4r..4r + out.len()`): each block and plane
+/// through [`log16`].
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX2, FMA and F16C (`SimdPath::Avx512::is_available`).
+#[target_feature(enable = "avx512f,avx2,fma,f16c")]
+pub(crate) unsafe fn u8_block_row(ctx: &Ctx<'_, '_>, x4: &[X4], r: usize, out: &mut [Rgb]) {
+    planar_block_row::<16>(ctx, x4, r, out, |raw, f| log16(raw, f));
+}
+
+/// Block row `r` of a BC4 matrix (output rows `4r..4r + out.len()`): each block and plane
+/// through [`bc4_16`].
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX2, FMA and F16C (`SimdPath::Avx512::is_available`).
+#[target_feature(enable = "avx512f,avx2,fma,f16c")]
+pub(crate) unsafe fn bc4_block_row(ctx: &Ctx<'_, '_>, x4: &[X4], r: usize, out: &mut [Rgb]) {
+    planar_block_row::<8>(ctx, x4, r, out, |raw, f| bc4_16(raw, f));
+}
+
+/// The body of the one-plane-per-channel log formats: `decode` turns one block of one plane
+/// (`B` bytes) into its 16 values through the plane's factor tables.
+#[inline(always)]
+fn planar_block_row<const B: usize>(
+    ctx: &Ctx<'_, '_>,
+    x4: &[X4],
+    r: usize,
+    out: &mut [Rgb],
+    decode: impl Fn(&[u8; B], (__m512, __m512)) -> __m512,
+) {
+    let m = ctx.matrix;
+    let l = &m.layout;
+    let blocks: &[u8] = &m.blocks;
+    let planes = l.planes();
+    let row = 4 * r;
+    let tps = l.tiles_per_side();
+    let ty = row / l.tile_size();
+    // SAFETY (every intrinsic below): only reached from `u8_block_row` / `bc4_block_row`, whose
+    // callers checked AVX-512F, AVX2, FMA and F16C.
+    unsafe {
+        let mut acc = [_mm512_setzero_ps(); 3];
+        for tile in &ctx.tiles[ty * tps..(ty + 1) * tps] {
+            let br = (row - tile.row0) / 4;
+            let bw = tile.blocks_wide();
+            let mut rows: [&[u8]; 3] = [&[]; 3];
+            let mut factors = [(_mm512_setzero_ps(), _mm512_setzero_ps()); 3];
+            for p in 0..planes {
+                let start = l.block_offset(tile, p, br, 0);
+                rows[p] = &blocks[start..start + bw * B];
+                let (high, low) = &ctx.factors[l.scale_index(tile.index, p)];
+                // Each load reads the 64 bytes of a `[f32; 16]`.
+                factors[p] = (
+                    _mm512_loadu_ps(high.as_ptr()),
+                    _mm512_loadu_ps(low.as_ptr()),
+                );
+            }
+            let xs = &x4[tile.col0 / 4 * 3..(tile.col0 / 4 + bw) * 3];
+            for (b, x) in xs.chunks_exact(3).enumerate() {
+                // Each load reads the 16 bytes of `x[k]`.
+                let x = [0, 1, 2].map(|k| _mm512_broadcast_f32x4(_mm_load_ps(x[k].0.as_ptr())));
+                let block = |p: usize| -> &[u8; B] {
+                    rows[p][B * b..B * (b + 1)].try_into().expect("one block")
+                };
+                if planes == 1 {
+                    let v = decode(block(0), factors[0]);
+                    for k in 0..3 {
+                        acc[k] = _mm512_fmadd_ps(v, x[k], acc[k]);
+                    }
+                } else {
+                    for k in 0..3 {
+                        let v = decode(block(k), factors[k]);
+                        acc[k] = _mm512_fmadd_ps(v, x[k], acc[k]);
+                    }
+                }
+            }
+        }
+        finish_rows(ctx, row, acc.map(row_sums), out);
+    }
+}
+
+/// Log codes (one per 32-bit lane) to their values through the tile's `(high, low)` factor
+/// tables (`LogScale::factors`): `high[(255 − q) >> 4] · low[(255 − q) & 15]`, 0 for code 0 —
+/// the same single rounding as `LogScale::decode`, so bit-identical to the table.
+#[inline]
+#[target_feature(enable = "avx512f,avx2,fma,f16c")]
+fn log_values(q: __m512i, (high, low): (__m512, __m512)) -> __m512 {
+    let d = _mm512_xor_si512(q, _mm512_set1_epi32(255));
+    // vpermps uses the low four bits of each index.
+    let h = _mm512_permutexvar_ps(_mm512_srli_epi32::<4>(d), high);
+    let l = _mm512_permutexvar_ps(d, low);
+    _mm512_maskz_mul_ps(_mm512_test_epi32_mask(q, q), h, l)
+}
+
+/// A BC4 block: its eight palette codes (`decode::avx2::bc4_codes`) to values in both halves
+/// of a register, then the 16 texels through their 3-bit indices.
+#[inline]
+#[target_feature(enable = "avx512f,avx2,fma,f16c")]
+fn bc4_16(raw: &[u8; 8], factors: (__m512, __m512)) -> __m512 {
+    let codes = crate::decode::avx2::bc4_codes(raw);
+    // The palette in lanes 0–7 and again in 8–15, so that vpermps, which reads four index
+    // bits, finds it whatever bit 3 of a shifted index holds.
+    let pal = log_values(_mm512_broadcast_i64x4(codes), factors);
+    let bits = u64::from_le_bytes(*raw) >> 16;
+    let idx = _mm512_mask_set1_epi32(
+        _mm512_set1_epi32((bits & 0xff_ffff) as i32),
+        0xff00,
+        ((bits >> 24) & 0xff_ffff) as i32,
+    );
+    let sh = _mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 0, 3, 6, 9, 12, 15, 18, 21);
+    _mm512_permutexvar_ps(_mm512_srlv_epi32(idx, sh), pal)
+}
+
+/// 16 u8 log codes to their values ([`log_values`]).
+#[inline]
+#[target_feature(enable = "avx512f,avx2,fma,f16c")]
+fn log16(codes: &[u8; 16], factors: (__m512, __m512)) -> __m512 {
+    // SAFETY: the load reads the 16 bytes of `codes`.
+    let q = _mm512_cvtepu8_epi32(unsafe { _mm_loadu_si128(codes.as_ptr().cast()) });
+    log_values(q, factors)
 }
 
 /// The per-channel palette keys of a BC1 block: (four-colour flag, endpoint 0, endpoint 1),

@@ -99,11 +99,40 @@ impl Isa for Baseline {
 pub(crate) struct Avx2;
 
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
+pub(crate) mod avx2 {
     use super::{Avx2, Isa};
     use radiosity_core::bytemuck::cast;
     use std::arch::x86_64::*;
     use wide::f32x8;
+
+    /// The eight D3D10 palette codes of a BC4 block, one per 32-bit lane.
+    ///
+    /// Both modes, then a select: the mode is data, and a branch on it mispredicts. Eight
+    /// values: ((7 − t)·r0 + t·r1) / 7 for entry 1 + t, with x / 7 = x·9363 >> 16 exactly for
+    /// x ≤ 7·255. Six values: ((5 − t)·r0 + t·r1) / 5 (x / 5 = x·13108 >> 16 for x ≤ 5·255),
+    /// then the constants 0 and 255. `vpmaddwd` forms r0·wa + r1·wb from 16-bit pairs,
+    /// `vpmulhuw` the division.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn bc4_codes(raw: &[u8; 8]) -> __m256i {
+        let eight = _mm256_set1_epi32(-i32::from(raw[0] > raw[1]));
+        let pair = _mm256_set1_epi32(i32::from(raw[0]) | (i32::from(raw[1]) << 16));
+        let w = |a: [i32; 8], b: [i32; 8]| {
+            let v: [i32; 8] = core::array::from_fn(|i| a[i] | (b[i] << 16));
+            // SAFETY: reads the 32 bytes of `v`.
+            unsafe { _mm256_loadu_si256(v.as_ptr().cast()) }
+        };
+        let weights = _mm256_blendv_epi8(
+            w([5, 0, 4, 3, 2, 1, 0, 0], [0, 5, 1, 2, 3, 4, 0, 0]),
+            w([7, 0, 6, 5, 4, 3, 2, 1], [0, 7, 1, 2, 3, 4, 5, 6]),
+            eight,
+        );
+        let recip = _mm256_blendv_epi8(_mm256_set1_epi32(13108), _mm256_set1_epi32(9363), eight);
+        let q = _mm256_mulhi_epu16(_mm256_madd_epi16(pair, weights), recip);
+        // Lane 7 of a six-value block is the constant 255.
+        let six7 = _mm256_andnot_si256(eight, _mm256_setr_epi32(0, 0, 0, 0, 0, 0, 0, 255));
+        _mm256_or_si256(q, six7)
+    }
 
     impl Isa for Avx2 {
         #[inline(always)]
@@ -150,28 +179,7 @@ mod avx2 {
             // SAFETY: as in `expand4`; the gather reads `table` at codes 0..=255 only (every
             // code is a truncated weighted mean of two bytes, or the constant 0 or 255).
             unsafe {
-                // Both modes, then a select: the mode is data, and a branch on it mispredicts.
-                // Eight values: ((7 − t)·r0 + t·r1) / 7 for entry 1 + t, with x / 7 =
-                // x·9363 >> 16 exactly for x ≤ 7·255. Six values: ((5 − t)·r0 + t·r1) / 5
-                // (x / 5 = x·13108 >> 16 for x ≤ 5·255), then the constants 0 and 255.
-                // `vpmaddwd` forms r0·wa + r1·wb from 16-bit pairs, `vpmulhuw` the division.
-                let eight = _mm256_set1_epi32(-i32::from(raw[0] > raw[1]));
-                let pair = _mm256_set1_epi32(i32::from(raw[0]) | (i32::from(raw[1]) << 16));
-                let w = |a: [i32; 8], b: [i32; 8]| {
-                    let v: [i32; 8] = core::array::from_fn(|i| a[i] | (b[i] << 16));
-                    _mm256_loadu_si256(v.as_ptr().cast())
-                };
-                let weights = _mm256_blendv_epi8(
-                    w([5, 0, 4, 3, 2, 1, 0, 0], [0, 5, 1, 2, 3, 4, 0, 0]),
-                    w([7, 0, 6, 5, 4, 3, 2, 1], [0, 7, 1, 2, 3, 4, 5, 6]),
-                    eight,
-                );
-                let recip =
-                    _mm256_blendv_epi8(_mm256_set1_epi32(13108), _mm256_set1_epi32(9363), eight);
-                let q = _mm256_mulhi_epu16(_mm256_madd_epi16(pair, weights), recip);
-                // Lane 7 of a six-value block is the constant 255.
-                let six7 = _mm256_andnot_si256(eight, _mm256_setr_epi32(0, 0, 0, 0, 0, 0, 0, 255));
-                let codes = _mm256_or_si256(q, six7);
+                let codes = bc4_codes(raw);
                 let pal = _mm256_i32gather_ps::<4>(table.as_ptr(), codes);
                 let bits = u64::from_le_bytes(*raw) >> 16;
                 let lo = _mm256_set1_epi32((bits & 0xff_ffff) as i32);

@@ -22,6 +22,8 @@ impl X4 {
 pub(crate) struct Ctx<'a, 'm> {
     pub(crate) matrix: &'a TransferMatrix<'m>,
     pub(crate) tables: &'a [[f32; 256]],
+    /// `LogScale::factors()` per tile and channel for the `zmm` log bodies (else empty).
+    pub(crate) factors: &'a [([f32; 16], [f32; 16])],
     /// BC1 palette tables per tile, `None` for small tiles (empty for other formats).
     pub(crate) bc1: &'a [Option<Bc1Palettes>],
     pub(crate) tiles: &'a [Tile],

@@ -33,8 +33,13 @@
 //! turns a block into palette-table keys runs for 16 blocks at a time in vector registers, a
 //! run of 128 blocks ahead of their use (keying each group just before its blocks made every
 //! scalar key load wait for the wide vector store it read from: 2.3 → 1.7 ms on one thread).
-//! [`CpuGather::new`] takes the fastest path `is_x86_feature_detected!` allows
-//! ([`SimdPath::detect`]); the other formats run the AVX2 body on the AVX-512 path.
+//! BC4 and u8 get `zmm` bodies too: their log codes become values without the 256-entry table
+//! look-ups (scalar loads for u8, `vgatherdps` for BC4's palette) through the core's product
+//! form of the quantiser, `LogScale::decode(q) = high[(255 − q) >> 4] · low[(255 − q) & 15]`:
+//! two 16-entry tables in two registers, two `vpermps` and one multiply for 16 codes, the same
+//! rounding as the table, so still bit-identical. [`CpuGather::new`] takes the fastest path
+//! `is_x86_feature_detected!` allows ([`SimdPath::detect`]); f16 and f32 run the AVX2 body on
+//! the AVX-512 path (they are at their memory roof already).
 //!
 //! Measured at n = 4096 (3 channels, 2 threads, Zen 5 EPYC with AVX-512), milliseconds per
 //! gather, `cargo bench -p radiosity-benches --bench gather` (AVX-512 column: `radiosity bench
@@ -44,8 +49,8 @@
 //! | format | runtime AVX-512 path | runtime AVX2 path | plain build, baseline (SSE2) | `target-cpu=native` build, baseline (`wide` on AVX-512) |
 //! |--------|------:|------:|------:|------:|
 //! | bc1    | 0.81–0.85 | 1.75–1.92 | 8.0–8.6 | 6.0  |
-//! | bc4    | (AVX2)    | 6.5–7.3   | 15–17   | 15.4 |
-//! | u8     | (AVX2)    | 5.3       | 7.1–7.4 | 5.0  |
+//! | bc4    | BC4_MS    | 6.5–7.3   | 15–17   | 15.4 |
+//! | u8     | U8_MS     | 5.3       | 7.1–7.4 | 5.0  |
 //! | f16    | (AVX2)    | 2.7–3.0   | 22      | 20.5 |
 //! | f32    | (AVX2)    | 3.8–5.4   | 5.6–7.3 | 4.5  |
 //!
@@ -99,8 +104,9 @@ pub enum SimdPath {
     /// The body compiled with `avx2`, `fma` and `f16c` enabled (every AVX2 CPU has F16C);
     /// palette expansion, gathers and f16 conversion through `std::arch`.
     Avx2Fma,
-    /// AVX-512F on top of the AVX2 set: BC1 through `zmm` bodies (one block per register,
-    /// endpoint arithmetic of 16 blocks at a time); the other formats run the AVX2 body.
+    /// AVX-512F on top of the AVX2 set: BC1, BC4 and u8 through `zmm` bodies (one block per
+    /// register; BC1 endpoint arithmetic of 16 blocks at a time; log codes to values by two
+    /// in-register 16-entry tables); f16 and f32 run the AVX2 body.
     Avx512,
 }
 
@@ -167,6 +173,8 @@ pub struct CpuGather<'m> {
     matrix: TransferMatrix<'m>,
     /// One 256-entry decode table per tile and channel (empty for f16/f32).
     tables: Vec<[f32; 256]>,
+    /// The tables' two 16-entry factors (`LogScale::factors`), for the `zmm` log bodies only.
+    factors: Vec<([f32; 16], [f32; 16])>,
     /// BC1 only: each large tile's palettes decoded to values (`decode::Bc1Palettes`).
     bc1: Vec<Option<decode::Bc1Palettes>>,
     /// Every tile, in storage order.
@@ -178,7 +186,7 @@ pub struct CpuGather<'m> {
     xs: Vec<f32x8>,
     /// The same for the `zmm` bodies (each column block's four values once); empty unless one
     /// runs.
-    x16: Vec<kernel::X4>,
+    x4: Vec<kernel::X4>,
     simd: SimdPath,
     parallel: bool,
     name: String,
@@ -217,6 +225,11 @@ impl<'m> CpuGather<'m> {
         );
         assert_eq!(matrix.scales.len(), l.scale_count(), "scale count");
         let tables: Vec<[f32; 256]> = matrix.scales.iter().map(|s| s.table()).collect();
+        let factors = if uses_zmm(l.format(), simd) {
+            matrix.scales.iter().map(|s| s.factors()).collect()
+        } else {
+            Vec::new()
+        };
         let tiles: Vec<Tile> = l.tiles().collect();
         let bc1 = if l.format() == Format::Bc1 {
             tiles
@@ -235,12 +248,12 @@ impl<'m> CpuGather<'m> {
         } else {
             Vec::new()
         };
-        let x16 = if uses_zmm(l.format(), simd) {
+        let x4 = if uses_zmm(l.format(), simd) {
             vec![kernel::X4::ZERO; l.padded() / 4 * 3]
         } else {
             Vec::new()
         };
-        let xs = if x16.is_empty() {
+        let xs = if x4.is_empty() {
             vec![f32x8::ZERO; l.padded() / 4 * 3]
         } else {
             Vec::new()
@@ -249,11 +262,12 @@ impl<'m> CpuGather<'m> {
         Self {
             matrix,
             tables,
+            factors,
             bc1,
             tiles,
             f16,
             xs,
-            x16,
+            x4,
             simd,
             parallel: true,
             name,
@@ -288,10 +302,10 @@ impl<'m> CpuGather<'m> {
     /// Address of the reusable exitance buffer: the same across gathers, since gathers never
     /// reallocate (the tests check this).
     pub fn scratch_ptr(&self) -> *const u8 {
-        if self.x16.is_empty() {
+        if self.x4.is_empty() {
             self.xs.as_ptr().cast()
         } else {
-            self.x16.as_ptr().cast()
+            self.x4.as_ptr().cast()
         }
     }
 }
@@ -316,7 +330,7 @@ impl Gather for CpuGather<'_> {
                 *v = f32x8::from([q[0], q[1], q[2], q[3], q[0], q[1], q[2], q[3]]);
             }
         }
-        for (j, xs) in self.x16.chunks_exact_mut(3).enumerate() {
+        for (j, xs) in self.x4.chunks_exact_mut(3).enumerate() {
             for (k, v) in xs.iter_mut().enumerate() {
                 v.0 = core::array::from_fn(|c| col(j, c, k));
             }
@@ -324,6 +338,7 @@ impl Gather for CpuGather<'_> {
         let ctx = kernel::Ctx {
             matrix: &self.matrix,
             tables: &self.tables,
+            factors: &self.factors,
             bc1: &self.bc1,
             tiles: &self.tiles,
             f16: &self.f16,
@@ -334,19 +349,35 @@ impl Gather for CpuGather<'_> {
         match self.matrix.layout.format() {
             #[cfg(target_arch = "x86_64")]
             Format::Bc1 if uses_zmm(Format::Bc1, simd) => {
-                let x16 = &self.x16[..];
+                let x4 = &self.x4[..];
                 run(parallel, irradiance, |r, out| {
                     // SAFETY: `uses_zmm` holds only on `SimdPath::Avx512`, which `CpuGather`
                     // holds only after `is_available` saw AVX-512F, AVX2, FMA and F16C.
-                    unsafe { avx512::bc1_block_row(&ctx, x16, r, out) }
+                    unsafe { avx512::bc1_block_row(&ctx, x4, r, out) }
                 })
             }
             Format::Bc1 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::Bc1>(&ctx, simd, r, out)
             }),
+            #[cfg(target_arch = "x86_64")]
+            Format::Bc4 if uses_zmm(Format::Bc4, simd) => {
+                let x4 = &self.x4[..];
+                run(parallel, irradiance, |r, out| {
+                    // SAFETY: as for BC1 above.
+                    unsafe { avx512::bc4_block_row(&ctx, x4, r, out) }
+                })
+            }
             Format::Bc4 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::Bc4>(&ctx, simd, r, out)
             }),
+            #[cfg(target_arch = "x86_64")]
+            Format::U8 if uses_zmm(Format::U8, simd) => {
+                let x4 = &self.x4[..];
+                run(parallel, irradiance, |r, out| {
+                    // SAFETY: as for BC1 above.
+                    unsafe { avx512::u8_block_row(&ctx, x4, r, out) }
+                })
+            }
             Format::U8 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::U8>(&ctx, simd, r, out)
             }),
@@ -363,7 +394,9 @@ impl Gather for CpuGather<'_> {
 
 /// Whether `format` runs a `zmm` body on `simd` (and so reads the exitance as [`kernel::X4`]).
 fn uses_zmm(format: Format, simd: SimdPath) -> bool {
-    cfg!(target_arch = "x86_64") && simd == SimdPath::Avx512 && format == Format::Bc1
+    cfg!(target_arch = "x86_64")
+        && simd == SimdPath::Avx512
+        && matches!(format, Format::Bc1 | Format::Bc4 | Format::U8)
 }
 
 /// Runs `body(block_row, its output rows)` over every block row, in parallel or not: the same
