@@ -208,17 +208,7 @@ mod tests {
     #[test]
     fn every_variant_validates() {
         let mut variants = Vec::new();
-        for (format, channels) in [
-            (Format::Bc1, 3),
-            (Format::Bc4, 3),
-            (Format::Bc4, 1),
-            (Format::U8, 3),
-            (Format::U8, 1),
-            (Format::F16, 3),
-            (Format::F16, 1),
-            (Format::F32, 3),
-            (Format::F32, 1),
-        ] {
+        for (format, channels) in Format::CASES {
             for mode in [DecodeMode::D3d10, DecodeMode::Mesa] {
                 variants.push(gather(format, channels, Source::Buffer, mode));
             }

@@ -36,6 +36,20 @@ impl Format {
         Format::F32,
     ];
 
+    /// Every storable (format, channel count) pair: BC1 only holds three channels, the others
+    /// one or three. What format-generic code and tests loop over.
+    pub const CASES: [(Format, usize); 9] = [
+        (Format::Bc1, 3),
+        (Format::Bc4, 3),
+        (Format::Bc4, 1),
+        (Format::U8, 3),
+        (Format::U8, 1),
+        (Format::F16, 3),
+        (Format::F16, 1),
+        (Format::F32, 3),
+        (Format::F32, 1),
+    ];
+
     /// The format with this file code, if any.
     pub fn from_u32(v: u32) -> Option<Format> {
         Self::ALL.into_iter().find(|f| *f as u32 == v)
@@ -330,6 +344,22 @@ impl MatrixLayout {
 
 #[cfg(test)]
 mod tests {
+
+    /// `Format::CASES` is exactly the (format, channels) pairs a layout accepts among 1 and 3
+    /// channels.
+    #[test]
+    fn cases_are_the_storable_pairs() {
+        for format in Format::ALL {
+            for channels in [1usize, 3] {
+                let ok = MatrixLayout::new(8, channels as u32, format, 16).is_ok();
+                assert_eq!(
+                    ok,
+                    Format::CASES.contains(&(format, channels)),
+                    "{format:?} × {channels}"
+                );
+            }
+        }
+    }
     use super::*;
 
     #[test]

@@ -13,17 +13,7 @@ use std::borrow::Cow;
 pub use radiosity_bake::rng::SplitMix64;
 
 /// Every storable (format, channels) pair: what format-generic tests loop over.
-pub const FORMAT_CASES: [(Format, usize); 9] = [
-    (Format::Bc1, 3),
-    (Format::Bc4, 3),
-    (Format::Bc4, 1),
-    (Format::U8, 3),
-    (Format::U8, 1),
-    (Format::F16, 3),
-    (Format::F16, 1),
-    (Format::F32, 3),
-    (Format::F32, 1),
-];
+pub const FORMAT_CASES: [(Format, usize); 9] = Format::CASES;
 
 /// A dense `n × n × channels` matrix shaped like a transfer matrix: patches on a ring, entries
 /// falling off as `1/(1 + d²)` with distance, zero diagonal, channels scaled by a colour, and a
