@@ -1,18 +1,26 @@
 //! Encoders: a dense transfer matrix → a [`TransferMatrix`] in any [`Format`].
 //!
-//! Steps: pick the sparse threshold (the largest entries are kept exactly and zeroed in the
-//! blocks), choose one [`LogScale`] per tile and channel from the tile's own maximum, quantise to
-//! 8-bit log codes, then pack each 4×4 block: BC1 and BC4 with texpresso's cluster fit, u8 as
-//! is, f16/f32 without quantisation. BC1 blocks pass through [`guard_bc1`] so that none decodes
-//! to transparent black by accident.
+//! Steps: pick the first sparse set (the largest entries are kept exactly; the blocks treat
+//! them as don't-cares), choose one [`LogScale`] per tile and channel from the tile's own
+//! maximum, quantise to 8-bit log codes, then pack each 4×4 block: BC1 with texpresso's
+//! cluster fit and BC4 with three candidate fits, both then refined in value space (`refine`),
+//! u8 as is, f16/f32 without quantisation. BC1 blocks pass through [`guard_bc1`] so that none
+//! decodes to transparent black by accident. The bake ([`encode_dense_with`]) then chooses the
+//! sparse entries again by weighted error (`select`) and, when the scene emits, re-encodes the
+//! blocks of the emitters' columns so that their errors cancel along each row ([`ErrorWeights`]).
+//! The sparse list stores each kept entry's exact value minus what its block decodes there.
 
 use radiosity_core::half::f32_to_f16;
 use radiosity_core::{
-    Bc1Block, Bc4Block, DEFAULT_MAX_TILE, DEFAULT_SHIFT, DecodeMode, Format, LayoutError, LogScale,
-    MatrixLayout, SparseRows, Tile, TransferMatrix,
+    Bc1Block, Bc4Block, BlockDecoder, DEFAULT_MAX_TILE, DEFAULT_SHIFT, DecodeMode, Format,
+    LayoutError, LogScale, MatrixLayout, Rgb, SparseRows, Tile, TransferMatrix,
 };
 use rayon::prelude::*;
+use refine::{BlockTarget, Coupling};
 use std::borrow::Cow;
+
+mod refine;
+mod select;
 
 /// How to encode. Every field trades size or time against accuracy.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,7 +37,8 @@ pub struct EncodeParams {
     /// formats only; float formats keep nothing sparse). Each kept entry costs 4 + 4·channels
     /// bytes; with each row's [`ROW_KEEP`] largest entries also kept, the default 0.4% keeps a
     /// 4096-patch BC1 Cornell box within 1/20 of the dense f32 RGB matrix (measured: 1% made it
-    /// 1/18).
+    /// 1/18). [`SparseSelection::ErrorDriven`] keeps as many entries, chosen by error instead of
+    /// size.
     pub sparse_fraction: f32,
     /// texpresso's fit for BC1: cluster fit (default) or the slower iterative cluster fit.
     pub bc1_iterative: bool,
@@ -129,61 +138,557 @@ pub fn default_sparse_fraction(format: Format, channels: usize) -> f32 {
 }
 
 /// Encodes a dense row-major matrix (`n · n · channels` values, channels interleaved per entry)
-/// in the matrix's final patch numbering.
+/// in the matrix's final patch numbering, judging errors uniformly (every entry alike: the
+/// Frobenius norm) with [`SparseRule`]'s sparse entries ([`SparseSelection::Largest`]): the
+/// encode that a block-by-block estimate reproduces exactly ([`BlockEncoder`]). The bake encodes
+/// with [`encode_dense_with`], weighing its own emitters and choosing the sparse entries by
+/// error. Deterministic: the same input gives the same bytes on any thread count.
 pub fn encode_dense(
     n: usize,
     channels: usize,
     dense: &[f32],
     params: &EncodeParams,
 ) -> Result<TransferMatrix<'static>, EncodeError> {
-    let layout = check_input(n, channels, dense, params)?;
+    encode_dense_with(
+        n,
+        channels,
+        dense,
+        params,
+        &ErrorWeights::uniform(),
+        SparseSelection::Largest,
+    )
+}
 
+/// [`encode_dense`] with an explicit error weighting ([`ErrorWeights`]: which columns matter
+/// how much) and sparse selection. What the bake calls.
+///
+/// Steps for the log formats:
+///
+/// 1. The first sparse set is [`SparseRule`]'s (the largest entries and each row's
+///    [`ROW_KEEP`] largest); with [`SparseSelection::ErrorDriven`] only at
+///    [`FIRST_PASS_SHARE`] of the fraction. One [`LogScale`] per tile and channel from what
+///    that leaves in the blocks ([`tile_scales`]).
+/// 2. Every block is fitted in code space (texpresso for BC1, three candidates for BC4) and
+///    refined in value space under the diagonal weights (`refine`).
+/// 3. [`SparseSelection::ErrorDriven`]: as many entries as [`SparseRule`] keeps at the full
+///    fraction (so the file size is unchanged), chosen by weighted squared error as decoded
+///    (`select`); the blocks whose sparse texels changed are encoded again with the same
+///    scales, [`SELECT_ROUNDS`] times. Entries above their tile's `v_max` always stay sparse.
+/// 4. With emitters: the coupled pass ([`ErrorWeights`], `refine::Coupling`) along each block
+///    row, over the blocks that hold an emitting column.
+/// 5. The sparse list: each kept entry's exact value minus what its block decodes there.
+///
+/// Float formats keep nothing sparse and are stored as they are. Deterministic: the same input
+/// gives the same bytes on any thread count (per-block work is independent, the coupled pass
+/// runs each block row in order, the selection cut is an order statistic).
+pub fn encode_dense_with(
+    n: usize,
+    channels: usize,
+    dense: &[f32],
+    params: &EncodeParams,
+    weights: &ErrorWeights,
+    selection: SparseSelection,
+) -> Result<TransferMatrix<'static>, EncodeError> {
+    let layout = check_input(n, channels, dense, params)?;
+    weights.check(n)?;
     let fraction = if params.format.is_log() {
         params.sparse_fraction
     } else {
         0.0
     };
+    let selecting = selection == SparseSelection::ErrorDriven && fraction > 0.0;
     let rule = SparseRule::new(dense, n, channels, fraction);
-    let is_sparse = |e: usize| rule.keeps(e / n, &dense[e * channels..(e + 1) * channels]);
-    // What the blocks see: NaN (a don't-care, [`SPARSE_TEXEL`]) where the sparse list holds the
-    // entry, 0 beyond the last patch.
+    // With error-driven selection the first pass keeps only part of the budget by size, so
+    // that the scales leave room for large entries the error may not need in the list.
+    let (first_rule, budget) = if selecting {
+        let budget = rule.count(dense, n, channels);
+        let threshold = sparse_threshold(dense, channels, fraction * FIRST_PASS_SHARE);
+        (SparseRule { threshold, ..rule }, budget)
+    } else {
+        (rule, 0)
+    };
+    let side = layout.padded() / 4;
+    // The first sparse set, one 16-bit texel mask per 4×4 block of the padded matrix
+    // (row-major over block rows and columns; bit `4·(row % 4) + col % 4`).
+    let first: Vec<u16> = (0..side * side)
+        .into_par_iter()
+        .map(|b| {
+            block_texels(b, side, n).fold(0u16, |m, (i, r, c)| {
+                let e = r * n + c;
+                if first_rule.keeps(r, &dense[e * channels..(e + 1) * channels]) {
+                    m | 1 << i
+                } else {
+                    m
+                }
+            })
+        })
+        .collect();
+    let sparse_at = |masks: &[u16], r: usize, c: usize| {
+        masks[r / 4 * side + c / 4] & (1 << ((r % 4) * 4 + c % 4)) != 0
+    };
+    // What the blocks see for the scales: NaN (a don't-care, [`SPARSE_TEXEL`]) where the
+    // sparse list holds the entry, 0 beyond the last patch.
     let value = |row: usize, col: usize, ch: usize| -> f32 {
         if row >= n || col >= n {
             return 0.0;
         }
-        let e = row * n + col;
-        if is_sparse(e) {
+        if sparse_at(&first, row, col) {
             SPARSE_TEXEL
         } else {
-            dense[e * channels + ch]
+            dense[(row * n + col) * channels + ch]
         }
     };
-
     let scales = tile_scales(&layout, params, &value);
-    let tiles: Vec<Tile> = layout.tiles().collect();
-    let mut blocks = vec![0u8; layout.block_bytes() as usize];
+    let source = Source {
+        layout: &layout,
+        params,
+        dense,
+        weights,
+        tables: scales.iter().map(LogScale::table).collect(),
+        decoder: BlockDecoder::from_scales(&scales, DecodeMode::D3d10),
+        scales: &scales,
+    };
+
     let bb = params.format.block_bytes();
-    for tile in &tiles {
-        let plane_bytes = tile.blocks_high() * tile.blocks_wide() * bb;
-        let tile_bytes = &mut blocks[tile.offset..tile.offset + plane_bytes * layout.planes()];
-        for (plane, plane_out) in tile_bytes.chunks_exact_mut(plane_bytes).enumerate() {
-            plane_out
-                .par_chunks_exact_mut(bb)
+    let per_block = layout.planes() * bb;
+    let mut encoded = vec![0u8; side * side * per_block];
+    let masks = if selecting {
+        let mut scores = vec![[0f32; 16]; side * side];
+        encoded
+            .par_chunks_exact_mut(per_block)
+            .zip(scores.par_iter_mut())
+            .enumerate()
+            .for_each(|(b, (out, score))| source.encode(b, first[b], out, Some(score)));
+        let forced: Vec<u16> = (0..side * side)
+            .into_par_iter()
+            .map(|b| source.must_stay_sparse(b))
+            .collect();
+        let mut masks = first;
+        for _ in 0..SELECT_ROUNDS {
+            let next = select::by_score(&scores, &forced, budget);
+            encoded
+                .par_chunks_exact_mut(per_block)
+                .zip(scores.par_iter_mut())
                 .enumerate()
-                .for_each(|(b, out)| {
-                    let (br, bc) = (b / tile.blocks_wide(), b % tile.blocks_wide());
-                    encode_block(&layout, params, &scales, tile, plane, br, bc, &value, out);
-                });
+                .filter(|(b, _)| next[*b] != masks[*b])
+                .for_each(|(b, (out, score))| source.encode(b, next[b], out, Some(score)));
+            masks = next;
+        }
+        masks
+    } else {
+        encoded
+            .par_chunks_exact_mut(per_block)
+            .enumerate()
+            .for_each(|(b, out)| source.encode(b, first[b], out, None));
+        first
+    };
+
+    if weights.has_emitters() && matches!(params.format, Format::Bc1 | Format::Bc4) {
+        // The endpoint search of the coupled pass costs ≈ 35 µs per BC1 block (measured on
+        // the Cornell box), so it is reserved for scenes whose emitters fill few column blocks
+        // (a lamp, not a glowing room); the others get the coupled index choice alone (≈ 5 µs).
+        let emitting = (0..side)
+            .filter(|&bc| (bc * 4..(bc * 4 + 4).min(n)).any(|c| weights.emission(c) != [0.0; 3]))
+            .count();
+        let search = emitting * COUPLED_SEARCH_SHARE <= side;
+        encoded
+            .par_chunks_exact_mut(side * per_block)
+            .enumerate()
+            .for_each(|(row, out)| source.couple_row(row, &masks, out, search));
+    }
+
+    // Scatter the blocks (global block order, planes together) into the layout's order (per
+    // tile, per plane, block-row-major).
+    let mut blocks = vec![0u8; layout.block_bytes() as usize];
+    for (b, raw) in encoded.chunks_exact(per_block).enumerate() {
+        let (tile, br, bc) = layout.locate(b / side * 4, b % side * 4);
+        for plane in 0..layout.planes() {
+            let off = layout.block_offset(&tile, plane, br, bc);
+            blocks[off..off + bb].copy_from_slice(&raw[plane * bb..(plane + 1) * bb]);
         }
     }
     let mut matrix = TransferMatrix {
         layout,
-        scales: Cow::Owned(scales),
+        scales: Cow::Owned(scales.clone()),
         blocks: Cow::Owned(blocks),
         sparse: SparseRows::empty(n),
     };
-    matrix.sparse = build_sparse(&matrix, dense, &is_sparse);
+    matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
     Ok(matrix)
+}
+
+/// Share of the sparse budget the first pass of error-driven selection keeps by size
+/// ([`SparseRule`] at this share of the fraction); the scales come from what that leaves in the
+/// blocks. The whole budget then goes by error. At 1 the scales' `v_max` sits just below the
+/// budget's smallest kept entry, so nearly every entry the rule keeps is above `v_max` and must
+/// stay in the list (a block cannot decode above it): the selection could only move the few
+/// row-keep entries. Measured on the 4106-patch Cornell box (uniform weights, relative Frobenius
+/// error): 2.66% at 1, 2.57% at 0.75, 2.55% at 0.5, 2.56% at 0.25; BC4 0.79%, 0.70% (0.5),
+/// 0.71% (0.25).
+pub const FIRST_PASS_SHARE: f32 = 0.5;
+
+/// Rounds of error-driven selection: select, re-encode the blocks whose sparse texels changed,
+/// score again. Measured on the 4106-patch Cornell box (BC1, uniform weights): the first round
+/// changes ~16k blocks and gives 2.59% Frobenius error, the second changes ~5k more and gives
+/// 2.55% (BC4: 0.714%, 0.699%); four rounds give 2.54%.
+pub const SELECT_ROUNDS: usize = 2;
+
+/// The coupled pass searches endpoints only when at most one column block in this many holds
+/// an emitter; see [`encode_dense_with`].
+pub const COUPLED_SEARCH_SHARE: usize = 8;
+
+/// Texels of global block `b` (`side` blocks per row) inside the `n × n` matrix: (bit, row,
+/// column).
+fn block_texels(b: usize, side: usize, n: usize) -> impl Iterator<Item = (usize, usize, usize)> {
+    let (r0, c0) = (b / side * 4, b % side * 4);
+    (0..16)
+        .map(move |i| (i, r0 + i / 4, c0 + i % 4))
+        .filter(move |&(_, r, c)| r < n && c < n)
+}
+
+/// How the sparse list's entries are chosen (its size is [`SparseRule`]'s either way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SparseSelection {
+    /// [`SparseRule`]: the largest entries and each row's [`ROW_KEEP`] largest. What a single
+    /// block can be encoded with ([`BlockEncoder`]), so what order estimates measure.
+    Largest,
+    /// The entries whose weighted squared error after a first encode (with [`SparseRule`]'s
+    /// set) is largest, as many as [`SparseRule`] keeps; see `select`.
+    ErrorDriven,
+}
+
+/// How much each entry's error matters: the encoder's objective.
+///
+/// The runtime computes `y = M·x`, with `x = s·E + r`: the scene's own emitters `E` (scaled by
+/// one factor at run time) plus light added at run time `r`. Model `r` as independent per
+/// patch and channel with mean 0 and variance σ². The expected squared error of `y` is then
+/// `σ²·Σ_ij ΔM_ij² + Σ_i (Σ_j ΔM_ij·E_j)²` per channel (with `s = 1`). [`ErrorWeights::for_emitters`]
+/// takes σ² = the mean of `E_j²` over patches and channels, so the scene's own lighting and
+/// lighting added later get equal total weight: a bake is judged both by its own emitters (the
+/// issue's "lighting error") and by runtime lights (the Frobenius norm). Without emitters
+/// ([`ErrorWeights::uniform`]) the objective is the Frobenius norm.
+///
+/// The second term couples all entries of a row. Block fits and the sparse selection use its
+/// diagonal, per-entry weights `σ² + E_j²` ([`ErrorWeights::weight`]), which would be exact if
+/// the entries' errors were independent. They are not: a row sees all patches of a small light
+/// almost alike, so their code errors come out alike and add up (measured on the Cornell box,
+/// `‖ΔM·E‖²` was 3× its diagonal part). A last pass over the blocks of the emitting columns
+/// therefore encodes each block row left to right with the exact objective, each block leaning
+/// against the row errors of those before it (`refine::Coupling`): error diffusion. With one
+/// scale factor for all emitters at run time, the cancellation holds for any `s`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ErrorWeights {
+    /// Per column, the scene's own exitance per channel in units of σ (`E_j / σ`); empty when
+    /// nothing emits (uniform weights).
+    emission: Vec<[f32; 3]>,
+}
+
+impl ErrorWeights {
+    /// Every entry alike: the Frobenius norm.
+    pub fn uniform() -> Self {
+        Self {
+            emission: Vec::new(),
+        }
+    }
+
+    /// The weights for a scene whose patches (matrix numbering) emit `emission`, with σ² =
+    /// the mean of `E_j²` over patches and channels (see the type's doc); uniform when nothing
+    /// emits.
+    pub fn for_emitters(emission: &[Rgb]) -> Self {
+        let n = emission.len();
+        let sigma2 = emission
+            .iter()
+            .map(|e| (0..3).map(|k| f64::from(e.channel(k)).powi(2)).sum::<f64>())
+            .sum::<f64>()
+            / (3 * n.max(1)) as f64;
+        if !(sigma2 > 0.0 && sigma2.is_finite()) {
+            return Self::uniform();
+        }
+        let sigma = sigma2.sqrt();
+        Self {
+            emission: emission
+                .iter()
+                .map(|e| core::array::from_fn(|k| (f64::from(e.channel(k)) / sigma) as f32))
+                .collect(),
+        }
+    }
+
+    /// Whether any column carries emission (the coupled pass then has work).
+    pub fn has_emitters(&self) -> bool {
+        self.emission.iter().any(|e| *e != [0.0; 3])
+    }
+
+    /// `E_j / σ` of column `col` (zero when uniform).
+    #[inline]
+    fn emission(&self, col: usize) -> [f32; 3] {
+        self.emission.get(col).copied().unwrap_or([0.0; 3])
+    }
+
+    /// The diagonal weight of column `col`, matrix channel `ch`, in units of σ²: `1 + (E/σ)²`
+    /// for a three-channel matrix; a grey matrix's entry multiplies all three exitance
+    /// channels, so `3 + Σ_k (E_k/σ)²`. 1 everywhere for [`ErrorWeights::uniform`].
+    #[inline]
+    pub fn weight(&self, col: usize, ch: usize, channels: usize) -> f32 {
+        if self.emission.is_empty() {
+            return 1.0;
+        }
+        let e = self.emission(col);
+        if channels == 1 {
+            3.0 + e.iter().map(|v| v * v).sum::<f32>()
+        } else {
+            1.0 + e[ch] * e[ch]
+        }
+    }
+
+    fn check(&self, n: usize) -> Result<(), EncodeError> {
+        if !self.emission.is_empty() && self.emission.len() != n {
+            return Err(EncodeError::Params(
+                "error weights need one emission per column",
+            ));
+        }
+        if self
+            .emission
+            .iter()
+            .flatten()
+            .any(|w| !(w.is_finite() && *w >= 0.0))
+        {
+            return Err(EncodeError::Params(
+                "error weights must be finite and non-negative",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The decode table of formats without codes (f16, f32): never read.
+static NO_TABLE: [f32; 256] = [0.0; 256];
+
+/// What encoding one block of a whole matrix needs.
+struct Source<'a> {
+    layout: &'a MatrixLayout,
+    params: &'a EncodeParams,
+    dense: &'a [f32],
+    weights: &'a ErrorWeights,
+    scales: &'a [LogScale],
+    tables: Vec<[f32; 256]>,
+    decoder: BlockDecoder,
+}
+
+impl Source<'_> {
+    /// Encodes global block `b` (every plane, `out` holds them in turn) with the texels in
+    /// `sparse` left to the sparse list. With `score`, also writes each texel's weighted
+    /// squared error as decoded (for sparse texels: what the block decodes there), 0 beyond
+    /// the last patch.
+    fn encode(&self, b: usize, sparse: u16, out: &mut [u8], score: Option<&mut [f32; 16]>) {
+        let l = self.layout;
+        let channels = l.channels();
+        let bb = self.params.format.block_bytes();
+        let (target, tile) = self.target(b, sparse);
+        let mut decoded = [[0f32; 16]; 3];
+        for plane in 0..l.planes() {
+            let raw = &mut out[plane * bb..(plane + 1) * bb];
+            encode_target(self.params, plane, &target, raw);
+            if score.is_some() {
+                self.decoder.decode_plane(l, tile, plane, raw, &mut decoded);
+            }
+        }
+        if let Some(score) = score {
+            for i in 0..16 {
+                score[i] = (0..channels)
+                    .map(|ch| {
+                        target.weights[ch][i] * (decoded[ch][i] - target.values[ch][i]).powi(2)
+                    })
+                    .sum();
+            }
+        }
+    }
+
+    /// What global block `b` should hold with the texels in `sparse` left to the sparse list,
+    /// and its tile's index.
+    fn target(&self, b: usize, sparse: u16) -> (BlockTarget<'_>, usize) {
+        let l = self.layout;
+        let (n, channels) = (l.n(), l.channels());
+        let side = l.padded() / 4;
+        let (tile, _, _) = l.locate(b / side * 4, b % side * 4);
+        let mut target = BlockTarget {
+            values: [[0.0; 16]; 3],
+            weights: [[0.0; 16]; 3],
+            fit: 0,
+            tables: [&NO_TABLE; 3],
+            codes: [[0; 16]; 3],
+        };
+        let log = self.params.format.is_log();
+        if log {
+            for ch in 0..channels {
+                target.tables[ch] = &self.tables[l.scale_index(tile.index, ch)];
+            }
+        }
+        for (i, r, c) in block_texels(b, side, n) {
+            let e = (r * n + c) * channels;
+            for ch in 0..channels {
+                target.values[ch][i] = self.dense[e + ch];
+                target.weights[ch][i] = self.weights.weight(c, ch, channels);
+            }
+            if sparse & (1 << i) == 0 {
+                target.fit |= 1 << i;
+                if log {
+                    for ch in 0..channels {
+                        let s = self.scales[l.scale_index(tile.index, ch)];
+                        target.codes[ch][i] = s.encode(target.values[ch][i]);
+                    }
+                }
+            }
+        }
+        (target, tile.index)
+    }
+
+    /// The coupled pass over block row `block_row` (`out`: its blocks, planes together):
+    /// each block with an emitting column, left to right, is refined under [`Coupling`]
+    /// with the emitter-weighted row errors of the blocks before it, then its own errors are
+    /// added to them. BC1 and BC4 only.
+    fn couple_row(&self, block_row: usize, masks: &[u16], out: &mut [u8], search: bool) {
+        let l = self.layout;
+        let (n, channels) = (l.n(), l.channels());
+        let side = l.padded() / 4;
+        let bb = self.params.format.block_bytes();
+        let per_block = l.planes() * bb;
+        let grey = channels == 1;
+        let mut carried = [[0f32; 3]; 4];
+        for bc in 0..side {
+            let b = block_row * side + bc;
+            let emission: [[f32; 3]; 4] = core::array::from_fn(|c| {
+                let col = bc * 4 + c;
+                if col < n {
+                    self.weights.emission(col)
+                } else {
+                    [0.0; 3]
+                }
+            });
+            if emission == [[0.0; 3]; 4] {
+                continue;
+            }
+            let (target, tile) = self.target(b, masks[b]);
+            if (0..channels).all(|ch| target.codes[ch] == [0; 16]) {
+                continue;
+            }
+            let cp = Coupling {
+                sigma2: if grey { 3.0 } else { 1.0 },
+                grey,
+                emission,
+                carried,
+            };
+            let raw = &mut out[bc * per_block..(bc + 1) * per_block];
+            let mut decoded = [[0f32; 16]; 3];
+            for plane in 0..l.planes() {
+                let r = &mut raw[plane * bb..(plane + 1) * bb];
+                let start: [u8; 8] = (&*r).try_into().expect("8-byte block");
+                let refined = match self.params.format {
+                    Format::Bc1 => {
+                        refine::refine_bc1_coupled(Bc1Block(start), &target, &cp, search).0
+                    }
+                    _ => refine::refine_bc4_coupled(start, &target, plane, &cp, search),
+                };
+                r.copy_from_slice(&refined);
+                self.decoder.decode_plane(l, tile, plane, r, &mut decoded);
+            }
+            for i in 0..16 {
+                if target.fit & (1 << i) == 0 {
+                    continue;
+                }
+                for k in 0..3 {
+                    let ch = if grey { 0 } else { k };
+                    carried[i / 4][k] +=
+                        (decoded[ch][i] - target.values[ch][i]) * emission[i % 4][k];
+                }
+            }
+        }
+    }
+
+    /// Texels of global block `b` that must stay in the sparse list whatever their score: a
+    /// value above its tile's `v_max` in some channel (the scales come from the first sparse
+    /// set, whose entries may exceed them, and a block cannot decode above `v_max`).
+    fn must_stay_sparse(&self, b: usize) -> u16 {
+        let l = self.layout;
+        let (n, channels) = (l.n(), l.channels());
+        let side = l.padded() / 4;
+        block_texels(b, side, n).fold(0u16, |m, (i, r, c)| {
+            let (tile, _, _) = l.locate(r, c);
+            let e = (r * n + c) * channels;
+            let above = (0..channels)
+                .any(|ch| self.dense[e + ch] > self.scales[l.scale_index(tile.index, ch)].v_max);
+            if above { m | 1 << i } else { m }
+        })
+    }
+}
+
+/// Encodes one plane of a block from its target: BC1 and BC4 fitted in code space and refined
+/// in value space, u8 as codes (sparse texels too, so that their residual is small), f16/f32
+/// as values.
+fn encode_target(params: &EncodeParams, plane: usize, t: &BlockTarget<'_>, out: &mut [u8]) {
+    match params.format {
+        Format::Bc1 => {
+            let codes: [[u8; 3]; 16] =
+                core::array::from_fn(|i| [t.codes[0][i], t.codes[1][i], t.codes[2][i]]);
+            let start = encode_bc1_block(&codes, t.fit, params.bc1_iterative);
+            let block = if codes.iter().all(|c| *c == [0; 3]) {
+                start
+            } else {
+                refine::refine_bc1(start, t)
+            };
+            out.copy_from_slice(&block.0);
+        }
+        Format::Bc4 => {
+            let codes = &t.codes[plane];
+            if codes.iter().all(|c| *c == 0) {
+                out.fill(0);
+            } else {
+                out.copy_from_slice(&refine::refine_bc4(&bc4_candidates(codes, t.fit), t, plane));
+            }
+        }
+        Format::U8 => {
+            for i in 0..16 {
+                out[i] = if t.fit & (1 << i) != 0 {
+                    t.codes[plane][i]
+                } else {
+                    // Sparse texel: the code of its value when known (0 where unknown).
+                    let table = t.tables[plane];
+                    let v = t.values[plane][i];
+                    if t.weights[plane][i] > 0.0 && v > 0.0 {
+                        nearest_code(table, v)
+                    } else {
+                        0
+                    }
+                };
+            }
+        }
+        Format::F16 => {
+            for i in 0..16 {
+                out[2 * i..2 * i + 2]
+                    .copy_from_slice(&f32_to_f16(t.values[plane][i]).to_le_bytes());
+            }
+        }
+        Format::F32 => {
+            for i in 0..16 {
+                out[4 * i..4 * i + 4].copy_from_slice(&t.values[plane][i].to_le_bytes());
+            }
+        }
+    }
+}
+
+/// The code whose decoded value is nearest `v` (the table is increasing).
+fn nearest_code(table: &[f32; 256], v: f32) -> u8 {
+    let above = table.partition_point(|t| *t < v);
+    if above == 0 {
+        return 0;
+    }
+    if above == 256 {
+        return 255;
+    }
+    if v - table[above - 1] <= table[above] - v {
+        (above - 1) as u8
+    } else {
+        above as u8
+    }
 }
 
 /// The value a `value(row, col, channel)` function gives for an entry the sparse list holds:
@@ -289,9 +794,9 @@ where
 }
 
 /// Encodes block (`br`, `bc`) of `plane` in `tile` into `out` (`params.format.block_bytes()`
-/// bytes), exactly as [`encode_dense`] does: `value` as in [`tile_scales`], `scales` from
-/// [`tile_scales`] with the same `value`. Texels beyond the last patch and sparse texels are
-/// don't-cares.
+/// bytes) as [`BlockEncoder::encode`] does; builds the decode tables for this one call, so a
+/// caller encoding many blocks should keep a [`BlockEncoder`].
+#[allow(clippy::too_many_arguments)] // the block's address is four numbers; a struct would only rename them
 pub fn encode_block<V>(
     layout: &MatrixLayout,
     params: &EncodeParams,
@@ -305,46 +810,86 @@ pub fn encode_block<V>(
 ) where
     V: Fn(usize, usize, usize) -> f32,
 {
-    let n = layout.n();
-    let (r0, c0) = (tile.row0 + br * 4, tile.col0 + bc * 4);
-    let texel = |i: usize, ch: usize| value(r0 + i / 4, c0 + i % 4, ch);
-    let code =
-        |i: usize, ch: usize| scales[layout.scale_index(tile.index, ch)].encode(texel(i, ch));
-    // Texels beyond the last patch and sparse texels (NaN) are don't-cares, left out of BC fits.
-    let planes_channels = if params.format == Format::Bc1 {
-        0..3
-    } else {
-        plane..plane + 1
-    };
-    let mask = (0..16)
-        .filter(|i| r0 + i / 4 < n && c0 + i % 4 < n)
-        .filter(|&i| planes_channels.clone().all(|ch| !texel(i, ch).is_nan()))
-        .fold(0u32, |m, i| m | 1 << i);
-    match params.format {
-        Format::Bc1 => {
-            let codes: [[u8; 3]; 16] =
-                core::array::from_fn(|i| [code(i, 0), code(i, 1), code(i, 2)]);
-            out.copy_from_slice(&encode_bc1_block(&codes, mask, params.bc1_iterative).0);
+    BlockEncoder::new(layout, params, scales).encode(tile, plane, br, bc, value, out);
+}
+
+/// Encodes single blocks of a matrix whose scales are known, exactly as the first pass of
+/// [`encode_dense_with`] does with uniform weights and [`SparseSelection::Largest`]: the same
+/// code-space fit and value-space refinement, so a block is bit-identical on every texel that
+/// counts (sparse texels may get another index). Used to estimate compression errors from a
+/// sample of blocks (`order::ErrorMeter`).
+pub struct BlockEncoder<'a> {
+    layout: &'a MatrixLayout,
+    params: &'a EncodeParams,
+    scales: &'a [LogScale],
+    /// [`LogScale::table`] of every scale.
+    tables: Vec<[f32; 256]>,
+}
+
+impl<'a> BlockEncoder<'a> {
+    /// An encoder for `layout` under `params` with `scales` from [`tile_scales`].
+    pub fn new(layout: &'a MatrixLayout, params: &'a EncodeParams, scales: &'a [LogScale]) -> Self {
+        Self {
+            layout,
+            params,
+            scales,
+            tables: scales.iter().map(LogScale::table).collect(),
         }
-        Format::Bc4 => {
-            let codes: [u8; 16] = core::array::from_fn(|i| code(i, plane));
-            out.copy_from_slice(&encode_bc4_block(&codes, mask));
-        }
-        Format::U8 => {
-            for i in 0..16 {
-                out[i] = code(i, plane);
+    }
+
+    /// Encodes block (`br`, `bc`) of `plane` in `tile` into `out`
+    /// (`params.format.block_bytes()` bytes): `value` as in [`tile_scales`], the scales from
+    /// [`tile_scales`] with the same `value`. Texels beyond the last patch and sparse texels
+    /// (NaN) are don't-cares.
+    pub fn encode<V>(
+        &self,
+        tile: &Tile,
+        plane: usize,
+        br: usize,
+        bc: usize,
+        value: &V,
+        out: &mut [u8],
+    ) where
+        V: Fn(usize, usize, usize) -> f32,
+    {
+        let (layout, params) = (self.layout, self.params);
+        let n = layout.n();
+        let (r0, c0) = (tile.row0 + br * 4, tile.col0 + bc * 4);
+        let channels: &[usize] = if params.format == Format::Bc1 {
+            &[0, 1, 2]
+        } else {
+            &[plane][..]
+        };
+        let log = params.format.is_log();
+        let mut target = BlockTarget {
+            values: [[0.0; 16]; 3],
+            weights: [[0.0; 16]; 3],
+            fit: 0,
+            tables: [&NO_TABLE; 3],
+            codes: [[0; 16]; 3],
+        };
+        if log {
+            for &ch in channels {
+                target.tables[ch] = &self.tables[layout.scale_index(tile.index, ch)];
             }
         }
-        Format::F16 => {
-            for i in 0..16 {
-                out[2 * i..2 * i + 2].copy_from_slice(&f32_to_f16(texel(i, plane)).to_le_bytes());
+        let uniform = ErrorWeights::uniform();
+        for i in 0..16 {
+            let (r, c) = (r0 + i / 4, c0 + i % 4);
+            if r >= n || c >= n || channels.iter().any(|&ch| value(r, c, ch).is_nan()) {
+                continue;
+            }
+            target.fit |= 1 << i;
+            for &ch in channels {
+                let v = value(r, c, ch);
+                target.values[ch][i] = v;
+                target.weights[ch][i] = uniform.weight(c, ch, layout.channels());
+                if log {
+                    target.codes[ch][i] = self.scales[layout.scale_index(tile.index, ch)].encode(v);
+                }
             }
         }
-        Format::F32 => {
-            for i in 0..16 {
-                out[4 * i..4 * i + 4].copy_from_slice(&texel(i, plane).to_le_bytes());
-            }
-        }
+        encode_target(params, plane, &target, out);
     }
 }
 
@@ -357,7 +902,10 @@ pub fn kept_sparse(entry: &[f32], threshold: f32) -> bool {
 
 /// Entries of each row kept exact whatever the global threshold: a row's irradiance is often
 /// dominated by its few nearest neighbours, whose block errors do not average out (measured: a
-/// 96-patch furnace at ρ = 0.5 was 1.1% off in BC4 with a global threshold alone).
+/// 96-patch furnace at ρ = 0.5 was 1.1% off in BC4 with a global threshold alone). With
+/// error-driven selection they are part of the first pass only: the selection keeps them when
+/// their error says so (forcing them into the final list cost the Cornell box's BC1 Frobenius
+/// error 2.61% → 2.65% and gained no lighting accuracy).
 pub const ROW_KEEP: usize = 4;
 
 /// Which entries the sparse list keeps: those whose largest channel exceeds a global threshold
@@ -409,6 +957,19 @@ impl SparseRule {
             threshold,
             row_floor,
         }
+    }
+
+    /// How many entries of the dense matrix (`n · n · channels`) the rule keeps.
+    pub fn count(&self, dense: &[f32], n: usize, channels: usize) -> usize {
+        (0..n)
+            .into_par_iter()
+            .map(|r| {
+                dense[r * n * channels..(r + 1) * n * channels]
+                    .chunks_exact(channels)
+                    .filter(|e| self.keeps(r, e))
+                    .count()
+            })
+            .sum()
     }
 
     /// Whether entry `entry` of row `row` is kept.
@@ -579,6 +1140,17 @@ pub fn encode_bc4_block(codes: &[u8; 16], mask: u32) -> [u8; 8] {
     if codes.iter().all(|c| *c == 0) {
         return [0; 8];
     }
+    bc4_candidates(codes, mask)
+        .into_iter()
+        .map(|(r0, r1)| bc4_with_best_indices(r0, r1, codes, mask))
+        .min_by_key(|(_, sse)| *sse)
+        .map(|(block, _)| block)
+        .expect("three candidates")
+}
+
+/// The endpoint pairs [`encode_bc4_block`] chooses among: texpresso's, the eight-value min/max
+/// fit and the six-value fit over the inner values.
+pub(crate) fn bc4_candidates(codes: &[u8; 16], mask: u32) -> [(u8, u8); 3] {
     let rgba: [[u8; 4]; 16] = core::array::from_fn(|i| [codes[i], 0, 0, 255]);
     let mut theirs = [0u8; 8];
     texpresso::Format::Bc4.compress_block_masked(
@@ -592,25 +1164,19 @@ pub fn encode_bc4_block(codes: &[u8; 16], mask: u32) -> [u8; 8] {
     let (lo, hi) = (values().min().unwrap_or(0), values().max().unwrap_or(0));
     let inner = || values().filter(|v| *v != 0 && *v != 255);
     let (lo6, hi6) = (inner().min().unwrap_or(lo), inner().max().unwrap_or(hi));
-    let candidates = [
+    [
         (theirs[0], theirs[1]),
         // r0 > r1 selects eight values; equal endpoints fall back to the six-value mode, where
         // index 0 still decodes to the endpoint.
         (hi, lo),
         // r0 ≤ r1 selects six values plus the constants 0 and 255.
         (lo6, hi6),
-    ];
-    candidates
-        .into_iter()
-        .map(|(r0, r1)| bc4_with_best_indices(r0, r1, codes, mask))
-        .min_by_key(|(_, sse)| *sse)
-        .map(|(block, _)| block)
-        .expect("three candidates")
+    ]
 }
 
 /// The BC4 block with endpoints `r0`, `r1` and each texel's nearest palette index, with its
 /// squared error over the texels in `mask`.
-fn bc4_with_best_indices(r0: u8, r1: u8, codes: &[u8; 16], mask: u32) -> ([u8; 8], u32) {
+pub(crate) fn bc4_with_best_indices(r0: u8, r1: u8, codes: &[u8; 16], mask: u32) -> ([u8; 8], u32) {
     let palette = Bc4Block([r0, r1, 0, 0, 0, 0, 0, 0]).palette(DecodeMode::D3d10);
     let mut bits = 0u64;
     let mut sse = 0u32;
@@ -675,5 +1241,211 @@ mod tests {
         let kept = dense.iter().filter(|v| **v > t).count();
         assert_eq!(kept, 10);
         assert_eq!(sparse_threshold(&dense, 1, 0.0), f32::INFINITY);
+    }
+
+    /// A transfer-like matrix over `n` patches scattered in the unit square (numbered by x, a
+    /// crude order), entries `0.02 / (0.01 + d²)` with ±10% noise and a tint per channel, and a
+    /// "lamp": the last `lamp` patches sit within 0.01 of (0.5, 0.5), so every row sees them
+    /// almost alike (the case where code errors add up along a row). Returns the matrix and the
+    /// emission (1 on the lamp, warm-coloured).
+    fn scene(n: usize, lamp: usize, seed: u64) -> (Vec<f32>, Vec<Rgb>) {
+        let mut rng = crate::rng::SplitMix64(seed);
+        let mut pos: Vec<(f32, f32, bool)> = (0..n)
+            .map(|i| {
+                if i >= n - lamp {
+                    let j = rng.next_f32() * 0.01;
+                    (0.5 + j, 0.5 - j, true)
+                } else {
+                    (rng.next_f32(), rng.next_f32(), false)
+                }
+            })
+            .collect();
+        pos.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let tint = [1.0f32, 0.7, 0.4];
+        let mut m = vec![0f32; n * n * 3];
+        for r in 0..n {
+            for c in 0..n {
+                if r == c {
+                    continue;
+                }
+                let d2 = (pos[r].0 - pos[c].0).powi(2) + (pos[r].1 - pos[c].1).powi(2);
+                let v = 0.02 / (0.01 + d2) * (0.9 + 0.2 * rng.next_f32());
+                for k in 0..3 {
+                    m[(r * n + c) * 3 + k] = v * tint[k];
+                }
+            }
+        }
+        let emission = pos
+            .iter()
+            .map(|p| {
+                if p.2 {
+                    Rgb::new(1.0, 0.8, 0.5)
+                } else {
+                    Rgb::ZERO
+                }
+            })
+            .collect();
+        (m, emission)
+    }
+
+    fn squared_error(a: &[f32], b: &[f32]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+            .sum()
+    }
+
+    /// `‖(decoded − m)·E‖ / ‖m·E‖` over rows and channels.
+    fn lighting(m: &[f32], decoded: &[f32], n: usize, e: &[Rgb]) -> f64 {
+        let (mut num, mut den) = (0f64, 0f64);
+        for r in 0..n {
+            for k in 0..3 {
+                let (mut y, mut dy) = (0f64, 0f64);
+                for c in 0..n {
+                    let i = (r * n + c) * 3 + k;
+                    let x = f64::from(e[c].channel(k));
+                    y += f64::from(m[i]) * x;
+                    dy += (f64::from(decoded[i]) - f64::from(m[i])) * x;
+                }
+                num += dy * dy;
+                den += y * y;
+            }
+        }
+        (num / den).sqrt()
+    }
+
+    #[test]
+    fn error_driven_selection_beats_the_largest_entries() {
+        for format in [Format::Bc1, Format::Bc4] {
+            let n = 160;
+            let (m, _) = scene(n, 0, 7);
+            let run = |selection| {
+                let p = EncodeParams::for_format(format);
+                let t =
+                    encode_dense_with(n, 3, &m, &p, &ErrorWeights::uniform(), selection).unwrap();
+                (
+                    squared_error(&t.decode_dense(DecodeMode::D3d10), &m),
+                    t.sparse.nnz(),
+                )
+            };
+            let (old, old_nnz) = run(SparseSelection::Largest);
+            let (new, new_nnz) = run(SparseSelection::ErrorDriven);
+            // The same number of exact entries, chosen by what the blocks get wrong instead of
+            // by size. Measured: 0.79 (BC1) and 0.82 (BC4) of the squared error. The bound 0.9
+            // leaves room for other matrices' luck and fails if the scores did not lead the
+            // choice (choosing at random, or the smallest errors, gives more error than the
+            // largest entries).
+            let ratio = new / old;
+            assert!(
+                new_nnz <= old_nnz,
+                "{format}: the list grew from {old_nnz} to {new_nnz}"
+            );
+            assert!(
+                ratio <= 0.9,
+                "{format}: squared error {old:e} → {new:e}, ratio {ratio:.3} > 0.9"
+            );
+        }
+    }
+
+    #[test]
+    fn coupled_pass_cancels_the_lamps_row_errors() {
+        for format in [Format::Bc1, Format::Bc4] {
+            let n = 160;
+            let (m, e) = scene(n, 12, 9);
+            let run = |weights: &ErrorWeights| {
+                let p = EncodeParams::for_format(format);
+                let t =
+                    encode_dense_with(n, 3, &m, &p, weights, SparseSelection::ErrorDriven).unwrap();
+                let d = t.decode_dense(DecodeMode::D3d10);
+                let zero = vec![0f32; m.len()];
+                (
+                    lighting(&m, &d, n, &e),
+                    (squared_error(&d, &m) / squared_error(&m, &zero)).sqrt(),
+                )
+            };
+            let (old, old_f) = run(&ErrorWeights::uniform());
+            let (new, new_f) = run(&ErrorWeights::for_emitters(&e));
+            // The lamp's twelve columns are nearly equal in every row, so uniform weights leave
+            // their code errors adding up (lighting error 2.4% BC1, 0.72% BC4 measured); the
+            // emitter weights and the coupled pass cancel them along each row (0.33%, 0.13%).
+            // Bound: a third, half the measured gain. The Frobenius error pays for it (1.095×
+            // and 1.096× measured: a twelfth of the columns carry half the weight); bound 1.2.
+            assert!(
+                new <= old / 3.0,
+                "{format}: lighting error {old:.5} → {new:.5}, not below a third"
+            );
+            assert!(
+                new_f <= old_f * 1.2,
+                "{format}: Frobenius error {old_f:.5} → {new_f:.5}, more than 1.2×"
+            );
+        }
+    }
+
+    /// What the file format promises of any encode, checked on the bake's own path (weights,
+    /// error-driven selection, coupled pass): sparse entries exact up to the one f32 addition
+    /// of block and residual, blocks never above their tile's `v_max`, u8 codes within half a
+    /// step, and the same bytes on one thread as on three.
+    #[test]
+    fn weighted_error_driven_encode_keeps_the_format_promises() {
+        let n = 70; // not a multiple of 4: padding texels too
+        let (m, e) = scene(n, 6, 3);
+        let weights = ErrorWeights::for_emitters(&e);
+        for format in [Format::Bc1, Format::Bc4, Format::U8] {
+            let p = EncodeParams {
+                max_tile: 32, // several tiles, each with its own scales
+                ..EncodeParams::for_format(format)
+            };
+            let encode = |threads: usize| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| {
+                        encode_dense_with(n, 3, &m, &p, &weights, SparseSelection::ErrorDriven)
+                            .unwrap()
+                    })
+            };
+            let t = encode(1);
+            assert_eq!(t, encode(3), "{format}: thread count changed the bytes");
+            t.validate().unwrap();
+            let d = t.decode_dense(DecodeMode::D3d10);
+            let mut sparse = vec![false; n * n];
+            for r in 0..n {
+                for (c, _) in t.sparse.row(r, 3) {
+                    sparse[r * n + c] = true;
+                }
+            }
+            for r in 0..n {
+                for c in 0..n {
+                    let (tile, _, _) = t.layout.locate(r, c);
+                    for k in 0..3 {
+                        let i = (r * n + c) * 3 + k;
+                        let (v, got) = (m[i], d[i]);
+                        let scale = t.scales[t.layout.scale_index(tile.index, k)];
+                        if sparse[r * n + c] {
+                            let tol = v.max(scale.v_max) * f32::EPSILON;
+                            assert!(
+                                (got - v).abs() <= tol,
+                                "{format} ({r}, {c}) ch {k}: sparse {v} decoded {got}, tolerance {tol}"
+                            );
+                        } else if format == Format::U8 {
+                            let half = (scale.shift / 510.0).exp() * (1.0 + 1e-5);
+                            let floor = scale.v_max * (-scale.shift).exp() * half;
+                            assert!(
+                                (v <= floor && got <= floor)
+                                    || (got / v <= half && v / got <= half),
+                                "{format} ({r}, {c}) ch {k}: {v} decoded {got}"
+                            );
+                        } else {
+                            assert!(
+                                got <= scale.v_max,
+                                "{format} ({r}, {c}) ch {k}: {got} above v_max {}",
+                                scale.v_max
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -5,7 +5,9 @@ use crate::BakeError;
 use crate::bvh::Occluders;
 use crate::effects::{self, Effect, Effects};
 use crate::encode::EncodeError;
-use crate::encode::{EncodeParams, default_sparse_fraction, encode_dense};
+use crate::encode::{
+    EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
+};
 use crate::form_factor::{FormFactorParams, Progress, Visibility, form_factors};
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -137,7 +139,8 @@ pub struct BakeReport {
     /// Shadow rays cast for form factors.
     pub rays_cast: u64,
     /// Relative Frobenius error of the decoded matrix, per order measured (the chosen one
-    /// exactly, the others estimated on sampled blocks when the order was `best`).
+    /// exactly, the others estimated on sampled blocks of the encoder's first pass, which the
+    /// bake's own encode improves on: see `order::ErrorMeter`).
     pub compression_rmse: BTreeMap<String, f64>,
     /// Relative L2 error of the irradiance from the scene's own emitters caused by compression
     /// (`null` without emitters).
@@ -467,13 +470,23 @@ pub fn bake_discretised(
     lap("order", &mut timings);
 
     stage("encode");
-    let matrix = encode_dense(n, channels, &m, &encode_params).map_err(encode_error)?;
+    // Errors are weighed for the scene's own emitters and for runtime lights alike
+    // (`ErrorWeights`), and the sparse entries chosen by that weighted error.
+    let file_patches: Vec<Patch> = order::permute_rows(live_patches, &chosen.perm);
+    let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
+    let matrix = encode_dense_with(
+        n,
+        channels,
+        &m,
+        &encode_params,
+        &ErrorWeights::for_emitters(&emission),
+        SparseSelection::ErrorDriven,
+    )
+    .map_err(encode_error)?;
     lap("encode", &mut timings);
 
     stage("measure");
     let rmse = relative_frobenius(&m, &matrix.decode_dense(DecodeMode::D3d10));
-    let file_patches: Vec<Patch> = order::permute_rows(live_patches, &chosen.perm);
-    let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
     let lighting_error = lighting_error(&m, n, channels, &matrix, &emission);
     let mut compression_rmse: BTreeMap<String, f64> = candidates
         .iter()

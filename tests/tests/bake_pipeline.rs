@@ -191,13 +191,18 @@ fn auto_bounces_follow_the_energy() {
 fn cornell_box_orders_and_compression() {
     // Issue #4 targets, measured at 4096 patches by `radiosity bake --patches 4096 --json` (see
     // README): BC1 lighting error ≤ 2%, BC4 ≤ 1%, best order ≥ 3× below random for BC1. This
-    // test runs at 1500 patches to stay quick; errors fall as n grows (a light made of more
-    // patches averages its columns' block errors), so its bounds are the 1500-patch
-    // measurements (BC1 lighting 3.7%, BC4 1.7%, random/best 3.2× for BC1, 2.5× for BC4) with
-    // about 25% headroom: they catch a regression, not tune to a target.
+    // test runs at 1500 patches to stay quick, so its bounds are the 1500-patch measurements with
+    // about 25% headroom: they catch a regression, not tune to a target. Measured with the
+    // value-space, error-driven encoder (ARCHITECTURE.md, "radiosity-bake: encoding"): BC1
+    // lighting 0.64%, BC4 0.11% (were 3.7% and 1.7%); random/best 1.83× for BC1, 2.43× for BC4
+    // (were 3.2× and 2.5×). The ratio fell because `random` improved most: its blocks mix
+    // entries decades apart, which a code-space fit got badly wrong in value and the value-space
+    // refinement does not (4096 patches: random 13.2% → 6.3%, paper 3.1% → 2.6%), so the 3×
+    // ratio is no longer met for BC1 (2.4× at 4096) while every order's error is lower.
     let path =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
-    for (format, max_lighting, min_gain) in [(Format::Bc1, 0.047, 2.5), (Format::Bc4, 0.021, 2.0)] {
+    for (format, max_lighting, min_gain) in [(Format::Bc1, 0.008, 1.5), (Format::Bc4, 0.0014, 2.0)]
+    {
         let mut p = params(1500, FormatChoice::Fixed(format), BounceSpec::Infinite);
         p.order = OrderKind::Best;
         let out = bake_file(&path, &p);

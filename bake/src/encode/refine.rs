@@ -1,0 +1,734 @@
+//! Value-space refinement of BC1 and BC4 blocks.
+//!
+//! texpresso's cluster fit and the BC4 candidates fit 8-bit log codes: a wrong code costs the
+//! same wherever it is. The gather adds up *values*, and a code step is a fixed *ratio*
+//! (`e^(s/255)`, 2.7% at the default range), so the same code error costs ten times more on a
+//! texel ten times larger. A block of a transfer matrix often spans a decade (a patch's near
+//! and far neighbours side by side), and its largest texels then carry nearly all of its value
+//! error. This module takes a code-space fit as the start and improves it as judged by the
+//! weighted squared error in value space, `Σ w·(decode(q) − v)²`, under the reference decoder
+//! (D3D10 rules and the tile's decode table), so the judgement is exact:
+//!
+//! 1. every index is re-picked as the palette entry nearest in value (weighted over channels
+//!    for BC1);
+//! 2. the endpoints are re-solved by weighted least squares on the codes with the chosen
+//!    indices, each texel weighted by `w·v²` (the squared slope of value against code, up to
+//!    a constant): the first-order value-space problem; rounded, re-indexed, kept if better;
+//! 3. coordinate descent moves each endpoint component by ±1 while the error falls.
+//!
+//! Each step keeps the block only if its error falls, so the result is never worse than the
+//! start in the weighted value-space error. All arithmetic is f32 in a fixed order: the result
+//! is a pure function of the input.
+
+use radiosity_core::{Bc1Block, Bc4Block, DecodeMode};
+
+/// What one block should hold.
+pub(crate) struct BlockTarget<'a> {
+    /// Exact value per channel and texel (row-major); ignored where the weight is 0.
+    pub values: [[f32; 16]; 3],
+    /// Weight of the squared value error per channel and texel: 0 for texels beyond the last
+    /// patch and for sparse texels whose exact value is unknown.
+    pub weights: [[f32; 16]; 3],
+    /// Texels whose error counts (in the matrix and not in the sparse list). The others still
+    /// get the index nearest their value (when their weight is not 0), so that the block decodes
+    /// as close to a sparse entry as it can: the sparse selection reads that value.
+    pub fit: u32,
+    /// Decode table (code → value) per channel; only the channels the format stores are read.
+    pub tables: [&'a [f32; 256]; 3],
+    /// The codes the fit targets, per channel and texel.
+    pub codes: [[u8; 16]; 3],
+}
+
+/// Largest number of coordinate-descent sweeps; each sweep tries ±1 on every endpoint
+/// component. Measured on the Cornell box, almost every block stops after one or two.
+const MAX_SWEEPS: usize = 4;
+
+/// Least-squares rounds (solve, round, re-index); the second rarely changes anything.
+const LS_ROUNDS: usize = 2;
+
+/// A BC1 block as refined: endpoints, index bits and the weighted error over `fit`.
+#[derive(Clone, Copy)]
+struct Bc1State {
+    c0: u16,
+    c1: u16,
+    bits: u32,
+    err: f32,
+}
+
+/// Evaluates the BC1 block with endpoint words `c0`, `c1` (whose order sets the mode) and
+/// each texel's best index in value space; three-colour blocks never use index 3
+/// (transparent black, see `guard_bc1`).
+fn bc1_eval(c0: u16, c1: u16, t: &BlockTarget<'_>) -> Bc1State {
+    let [a, b] = [c0.to_le_bytes(), c1.to_le_bytes()];
+    let block = Bc1Block([a[0], a[1], b[0], b[1], 0, 0, 0, 0]);
+    let palette = block.palette(DecodeMode::D3d10);
+    let usable = if block.is_four_colour() { 4 } else { 3 };
+    let mut pv = [[0f32; 3]; 4];
+    for k in 0..usable {
+        for ch in 0..3 {
+            pv[k][ch] = t.tables[ch][usize::from(palette[k][ch])];
+        }
+    }
+    let mut bits = 0u32;
+    let mut err = 0f32;
+    for i in 0..16 {
+        let w = [t.weights[0][i], t.weights[1][i], t.weights[2][i]];
+        if w == [0.0; 3] {
+            continue;
+        }
+        let v = [t.values[0][i], t.values[1][i], t.values[2][i]];
+        let mut best = (f32::INFINITY, 0u32);
+        for (k, p) in pv.iter().enumerate().take(usable) {
+            let e = w[0] * (p[0] - v[0]).powi(2)
+                + w[1] * (p[1] - v[1]).powi(2)
+                + w[2] * (p[2] - v[2]).powi(2);
+            if e < best.0 {
+                best = (e, k as u32);
+            }
+        }
+        bits |= best.1 << (2 * i);
+        if t.fit & (1 << i) != 0 {
+            err += best.0;
+        }
+    }
+    Bc1State { c0, c1, bits, err }
+}
+
+/// Orders two endpoint words for the wanted mode: four-colour needs `c0 > c1` (`None` when
+/// they are equal, which would be three-colour), three-colour `c0 ≤ c1`. Swapping the
+/// endpoints of either mode gives the same palette set, so nothing is lost.
+fn bc1_order(a: u16, b: u16, four: bool) -> Option<(u16, u16)> {
+    match (four, a.cmp(&b)) {
+        (true, core::cmp::Ordering::Equal) => None,
+        (true, _) => Some((a.max(b), a.min(b))),
+        (false, _) => Some((a.min(b), a.max(b))),
+    }
+}
+
+fn unpack_565(c: u16) -> [i32; 3] {
+    [
+        i32::from(c >> 11),
+        i32::from((c >> 5) & 63),
+        i32::from(c & 31),
+    ]
+}
+
+fn pack_565(c: [i32; 3]) -> u16 {
+    ((c[0] as u16) << 11) | ((c[1] as u16) << 5) | c[2] as u16
+}
+
+/// Refines a BC1 block (a code-space fit, already guarded) in value space; see the module
+/// doc. The result is in the same mode as `start` and never worse than it.
+pub(crate) fn refine_bc1(start: Bc1Block, t: &BlockTarget<'_>) -> Bc1Block {
+    let four = start.is_four_colour();
+    let mut best = bc1_eval(start.c0(), start.c1(), t);
+    let try_pair = |best: &mut Bc1State, a: u16, b: u16| -> bool {
+        match bc1_order(a, b, four) {
+            Some((c0, c1)) if (c0, c1) != (best.c0, best.c1) => {
+                let s = bc1_eval(c0, c1, t);
+                if s.err < best.err {
+                    *best = s;
+                    return true;
+                }
+                false
+            }
+            _ => false,
+        }
+    };
+    for _ in 0..LS_ROUNDS {
+        match bc1_least_squares(&best, four, t) {
+            Some((a, b)) if try_pair(&mut best, a, b) => {}
+            _ => break,
+        }
+    }
+    for _ in 0..MAX_SWEEPS {
+        let mut moved = false;
+        for end in 0..2 {
+            for comp in 0..3 {
+                for step in [-1, 1] {
+                    let (mut e0, mut e1) = (unpack_565(best.c0), unpack_565(best.c1));
+                    let e = if end == 0 { &mut e0 } else { &mut e1 };
+                    let top = if comp == 1 { 63 } else { 31 };
+                    e[comp] += step;
+                    if !(0..=top).contains(&e[comp]) {
+                        continue;
+                    }
+                    moved |= try_pair(&mut best, pack_565(e0), pack_565(e1));
+                }
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    let [a, b] = [best.c0.to_le_bytes(), best.c1.to_le_bytes()];
+    let i = best.bits.to_le_bytes();
+    Bc1Block([a[0], a[1], b[0], b[1], i[0], i[1], i[2], i[3]])
+}
+
+/// Weight of each endpoint in palette entry `k` (`(α, β)`: entry = α·e0 + β·e1) for BC1;
+/// `None` for the transparent entry of three-colour mode.
+fn bc1_mix(k: u32, four: bool) -> Option<(f32, f32)> {
+    match (k, four) {
+        (0, _) => Some((1.0, 0.0)),
+        (1, _) => Some((0.0, 1.0)),
+        (2, true) => Some((2.0 / 3.0, 1.0 / 3.0)),
+        (3, true) => Some((1.0 / 3.0, 2.0 / 3.0)),
+        (2, false) => Some((0.5, 0.5)),
+        _ => None,
+    }
+}
+
+/// Solves for the two endpoints (codes, per channel) that minimise `Σ w·v²·(α e0 + β e1 − q)²`
+/// over the fitted texels with `state`'s indices, rounded to 565. `None` when a channel's
+/// system is singular (every texel on one palette entry).
+fn bc1_least_squares(state: &Bc1State, four: bool, t: &BlockTarget<'_>) -> Option<(u16, u16)> {
+    let mut e = [[0i32; 3]; 2];
+    for ch in 0..3 {
+        let (mut aa, mut ab, mut bb, mut aq, mut bq) = (0f32, 0f32, 0f32, 0f32, 0f32);
+        for i in 0..16 {
+            if t.fit & (1 << i) == 0 {
+                continue;
+            }
+            let Some((a, b)) = bc1_mix((state.bits >> (2 * i)) & 3, four) else {
+                continue;
+            };
+            let v = t.values[ch][i];
+            let w = t.weights[ch][i] * v * v;
+            let q = f32::from(t.codes[ch][i]);
+            aa += w * a * a;
+            ab += w * a * b;
+            bb += w * b * b;
+            aq += w * a * q;
+            bq += w * b * q;
+        }
+        let det = aa * bb - ab * ab;
+        if !(det > 1e-6 * aa * bb) {
+            return None;
+        }
+        let top = if ch == 1 { 63.0 } else { 31.0 };
+        let x0 = (bb * aq - ab * bq) / det;
+        let x1 = (aa * bq - ab * aq) / det;
+        e[0][ch] = (x0 * top / 255.0).round().clamp(0.0, top) as i32;
+        e[1][ch] = (x1 * top / 255.0).round().clamp(0.0, top) as i32;
+    }
+    Some((pack_565(e[0]), pack_565(e[1])))
+}
+
+/// A BC4 block as refined.
+#[derive(Clone, Copy)]
+struct Bc4State {
+    r0: u8,
+    r1: u8,
+    bits: u64,
+    err: f32,
+}
+
+/// Evaluates the BC4 block with endpoints `r0`, `r1` on channel `ch` of `t`, each texel on
+/// the palette entry nearest its value.
+fn bc4_eval(r0: u8, r1: u8, t: &BlockTarget<'_>, ch: usize) -> Bc4State {
+    let palette = Bc4Block([r0, r1, 0, 0, 0, 0, 0, 0]).palette(DecodeMode::D3d10);
+    let table = t.tables[ch];
+    let pv: [f32; 8] = core::array::from_fn(|k| table[usize::from(palette[k])]);
+    let mut bits = 0u64;
+    let mut err = 0f32;
+    for i in 0..16 {
+        let w = t.weights[ch][i];
+        if w == 0.0 {
+            continue;
+        }
+        let v = t.values[ch][i];
+        let mut best = (f32::INFINITY, 0u64);
+        for (k, p) in pv.iter().enumerate() {
+            let e = (p - v).powi(2);
+            if e < best.0 {
+                best = (e, k as u64);
+            }
+        }
+        bits |= best.1 << (3 * i);
+        if t.fit & (1 << i) != 0 {
+            err += w * best.0;
+        }
+    }
+    Bc4State { r0, r1, bits, err }
+}
+
+/// `(α, β)` of BC4 palette entry `k` (entry = α·r0 + β·r1), `None` for the constants 0 and
+/// 255 of six-value mode.
+fn bc4_mix(k: u64, eight: bool) -> Option<(f32, f32)> {
+    let steps = if eight { 7.0 } else { 5.0 };
+    match k {
+        0 => Some((1.0, 0.0)),
+        1 => Some((0.0, 1.0)),
+        6 | 7 if !eight => None,
+        _ => {
+            let t = (k - 1) as f32;
+            Some(((steps - t) / steps, t / steps))
+        }
+    }
+}
+
+/// Refines BC4 candidates (endpoint pairs, each in its own mode) in value space on channel
+/// `ch`: the best candidate by value-space error, then least squares and ±1 descent in its
+/// mode. Never worse than the best candidate.
+pub(crate) fn refine_bc4(candidates: &[(u8, u8)], t: &BlockTarget<'_>, ch: usize) -> [u8; 8] {
+    let mut best = candidates
+        .iter()
+        .map(|&(r0, r1)| bc4_eval(r0, r1, t, ch))
+        .min_by(|a, b| a.err.total_cmp(&b.err))
+        .expect("at least one candidate");
+    let eight = best.r0 > best.r1;
+    let order = |a: i32, b: i32| -> Option<(u8, u8)> {
+        let (a, b) = (a.clamp(0, 255) as u8, b.clamp(0, 255) as u8);
+        match (eight, a.cmp(&b)) {
+            (true, core::cmp::Ordering::Equal) => None,
+            (true, _) => Some((a.max(b), a.min(b))),
+            (false, _) => Some((a.min(b), a.max(b))),
+        }
+    };
+    let try_pair = |best: &mut Bc4State, a: i32, b: i32| -> bool {
+        match order(a, b) {
+            Some((r0, r1)) if (r0, r1) != (best.r0, best.r1) => {
+                let s = bc4_eval(r0, r1, t, ch);
+                if s.err < best.err {
+                    *best = s;
+                    return true;
+                }
+                false
+            }
+            _ => false,
+        }
+    };
+    for _ in 0..LS_ROUNDS {
+        let (mut aa, mut ab, mut bb, mut aq, mut bq) = (0f32, 0f32, 0f32, 0f32, 0f32);
+        for i in 0..16 {
+            if t.fit & (1 << i) == 0 {
+                continue;
+            }
+            let Some((a, b)) = bc4_mix((best.bits >> (3 * i)) & 7, eight) else {
+                continue;
+            };
+            let v = t.values[ch][i];
+            let w = t.weights[ch][i] * v * v;
+            let q = f32::from(t.codes[ch][i]);
+            aa += w * a * a;
+            ab += w * a * b;
+            bb += w * b * b;
+            aq += w * a * q;
+            bq += w * b * q;
+        }
+        let det = aa * bb - ab * ab;
+        if !(det > 1e-6 * aa * bb) {
+            break;
+        }
+        let x0 = ((bb * aq - ab * bq) / det).round() as i32;
+        let x1 = ((aa * bq - ab * aq) / det).round() as i32;
+        if !try_pair(&mut best, x0, x1) {
+            break;
+        }
+    }
+    for _ in 0..MAX_SWEEPS {
+        let mut moved = false;
+        for end in 0..2 {
+            for step in [-1, 1] {
+                let (mut a, mut b) = (i32::from(best.r0), i32::from(best.r1));
+                if end == 0 {
+                    a += step;
+                } else {
+                    b += step;
+                }
+                if (0..=255).contains(&a) && (0..=255).contains(&b) {
+                    moved |= try_pair(&mut best, a, b);
+                }
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    let mut out = [0u8; 8];
+    out[0] = best.r0;
+    out[1] = best.r1;
+    out[2..].copy_from_slice(&best.bits.to_le_bytes()[..6]);
+    out
+}
+
+/// The scene's own emitters in a block's objective. With `x = E + r` (see
+/// [`super::ErrorWeights`]), the squared error of row `r`'s irradiance is
+/// `σ²·Σ_j d_rj² + (Σ_j d_rj·E_j)²`: the second term couples every entry of a row, across
+/// blocks. Rows of a transfer matrix see all patches of a small light almost alike, so their
+/// code errors (one log step is 2.7%) come out alike too and add up instead of averaging out:
+/// measured on the Cornell box, `‖ΔM·E‖²` was 3× the sum of the entries' own terms. Blocks are
+/// therefore encoded along each block row in turn, each carrying the row sums `S` of the
+/// errors of the blocks before it, and minimising
+/// `σ²·Σ d² + Σ_r (S_r + Σ_c d_rc·E_c)²`: error diffusion, so a block leans against what the
+/// blocks to its left got wrong.
+pub(crate) struct Coupling {
+    /// Weight of every squared entry error (`σ²`, summed over the exitance channels an entry
+    /// multiplies: 1 for a three-channel matrix, 3 for a grey one), in the units of the
+    /// emission terms.
+    pub sigma2: f32,
+    /// Whether the matrix is grey: its one channel multiplies all three exitance channels.
+    pub grey: bool,
+    /// `E` of the block's four columns, per exitance channel (0 beyond the matrix).
+    pub emission: [[f32; 3]; 4],
+    /// `S`: the emitter-weighted error carried into each of the block's four rows, per
+    /// exitance channel.
+    pub carried: [[f32; 3]; 4],
+}
+
+impl Coupling {
+    /// The matrix channel that exitance channel `k` multiplies.
+    #[inline]
+    fn source(&self, k: usize) -> usize {
+        if self.grey { 0 } else { k }
+    }
+}
+
+/// Per texel and matrix channel, the decoded value of each palette entry (`pv[k][ch]`) for
+/// the channels `chans` of one plane; `usable` entries.
+struct Palette<'p> {
+    values: &'p [[f32; 3]],
+    chans: &'p [usize],
+}
+
+/// The coupled objective of one plane with the given palette: indices start at each texel's
+/// nearest entry under the diagonal weights, then single-texel changes are made while they
+/// lower the objective. Returns the objective and the indices.
+fn coupled_indices(pal: &Palette<'_>, t: &BlockTarget<'_>, cp: &Coupling) -> (f32, [u8; 16]) {
+    let mut idx = [0u8; 16];
+    let mut d = [[0f32; 3]; 16];
+    for i in 0..16 {
+        let mut best = (f32::INFINITY, 0u8);
+        for (k, p) in pal.values.iter().enumerate() {
+            let e: f32 = pal
+                .chans
+                .iter()
+                .map(|&ch| t.weights[ch][i] * (p[ch] - t.values[ch][i]).powi(2))
+                .sum();
+            if e < best.0 {
+                best = (e, k as u8);
+            }
+        }
+        idx[i] = best.1;
+        if t.fit & (1 << i) != 0 {
+            for &ch in pal.chans {
+                d[i][ch] = pal.values[usize::from(best.1)][ch] - t.values[ch][i];
+            }
+        }
+    }
+    let ks: &[usize] = if cp.grey { &[0, 1, 2] } else { pal.chans };
+    let mut rows = cp.carried;
+    for i in 0..16 {
+        for &k in ks {
+            rows[i / 4][k] += d[i][cp.source(k)] * cp.emission[i % 4][k];
+        }
+    }
+    for _ in 0..MAX_SWEEPS {
+        let mut changed = false;
+        for i in 0..16 {
+            if t.fit & (1 << i) == 0 {
+                continue;
+            }
+            let (r, c) = (i / 4, i % 4);
+            if cp.emission[c] == [0.0; 3] {
+                continue; // no coupling: the diagonal choice is already optimal
+            }
+            let cur = usize::from(idx[i]);
+            let mut best = (0f32, cur);
+            for q in 0..pal.values.len() {
+                if q == cur {
+                    continue;
+                }
+                let mut delta = 0f32;
+                let mut dd = [0f32; 3];
+                for &ch in pal.chans {
+                    dd[ch] = pal.values[q][ch] - pal.values[cur][ch];
+                    delta += cp.sigma2 * (2.0 * d[i][ch] * dd[ch] + dd[ch] * dd[ch]);
+                }
+                for &k in ks {
+                    let s = dd[cp.source(k)] * cp.emission[c][k];
+                    delta += 2.0 * rows[r][k] * s + s * s;
+                }
+                if delta < best.0 {
+                    best = (delta, q);
+                }
+            }
+            if best.1 != cur {
+                let q = best.1;
+                for &ch in pal.chans {
+                    d[i][ch] += pal.values[q][ch] - pal.values[cur][ch];
+                }
+                for &k in ks {
+                    rows[r][k] += (pal.values[q][cp.source(k)] - pal.values[cur][cp.source(k)])
+                        * cp.emission[c][k];
+                }
+                idx[i] = q as u8;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    let mut j = 0f32;
+    for i in 0..16 {
+        for &ch in pal.chans {
+            j += cp.sigma2 * d[i][ch] * d[i][ch];
+        }
+    }
+    for row in &rows {
+        for &k in ks {
+            j += row[k] * row[k];
+        }
+    }
+    (j, idx)
+}
+
+/// BC1 under the coupled objective ([`Coupling`]): `start`'s endpoints (the diagonal
+/// refinement) with the coupled index choice, then, with `search`, ±1 coordinate descent on
+/// the endpoints, each candidate with its own coupled index choice (≈ 7× the time; on the
+/// Cornell box it takes the BC1 lighting error from 0.60% to 0.15%).
+pub(crate) fn refine_bc1_coupled(
+    start: Bc1Block,
+    t: &BlockTarget<'_>,
+    cp: &Coupling,
+    search: bool,
+) -> Bc1Block {
+    let four = start.is_four_colour();
+    let eval = |c0: u16, c1: u16| -> (f32, u32) {
+        let [a, b] = [c0.to_le_bytes(), c1.to_le_bytes()];
+        let block = Bc1Block([a[0], a[1], b[0], b[1], 0, 0, 0, 0]);
+        let palette = block.palette(DecodeMode::D3d10);
+        let usable = if block.is_four_colour() { 4 } else { 3 };
+        let mut pv = [[0f32; 3]; 4];
+        for k in 0..usable {
+            for ch in 0..3 {
+                pv[k][ch] = t.tables[ch][usize::from(palette[k][ch])];
+            }
+        }
+        let pal = Palette {
+            values: &pv[..usable],
+            chans: &[0, 1, 2],
+        };
+        let (j, idx) = coupled_indices(&pal, t, cp);
+        let bits = idx
+            .iter()
+            .enumerate()
+            .fold(0u32, |m, (i, &k)| m | u32::from(k) << (2 * i));
+        (j, bits)
+    };
+    let (mut c0, mut c1) = (start.c0(), start.c1());
+    let (mut best, mut bits) = eval(c0, c1);
+    for _ in 0..if search { MAX_SWEEPS } else { 0 } {
+        let mut moved = false;
+        for end in 0..2 {
+            for comp in 0..3 {
+                for step in [-1, 1] {
+                    let (mut e0, mut e1) = (unpack_565(c0), unpack_565(c1));
+                    let e = if end == 0 { &mut e0 } else { &mut e1 };
+                    let top = if comp == 1 { 63 } else { 31 };
+                    e[comp] += step;
+                    if !(0..=top).contains(&e[comp]) {
+                        continue;
+                    }
+                    let Some((a, b)) = bc1_order(pack_565(e0), pack_565(e1), four) else {
+                        continue;
+                    };
+                    let (j, bb) = eval(a, b);
+                    if j < best {
+                        (best, bits, c0, c1, moved) = (j, bb, a, b, true);
+                    }
+                }
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    let [a, b] = [c0.to_le_bytes(), c1.to_le_bytes()];
+    let i = bits.to_le_bytes();
+    Bc1Block([a[0], a[1], b[0], b[1], i[0], i[1], i[2], i[3]])
+}
+
+/// BC4 plane `ch` under the coupled objective, as [`refine_bc1_coupled`] (the search takes the
+/// Cornell box's BC4 lighting error from 0.031% to 0.023%).
+pub(crate) fn refine_bc4_coupled(
+    start: [u8; 8],
+    t: &BlockTarget<'_>,
+    ch: usize,
+    cp: &Coupling,
+    search: bool,
+) -> [u8; 8] {
+    let eight = start[0] > start[1];
+    let chans = [ch];
+    let eval = |r0: u8, r1: u8| -> (f32, u64) {
+        let palette = Bc4Block([r0, r1, 0, 0, 0, 0, 0, 0]).palette(DecodeMode::D3d10);
+        let mut pv = [[0f32; 3]; 8];
+        for k in 0..8 {
+            pv[k][ch] = t.tables[ch][usize::from(palette[k])];
+        }
+        let pal = Palette {
+            values: &pv,
+            chans: &chans,
+        };
+        let (j, idx) = coupled_indices(&pal, t, cp);
+        let bits = idx
+            .iter()
+            .enumerate()
+            .fold(0u64, |m, (i, &k)| m | u64::from(k) << (3 * i));
+        (j, bits)
+    };
+    let (mut r0, mut r1) = (start[0], start[1]);
+    let (mut best, mut bits) = eval(r0, r1);
+    for _ in 0..if search { MAX_SWEEPS } else { 0 } {
+        let mut moved = false;
+        for end in 0..2 {
+            for step in [-1i32, 1] {
+                let (mut a, mut b) = (i32::from(r0), i32::from(r1));
+                if end == 0 {
+                    a += step;
+                } else {
+                    b += step;
+                }
+                if !((0..=255).contains(&a) && (0..=255).contains(&b)) {
+                    continue;
+                }
+                let (a, b) = (a as u8, b as u8);
+                let (a, b) = match (eight, a.cmp(&b)) {
+                    (true, core::cmp::Ordering::Equal) => continue,
+                    (true, _) => (a.max(b), a.min(b)),
+                    (false, _) => (a.min(b), a.max(b)),
+                };
+                let (j, bb) = eval(a, b);
+                if j < best {
+                    (best, bits, r0, r1, moved) = (j, bb, a, b, true);
+                }
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    let mut out = [0u8; 8];
+    out[0] = r0;
+    out[1] = r1;
+    out[2..].copy_from_slice(&bits.to_le_bytes()[..6]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::encode::{bc4_candidates, encode_bc1_block};
+    use crate::rng::SplitMix64;
+    use radiosity_core::{LogScale, decode_bc4_block};
+
+    /// A block of values spread over up to two decades below `v_max`, as transfer-matrix
+    /// blocks are, with a random fit mask of at least 8 texels and random positive weights.
+    fn random_target<'a>(
+        rng: &mut SplitMix64,
+        table: &'a [f32; 256],
+        scale: LogScale,
+    ) -> BlockTarget<'a> {
+        let mut t = BlockTarget {
+            values: [[0.0; 16]; 3],
+            weights: [[0.0; 16]; 3],
+            fit: 0,
+            tables: [table; 3],
+            codes: [[0; 16]; 3],
+        };
+        let spread = 1.0 + 4.0 * rng.next_f32();
+        for i in 0..16 {
+            let base = (-spread * rng.next_f32()).exp();
+            for ch in 0..3 {
+                let v = base * (0.8 + 0.2 * rng.next_f32());
+                t.values[ch][i] = v;
+                t.weights[ch][i] = 0.5 + rng.next_f32();
+                t.codes[ch][i] = scale.encode(v);
+            }
+            if i < 8 || !rng.next_u64().is_multiple_of(4) {
+                t.fit |= 1 << i;
+            }
+        }
+        t
+    }
+
+    fn value_error(decoded: [[f32; 16]; 3], t: &BlockTarget<'_>, chans: &[usize]) -> f64 {
+        let mut e = 0f64;
+        for i in (0..16).filter(|i| t.fit & (1 << i) != 0) {
+            for &ch in chans {
+                e += f64::from(t.weights[ch][i])
+                    * (f64::from(decoded[ch][i]) - f64::from(t.values[ch][i])).powi(2);
+            }
+        }
+        e
+    }
+
+    /// Refinement keeps a block only when its value-space error falls, so on every block it is
+    /// no worse than the code-space fit it starts from (up to f32 summation, 1e-5 relative),
+    /// and over many blocks it must be clearly better: measured 0.66 (BC1) and 0.54 (BC4) of
+    /// the start's total error on these blocks; bound 0.85, which fails if the endpoint steps
+    /// stopped working (re-indexing alone gives 0.98 on these BC1 blocks).
+    #[test]
+    fn refinement_never_loses_and_usually_wins_in_value_space() {
+        let scale = LogScale::new(1.0, radiosity_core::DEFAULT_SHIFT);
+        let table = scale.table();
+        let mut rng = SplitMix64(17);
+        let (mut start_sum, mut refined_sum) = ([0f64; 2], [0f64; 2]);
+        let mut reindexed_sum = 0f64;
+        for _ in 0..3000 {
+            let t = random_target(&mut rng, &table, scale);
+            let codes: [[u8; 3]; 16] =
+                core::array::from_fn(|i| [t.codes[0][i], t.codes[1][i], t.codes[2][i]]);
+            let bc1 = |b: Bc1Block| {
+                let texels = b.decode(DecodeMode::D3d10);
+                core::array::from_fn(|ch| {
+                    core::array::from_fn(|i| table[usize::from(texels[i][ch])])
+                })
+            };
+            let start = encode_bc1_block(&codes, t.fit, false);
+            let refined = refine_bc1(start, &t);
+            let (a, b) = (
+                value_error(bc1(start), &t, &[0, 1, 2]),
+                value_error(bc1(refined), &t, &[0, 1, 2]),
+            );
+            assert!(b <= a * (1.0 + 1e-5), "BC1 refinement lost: {a:e} → {b:e}");
+            assert!(!refined.is_four_colour() || refined.c0() > refined.c1());
+            start_sum[0] += a;
+            refined_sum[0] += b;
+            reindexed_sum += f64::from(bc1_eval(start.c0(), start.c1(), &t).err);
+
+            let bc4 = |raw: [u8; 8]| {
+                let codes = decode_bc4_block(&raw);
+                let mut out = [[0f32; 16]; 3];
+                out[1] = core::array::from_fn(|i| table[usize::from(codes[i])]);
+                out
+            };
+            let candidates = bc4_candidates(&t.codes[1], t.fit);
+            let best_start = candidates
+                .iter()
+                .map(|&(r0, r1)| {
+                    let raw = crate::encode::bc4_with_best_indices(r0, r1, &t.codes[1], t.fit).0;
+                    value_error(bc4(raw), &t, &[1])
+                })
+                .fold(f64::INFINITY, f64::min);
+            let b4 = value_error(bc4(refine_bc4(&candidates, &t, 1)), &t, &[1]);
+            assert!(
+                b4 <= best_start * (1.0 + 1e-5),
+                "BC4 refinement lost: {best_start:e} → {b4:e}"
+            );
+            start_sum[1] += best_start;
+            refined_sum[1] += b4;
+        }
+        eprintln!("BC1 re-indexed only: {:.3}", reindexed_sum / start_sum[0]);
+        for (k, name) in ["BC1", "BC4"].iter().enumerate() {
+            let ratio = refined_sum[k] / start_sum[k];
+            eprintln!("{name}: refined/start value error {ratio:.3}");
+            assert!(
+                ratio <= 0.85,
+                "{name}: refinement gained too little ({ratio:.3} > 0.85)"
+            );
+        }
+    }
+}
