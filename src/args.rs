@@ -25,6 +25,10 @@ pub(crate) struct BakeArgs {
     /// Fraction of the largest entries kept exactly in the sparse list (log formats).
     #[arg(long)]
     pub(crate) sparse: Option<f32>,
+    /// Largest tile side in patches (a multiple of 4); each tile has its own log scale per
+    /// channel
+    #[arg(long)]
+    pub(crate) tile: Option<u32>,
 }
 
 pub(crate) fn parse_bounces(s: &str) -> anyhow::Result<BounceSpec> {

@@ -38,6 +38,12 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
         }
         p.sparse_fraction = Some(f);
     }
+    if let Some(t) = args.tile {
+        if t < 4 || t % 4 != 0 {
+            bail!("--tile must be a positive multiple of 4, not {t}");
+        }
+        p.encode.max_tile = t;
+    }
     p.order = OrderKind::from_name(&args.order).with_context(|| {
         format!(
             "unknown --order {:?} (none, random, paper, spatial, best)",

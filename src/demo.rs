@@ -29,6 +29,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         format: "auto".into(),
         order: "best".into(),
         sparse: None,
+        tile: None,
     };
     let params = crate::bake::params(&args)?;
     eprintln!("baking the embedded Cornell box (about {patches} patches)…");

@@ -247,26 +247,19 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
     let s = scene.to_str().unwrap();
     let rad = dir.path().join("out.rad");
     let r = rad.to_str().unwrap();
-    assert_one_line_error(
-        &radiosity(&["bake", s, "-o", r, "--patches", "0"]),
-        "--patches",
-    );
-    assert_one_line_error(
-        &radiosity(&["bake", s, "-o", r, "--format", "png"]),
-        "--format",
-    );
-    assert_one_line_error(
-        &radiosity(&["bake", s, "-o", r, "--order", "alphabetical"]),
-        "--order",
-    );
-    assert_one_line_error(
-        &radiosity(&["bake", s, "-o", r, "--bounces", "0"]),
-        "--bounces",
-    );
-    assert_one_line_error(
-        &radiosity(&["bake", s, "-o", r, "--voxel", "-1"]),
-        "--voxel",
-    );
+    for (options, named) in [
+        (&["--patches", "0"][..], "--patches"),
+        (&["--format", "png"], "--format"),
+        (&["--order", "alphabetical"], "--order"),
+        (&["--bounces", "0"], "--bounces"),
+        (&["--voxel", "-1"], "--voxel"),
+        (&["--tile", "6"], "--tile"),
+        (&["--tile", "0"], "--tile"),
+    ] {
+        let mut args = vec!["bake", s, "-o", r];
+        args.extend_from_slice(options);
+        assert_one_line_error(&radiosity(&args), named);
+    }
     assert_one_line_error(
         &radiosity(&["bake", s, "-o", "/nonexistent/dir/out.rad"]),
         "does not exist",
