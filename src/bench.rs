@@ -3,7 +3,8 @@
 //!
 //! Setup (progress on stderr): discretise the box into about N patches, compute the exact
 //! transfer matrix `M = (I − F^C)⁻¹ F` (all bounces), order the patches (the paper's neighbour
-//! sort), and encode M in every format. Then each method is a row: a [`Gather`] with the
+//! sort), and encode M in every format as the bake does (`encode_dense_with`: errors weighed for
+//! the box's light and runtime light alike). Then each method is a row: a [`Gather`] with the
 //! numbering its vectors are in and its cost per call. Times are medians of repeated calls after
 //! a warm-up; errors are relative L2 norms of the irradiance against the exact f64 solution of
 //! the same patches (an LU solve), for the scene's own light and for a seeded random exitance.
@@ -16,7 +17,9 @@ use crate::embedded;
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use radiosity_backend_cpu::CpuGather;
-use radiosity_bake::encode::{EncodeParams, default_sparse_fraction, encode_dense};
+use radiosity_bake::encode::{
+    EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
+};
 use radiosity_bake::order::{self, DenseMatrix, OrderKind, OrderParams};
 use radiosity_bake::pipeline::{BakeParams, Hooks, discretise};
 use radiosity_bake::rng::SplitMix64;
@@ -202,6 +205,13 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     )
     .context("cannot order the patches")?;
     let m_file = order::permute(&m, n, channels, &perm);
+    // Encoded as the bake encodes: errors weighed for the box's own light and runtime light
+    // alike, sparse entries chosen by that error.
+    let file_emission: Vec<Rgb> = order::permute_rows(&sys.core_patches, &perm)
+        .iter()
+        .map(|p| p.emission)
+        .collect();
+    let weights = ErrorWeights::for_emitters(&file_emission);
     timings.insert("order", ms(t.elapsed()));
 
     let mut rows: Vec<Row> = Vec::new();
@@ -221,8 +231,15 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             sparse_fraction: default_sparse_fraction(format, channels),
             ..EncodeParams::for_format(format)
         };
-        let matrix = encode_dense(n, channels, &m_file, &encode)
-            .with_context(|| format!("cannot encode in {}", format.name()))?;
+        let matrix = encode_dense_with(
+            n,
+            channels,
+            &m_file,
+            &encode,
+            &weights,
+            SparseSelection::ErrorDriven,
+        )
+        .with_context(|| format!("cannot encode in {}", format.name()))?;
         let setup_ms = ms(t.elapsed());
         let cost = gather_cost(&matrix);
         let sparse = matrix.sparse.nnz();
