@@ -179,36 +179,47 @@ fn bc1_mix(k: u32, four: bool) -> Option<(f32, f32)> {
     }
 }
 
+/// The two endpoint codes `(x0, x1)` of channel `ch` minimising `Σ w·v²·(a·x0 + b·x1 − q)²`
+/// over the fitted texels, where `mix(i)` gives texel `i`'s palette mix `(a, b)` of the two
+/// endpoints (`None` for a constant entry, which no endpoint moves); `None` when the 2×2
+/// system is singular (every texel on one palette entry).
+fn weighted_endpoints(
+    t: &BlockTarget<'_>,
+    ch: usize,
+    mix: impl Fn(usize) -> Option<(f32, f32)>,
+) -> Option<(f32, f32)> {
+    let (mut aa, mut ab, mut bb, mut aq, mut bq) = (0f32, 0f32, 0f32, 0f32, 0f32);
+    for i in 0..16 {
+        if t.fit & (1 << i) == 0 {
+            continue;
+        }
+        let Some((a, b)) = mix(i) else {
+            continue;
+        };
+        let v = t.values[ch][i];
+        let w = t.weights[ch][i] * v * v;
+        let q = f32::from(t.codes[ch][i]);
+        aa += w * a * a;
+        ab += w * a * b;
+        bb += w * b * b;
+        aq += w * a * q;
+        bq += w * b * q;
+    }
+    let det = aa * bb - ab * ab;
+    if !(det > 1e-6 * aa * bb) {
+        return None;
+    }
+    Some(((bb * aq - ab * bq) / det, (aa * bq - ab * aq) / det))
+}
+
 /// Solves for the two endpoints (codes, per channel) that minimise `Σ w·v²·(α e0 + β e1 − q)²`
 /// over the fitted texels with `state`'s indices, rounded to 565. `None` when a channel's
 /// system is singular (every texel on one palette entry).
 fn bc1_least_squares(state: &Bc1State, four: bool, t: &BlockTarget<'_>) -> Option<(u16, u16)> {
     let mut e = [[0i32; 3]; 2];
     for ch in 0..3 {
-        let (mut aa, mut ab, mut bb, mut aq, mut bq) = (0f32, 0f32, 0f32, 0f32, 0f32);
-        for i in 0..16 {
-            if t.fit & (1 << i) == 0 {
-                continue;
-            }
-            let Some((a, b)) = bc1_mix((state.bits >> (2 * i)) & 3, four) else {
-                continue;
-            };
-            let v = t.values[ch][i];
-            let w = t.weights[ch][i] * v * v;
-            let q = f32::from(t.codes[ch][i]);
-            aa += w * a * a;
-            ab += w * a * b;
-            bb += w * b * b;
-            aq += w * a * q;
-            bq += w * b * q;
-        }
-        let det = aa * bb - ab * ab;
-        if !(det > 1e-6 * aa * bb) {
-            return None;
-        }
+        let (x0, x1) = weighted_endpoints(t, ch, |i| bc1_mix((state.bits >> (2 * i)) & 3, four))?;
         let top = if ch == 1 { 63.0 } else { 31.0 };
-        let x0 = (bb * aq - ab * bq) / det;
-        let x1 = (aa * bq - ab * aq) / det;
         e[0][ch] = (x0 * top / 255.0).round().clamp(0.0, top) as i32;
         e[1][ch] = (x1 * top / 255.0).round().clamp(0.0, top) as i32;
     }
@@ -300,29 +311,12 @@ pub(crate) fn refine_bc4(candidates: &[(u8, u8)], t: &BlockTarget<'_>, ch: usize
         }
     };
     for _ in 0..LS_ROUNDS {
-        let (mut aa, mut ab, mut bb, mut aq, mut bq) = (0f32, 0f32, 0f32, 0f32, 0f32);
-        for i in 0..16 {
-            if t.fit & (1 << i) == 0 {
-                continue;
-            }
-            let Some((a, b)) = bc4_mix((best.bits >> (3 * i)) & 7, eight) else {
-                continue;
-            };
-            let v = t.values[ch][i];
-            let w = t.weights[ch][i] * v * v;
-            let q = f32::from(t.codes[ch][i]);
-            aa += w * a * a;
-            ab += w * a * b;
-            bb += w * b * b;
-            aq += w * a * q;
-            bq += w * b * q;
-        }
-        let det = aa * bb - ab * ab;
-        if !(det > 1e-6 * aa * bb) {
+        let bits = best.bits;
+        let Some((x0, x1)) = weighted_endpoints(t, ch, |i| bc4_mix((bits >> (3 * i)) & 7, eight))
+        else {
             break;
-        }
-        let x0 = ((bb * aq - ab * bq) / det).round() as i32;
-        let x1 = ((aa * bq - ab * aq) / det).round() as i32;
+        };
+        let (x0, x1) = (x0.round() as i32, x1.round() as i32);
         if !try_pair(&mut best, x0, x1) {
             break;
         }
