@@ -346,38 +346,24 @@ impl Gather for CpuGather<'_> {
             exitance,
         };
         let (simd, parallel) = (self.simd, self.parallel);
-        match self.matrix.layout.format() {
-            #[cfg(target_arch = "x86_64")]
-            Format::Bc1 if uses_zmm(Format::Bc1, simd) => {
-                let x4 = &self.x4[..];
-                run(parallel, irradiance, |r, out| {
-                    // SAFETY: `uses_zmm` holds only on `SimdPath::Avx512`, which `CpuGather`
-                    // holds only after `is_available` saw AVX-512F, AVX2, FMA and F16C.
-                    unsafe { avx512::bc1_block_row(&ctx, x4, r, out) }
-                })
-            }
+        let format = self.matrix.layout.format();
+        #[cfg(target_arch = "x86_64")]
+        if let Some(body) = zmm_body(format, simd) {
+            let x4 = &self.x4[..];
+            // SAFETY: `zmm_body` gives a body only on `SimdPath::Avx512`, which `CpuGather`
+            // holds only after `is_available` saw AVX-512F, AVX2, FMA and F16C.
+            run(parallel, irradiance, |r, out| unsafe {
+                body(&ctx, x4, r, out)
+            });
+            return Ok(());
+        }
+        match format {
             Format::Bc1 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::Bc1>(&ctx, simd, r, out)
             }),
-            #[cfg(target_arch = "x86_64")]
-            Format::Bc4 if uses_zmm(Format::Bc4, simd) => {
-                let x4 = &self.x4[..];
-                run(parallel, irradiance, |r, out| {
-                    // SAFETY: as for BC1 above.
-                    unsafe { avx512::bc4_block_row(&ctx, x4, r, out) }
-                })
-            }
             Format::Bc4 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::Bc4>(&ctx, simd, r, out)
             }),
-            #[cfg(target_arch = "x86_64")]
-            Format::U8 if uses_zmm(Format::U8, simd) => {
-                let x4 = &self.x4[..];
-                run(parallel, irradiance, |r, out| {
-                    // SAFETY: as for BC1 above.
-                    unsafe { avx512::u8_block_row(&ctx, x4, r, out) }
-                })
-            }
             Format::U8 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::U8>(&ctx, simd, r, out)
             }),
@@ -392,11 +378,20 @@ impl Gather for CpuGather<'_> {
     }
 }
 
+/// The `zmm` block-row body of `format` on `simd`, if it has one (`avx512::body`).
+#[cfg(target_arch = "x86_64")]
+fn zmm_body(format: Format, simd: SimdPath) -> Option<avx512::RowBody> {
+    (simd == SimdPath::Avx512)
+        .then(|| avx512::body(format))
+        .flatten()
+}
+
 /// Whether `format` runs a `zmm` body on `simd` (and so reads the exitance as [`kernel::X4`]).
 fn uses_zmm(format: Format, simd: SimdPath) -> bool {
-    cfg!(target_arch = "x86_64")
-        && simd == SimdPath::Avx512
-        && matches!(format, Format::Bc1 | Format::Bc4 | Format::U8)
+    #[cfg(target_arch = "x86_64")]
+    return zmm_body(format, simd).is_some();
+    #[cfg(not(target_arch = "x86_64"))]
+    return false;
 }
 
 /// Runs `body(block_row, its output rows)` over every block row, in parallel or not: the same
