@@ -290,12 +290,15 @@ pub(crate) fn run(
         Some(c) => c,
         None => camera(rt, None, size.0, size.1)?,
     };
-    // Lights that overflow are an error before the backend prints its choice (one line).
-    rt.direct(&lights)?;
+    // Lights that overflow are an error before the backend prints its choice (one line); the
+    // direct light computed for that check is the frame's.
+    let t = std::time::Instant::now();
+    let direct = rt.direct(&lights)?;
+    let direct_ms = t.elapsed().as_secs_f64() * 1e3;
     let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
     let t = std::time::Instant::now();
-    let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &lights, 1.0)?;
-    let frame_ms = t.elapsed().as_secs_f64() * 1e3;
+    let (frame, gather_ms) = rt.frame_with_direct(chosen.gather.as_mut(), direct, 1.0)?;
+    let frame_ms = direct_ms + t.elapsed().as_secs_f64() * 1e3;
     let t = std::time::Instant::now();
     let prim = primary(rt, &cam, spp_side)?;
     let img = shade(rt, &prim, &frame, &lights, 1.0)?;

@@ -132,8 +132,22 @@ impl Runtime {
         if !(emission.is_finite() && emission >= 0.0) {
             bail!("emission scale must be finite and non-negative, not {emission}");
         }
-        let n = self.n();
         let direct = self.direct(lights)?;
+        self.frame_with_direct(gather, direct, emission)
+    }
+
+    /// [`Runtime::frame`] from direct irradiance already computed ([`Runtime::direct`]) for the
+    /// frame's lights, for a caller that needed it first.
+    pub(crate) fn frame_with_direct(
+        &self,
+        gather: &mut dyn Gather,
+        direct: Vec<Rgb>,
+        emission: f32,
+    ) -> anyhow::Result<(Frame, f64)> {
+        if !(emission.is_finite() && emission >= 0.0) {
+            bail!("emission scale must be finite and non-negative, not {emission}");
+        }
+        let n = self.n();
         let scaled: Vec<radiosity_core::Patch>;
         let patches: &[radiosity_core::Patch] = if emission == 1.0 {
             &self.file.patches
