@@ -55,10 +55,10 @@ struct Bc1State {
     err: f32,
 }
 
-/// Evaluates the BC1 block with endpoint words `c0`, `c1` (whose order sets the mode) and
-/// each texel's best index in value space; three-colour blocks never use index 3
-/// (transparent black, see `guard_bc1`).
-fn bc1_eval(c0: u16, c1: u16, t: &BlockTarget<'_>) -> Bc1State {
+/// The decoded palette values `[entry][channel]` of the BC1 endpoint words `c0`, `c1` (D3D10
+/// rules, the block's tables) and how many entries a texel may use: 4, or 3 in three-colour
+/// mode (index 3 is transparent black, see `guard_bc1`).
+fn bc1_palette_values(c0: u16, c1: u16, t: &BlockTarget<'_>) -> ([[f32; 3]; 4], usize) {
     let [a, b] = [c0.to_le_bytes(), c1.to_le_bytes()];
     let block = Bc1Block([a[0], a[1], b[0], b[1], 0, 0, 0, 0]);
     let palette = block.palette(DecodeMode::D3d10);
@@ -69,6 +69,14 @@ fn bc1_eval(c0: u16, c1: u16, t: &BlockTarget<'_>) -> Bc1State {
             pv[k][ch] = t.tables[ch][usize::from(palette[k][ch])];
         }
     }
+    (pv, usable)
+}
+
+/// Evaluates the BC1 block with endpoint words `c0`, `c1` (whose order sets the mode) and
+/// each texel's best index in value space; three-colour blocks never use index 3
+/// (transparent black, see `guard_bc1`).
+fn bc1_eval(c0: u16, c1: u16, t: &BlockTarget<'_>) -> Bc1State {
+    let (pv, usable) = bc1_palette_values(c0, c1, t);
     let mut bits = 0u32;
     let mut err = 0f32;
     for i in 0..16 {
@@ -491,16 +499,7 @@ pub(crate) fn refine_bc1_coupled(
 ) -> Bc1Block {
     let four = start.is_four_colour();
     let eval = |c0: u16, c1: u16| -> (f32, u32) {
-        let [a, b] = [c0.to_le_bytes(), c1.to_le_bytes()];
-        let block = Bc1Block([a[0], a[1], b[0], b[1], 0, 0, 0, 0]);
-        let palette = block.palette(DecodeMode::D3d10);
-        let usable = if block.is_four_colour() { 4 } else { 3 };
-        let mut pv = [[0f32; 3]; 4];
-        for k in 0..usable {
-            for ch in 0..3 {
-                pv[k][ch] = t.tables[ch][usize::from(palette[k][ch])];
-            }
-        }
+        let (pv, usable) = bc1_palette_values(c0, c1, t);
         let pal = Palette {
             values: &pv[..usable],
             chans: &[0, 1, 2],
