@@ -124,10 +124,14 @@ fn larger_matrix_several_tiles() {
 /// columns: on the AVX-512 path two runs of 128 blocks and a run of 2, which has no full
 /// group of 16); n = 1097: 275 block columns, a last run of 19 (one group of 16 keyed in
 /// vector registers, 3 keyed one by one, an odd block after the pairs).
+///
+/// With `max_tile` 1024, n = 1030 has a 1024² tile with tables beside 6-wide tiles without:
+/// both kinds in one block row.
 #[test]
 fn large_tile_bc1_palette_tables() {
     check_against_reference(1030, Format::Bc1, 3, 8192);
     check_against_reference(1097, Format::Bc1, 3, 8192);
+    check_against_reference(1030, Format::Bc1, 3, 1024);
 }
 
 #[test]
