@@ -465,7 +465,7 @@ fn gpu_rows(
 
 /// `‖y − exact‖ / ‖exact‖` over every patch and channel (`exact(i)` in `y`'s numbering); the
 /// absolute norm when the exact answer is zero.
-fn relative_l2(y: &[Rgb], exact: impl Fn(usize) -> [f64; 3]) -> f64 {
+pub(crate) fn relative_l2(y: &[Rgb], exact: impl Fn(usize) -> [f64; 3]) -> f64 {
     let (mut num, mut den) = (0f64, 0f64);
     for (i, v) in y.iter().enumerate() {
         let e = exact(i);

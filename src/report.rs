@@ -13,6 +13,7 @@
 mod plots;
 mod table;
 
+use crate::bench::relative_l2;
 use crate::embedded;
 use crate::pathtrace::{ObjectEstimate, PathTracer};
 use crate::picture::LinearImage;
@@ -398,23 +399,6 @@ fn sample(
         err_pt,
     };
     Ok((s, out))
-}
-
-/// `‖y − exact‖ / ‖exact‖` over patches and channels, `exact(i)` in `y`'s numbering.
-fn relative_l2(y: &[Rgb], exact: impl Fn(usize) -> [f64; 3]) -> f64 {
-    let (mut num, mut den) = (0f64, 0f64);
-    for (i, v) in y.iter().enumerate() {
-        let e = exact(i);
-        for k in 0..3 {
-            num += (f64::from(v.channel(k)) - e[k]).powi(2);
-            den += e[k] * e[k];
-        }
-    }
-    if den > 0.0 {
-        (num / den).sqrt()
-    } else {
-        num.sqrt()
-    }
 }
 
 /// Area-weighted relative L2 error of the per-object mean irradiance against the path tracer:
