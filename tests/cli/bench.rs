@@ -1,6 +1,6 @@
 //! `radiosity bench`: the JSON shape of DESIGN.md and sane values on a small Cornell box.
 
-use super::{assert_one_line_error, radiosity};
+use super::{assert_one_line_error, radiosity, radiosity_ok};
 
 /// The methods DESIGN.md names; a GPU row (`gpu-…`) may come on top where an adapter exists.
 const METHODS: [&str; 8] = [
@@ -17,12 +17,7 @@ const METHODS: [&str; 8] = [
 #[test]
 fn bench_json_has_every_method_with_sane_values() {
     // 256 patches and 3 timed runs per method keep this to a few seconds.
-    let out = radiosity(&["bench", "--patches", "256", "--runs", "3", "--json"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = radiosity_ok(&["bench", "--patches", "256", "--runs", "3", "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     let n = v["patches"].as_u64().unwrap();
     // The voxel target is hit within ±10% (280 here); patches that see nothing leave the matrix.

@@ -19,6 +19,18 @@ fn radiosity(args: &[&str]) -> Output {
         .expect("binary runs")
 }
 
+/// Runs the binary and asserts it succeeded (stderr in the message when not).
+fn radiosity_ok(args: &[&str]) -> Output {
+    let out = radiosity(args);
+    assert!(
+        out.status.success(),
+        "radiosity {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Asserts the contract for bad input: non-zero exit (not a panic's 101), and stderr exactly
 /// one line starting with `error: ` that mentions `needle`.
 fn assert_one_line_error(out: &Output, needle: &str) {
@@ -46,19 +58,14 @@ fn write_sample(dir: &Path) -> std::path::PathBuf {
 fn inspect_prints_text_and_json() {
     let dir = tempfile::tempdir().unwrap();
     let path = write_sample(dir.path());
-    let out = radiosity(&["inspect", path.to_str().unwrap()]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = radiosity_ok(&["inspect", path.to_str().unwrap()]);
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
         text.contains("patches      37") && text.contains("bc1"),
         "{text}"
     );
 
-    let out = radiosity(&["inspect", path.to_str().unwrap(), "--json"]);
+    let out = radiosity_ok(&["inspect", path.to_str().unwrap(), "--json"]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["patches"], 37);
@@ -142,11 +149,6 @@ fn bake_solve_inspect_round_trip() {
         "80",
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for key in [
         "patches",
@@ -179,12 +181,7 @@ fn bake_solve_inspect_round_trip() {
         );
     }
 
-    let out = radiosity(&["solve", rad.to_str().unwrap(), "--json"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = radiosity_ok(&["solve", rad.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["patches"], report["patches"]);
     let objects = v["objects"].as_array().unwrap();
@@ -208,31 +205,21 @@ fn bake_solve_inspect_round_trip() {
     );
 
     // Solving the OBJ directly bakes in memory first: same objects.
-    let out = radiosity(&[
+    radiosity_ok(&[
         "solve",
         scene.to_str().unwrap(),
         "--patches",
         "80",
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 
     let dds = dir.path().join("dds");
-    let out = radiosity(&[
+    radiosity_ok(&[
         "inspect",
         rad.to_str().unwrap(),
         "--export-dds",
         dds.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let tex = std::fs::read(dds.join("tile_000_000_rgb.dds")).unwrap();
     assert_eq!(&tex[..4], b"DDS ", "a standard DDS file");
     let index: serde_json::Value =
