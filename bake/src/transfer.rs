@@ -134,13 +134,9 @@ pub fn analyse_closure(f: &Dense, tolerance: f64) -> Closure {
     }
 }
 
-/// Rebalances a closed scene's form factors so every row sums to 1 and reciprocity holds
-/// exactly; returns the largest relative change of a row sum made (the size of the correction).
-///
-/// Symmetric Sinkhorn balancing: with `W = (diag(A) F + (diag(A) F)ᵀ) / 2` (reciprocity made
-/// exact), find `d > 0` such that `D W D` has row sums `A`, by `d_i ← sqrt(d_i · A_i / (W d)_i)`
-/// until row sums agree to 1e-13; then `F' = diag(A)⁻¹ D W D`. Rows that see nothing stay zero.
-pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
+/// `W = (diag(A) F + (diag(A) F)ᵀ) / 2`, row-major: the exchange between patches with
+/// reciprocity made exact, which both row-sum corrections balance.
+fn reciprocal_exchange(f: &Dense, areas: &[f64]) -> Vec<f64> {
     let n = f.n;
     assert_eq!(areas.len(), n, "one area per patch");
     let mut w = vec![0.0; n * n];
@@ -149,6 +145,18 @@ pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
             w[i * n + j] = 0.5 * (areas[i] * f.get(i, j) + areas[j] * f.get(j, i));
         }
     }
+    w
+}
+
+/// Rebalances a closed scene's form factors so every row sums to 1 and reciprocity holds
+/// exactly; returns the largest relative change of a row sum made (the size of the correction).
+///
+/// Symmetric Sinkhorn balancing: with `W = (diag(A) F + (diag(A) F)ᵀ) / 2` (reciprocity made
+/// exact), find `d > 0` such that `D W D` has row sums `A`, by `d_i ← sqrt(d_i · A_i / (W d)_i)`
+/// until row sums agree to 1e-13; then `F' = diag(A)⁻¹ D W D`. Rows that see nothing stay zero.
+pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
+    let n = f.n;
+    let w = reciprocal_exchange(f, areas);
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
     let live: Vec<bool> = (0..n)
         .map(|i| w[i * n..(i + 1) * n].iter().any(|v| *v > 0.0))
@@ -202,13 +210,7 @@ pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
 /// `d` only decreases, so rows at or below 1 stay there. Rows that see nothing stay zero.
 pub fn cap_row_sums(f: &mut Dense, areas: &[f64]) -> f64 {
     let n = f.n;
-    assert_eq!(areas.len(), n, "one area per patch");
-    let mut w = vec![0.0; n * n];
-    for i in 0..n {
-        for j in 0..n {
-            w[i * n + j] = 0.5 * (areas[i] * f.get(i, j) + areas[j] * f.get(j, i));
-        }
-    }
+    let w = reciprocal_exchange(f, areas);
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
     let mut d = vec![1.0f64; n];
     let row = |d: &[f64], i: usize| -> f64 {
