@@ -145,7 +145,12 @@ pub(crate) fn run(
             r.rays_cast
         );
         for (order, e) in &r.compression_rmse {
-            outln!("  compression error ({order}): {e:.4}");
+            match r.compression_code_rmse.get(order) {
+                Some(c) => {
+                    outln!("  compression error ({order}): {e:.4} (log texture: {c:.2} codes RMS)")
+                }
+                None => outln!("  compression error ({order}): {e:.4}"),
+            }
         }
         match r.lighting_error {
             Some(e) => outln!("  lighting error from compression: {:.3}%", e * 100.0),

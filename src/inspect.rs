@@ -104,9 +104,13 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         "               {:.1}× smaller than a dense f32 RGB matrix",
         dense_rgb / s["bytes"]["total"].as_f64().unwrap_or(1.0)
     );
-    match file.compression_rmse {
-        Some(v) => outln!("  compression  relative Frobenius error {:.4}", v),
-        None => outln!("  compression  error not measured"),
+    let codes = s["compression_code_rmse"][file.patch_order.name()].as_f64();
+    match (file.compression_rmse, codes) {
+        (Some(v), Some(c)) => {
+            outln!("  compression  relative Frobenius error {v:.4}; log texture {c:.2} codes RMS")
+        }
+        (Some(v), None) => outln!("  compression  relative Frobenius error {v:.4}"),
+        (None, _) => outln!("  compression  error not measured"),
     }
     if let Some(v) = file.lighting_error {
         outln!("  lighting     relative L2 error {v:.4} (scene's own emitters)");

@@ -42,7 +42,7 @@ mod error;
 mod similarity;
 mod spatial;
 
-pub use error::{ErrorEstimate, ErrorMeter, ErrorSampling};
+pub use error::{ErrorEstimate, ErrorMeter, ErrorSampling, code_rms};
 pub use similarity::{Signatures, greedy_chain};
 pub use spatial::{Curve, hilbert_3d, morton_3d, orientation, spatial_order};
 

@@ -142,6 +142,11 @@ pub struct BakeReport {
     /// exactly, the others estimated on sampled blocks of the encoder's first pass, which the
     /// bake's own encode improves on: see `order::ErrorMeter`).
     pub compression_rmse: BTreeMap<String, f64>,
+    /// RMS error of the compressed log texture in 8-bit codes, per order measured as
+    /// `compression_rmse` is (`order::ErrorEstimate::code_rms`): the paper's own measure (its
+    /// Fig. 4 compares the compressed texture with the uncompressed one). Empty for the float
+    /// formats.
+    pub compression_code_rmse: BTreeMap<String, f64>,
     /// Relative L2 error of the irradiance from the scene's own emitters caused by compression
     /// (`null` without emitters).
     pub lighting_error: Option<f64>,
@@ -486,13 +491,23 @@ pub fn bake_discretised(
     lap("encode", &mut timings);
 
     stage("measure");
-    let rmse = relative_frobenius(&m, &matrix.decode_dense(DecodeMode::D3d10));
+    let decoded = matrix.decode_dense(DecodeMode::D3d10);
+    let rmse = relative_frobenius(&m, &decoded);
+    let code_rmse = order::code_rms(&matrix, &m, &decoded);
+    drop(decoded);
     let lighting_error = lighting_error(&m, n, channels, &matrix, &emission);
     let mut compression_rmse: BTreeMap<String, f64> = candidates
         .iter()
         .map(|c| (c.kind.name().to_owned(), c.error.relative))
         .collect();
     compression_rmse.insert(chosen.kind.name().to_owned(), rmse);
+    let mut compression_code_rmse: BTreeMap<String, f64> = candidates
+        .iter()
+        .filter_map(|c| Some((c.kind.name().to_owned(), c.error.code_rms?)))
+        .collect();
+    if let Some(e) = code_rmse {
+        compression_code_rmse.insert(chosen.kind.name().to_owned(), e);
+    }
     lap("measure", &mut timings);
 
     let patch_source: Vec<u32> = chosen
@@ -543,6 +558,7 @@ pub fn bake_discretised(
         },
         rays_cast: system.rays_cast,
         compression_rmse,
+        compression_code_rmse,
         lighting_error,
         effects,
         closure: system.closure.clone(),

@@ -83,6 +83,43 @@ pub struct ErrorEstimate {
     pub blocks_nonzero: usize,
     /// Whether every non-zero block was encoded.
     pub exact: bool,
+    /// RMS error of the compressed log texture, in 8-bit codes, over all `n²·channels` entries
+    /// (sparse entries count 0: the sparse list makes them exact); unbiased in its square when
+    /// sampled. The measure of the paper's Fig. 4, which compares the compressed texture with
+    /// the uncompressed one. It counts a code wrong on a tiny entry as much as on a large one,
+    /// so it is much larger for `random` than the value error is (see [`code_rms`]). `None` for
+    /// the float formats, which store no codes.
+    pub code_rms: Option<f64>,
+}
+
+/// [`ErrorEstimate::code_rms`] of a whole matrix: `exact` and `decoded` are its `n·n·channels`
+/// values before and after compression (decoded with the sparse list), each turned into the
+/// code of its tile's [`LogScale`]. `None` for the float formats.
+pub fn code_rms(matrix: &TransferMatrix<'_>, exact: &[f32], decoded: &[f32]) -> Option<f64> {
+    let l = &matrix.layout;
+    if !l.format().is_log() {
+        return None;
+    }
+    let (n, channels) = (l.n(), l.channels());
+    assert_eq!(exact.len(), n * n * channels, "exact matrix of side {n}");
+    assert_eq!(decoded.len(), exact.len(), "decoded matrix of side {n}");
+    let sum: f64 = (0..n)
+        .into_par_iter()
+        .map(|r| {
+            let mut sum = 0f64;
+            for c in 0..n {
+                let tile = l.locate(r, c).0.index;
+                for ch in 0..channels {
+                    let scale = &matrix.scales[l.scale_index(tile, ch)];
+                    let e = (r * n + c) * channels + ch;
+                    let d = i32::from(scale.encode(decoded[e])) - i32::from(scale.encode(exact[e]));
+                    sum += f64::from(d * d);
+                }
+            }
+            sum
+        })
+        .sum();
+    Some((sum / (n * n * channels).max(1) as f64).sqrt())
 }
 
 /// Share of the sampling weight spread uniformly over non-zero blocks (the rest goes by squared
@@ -195,7 +232,9 @@ impl<'a> ErrorMeter<'a> {
             .iter()
             .filter(|w| **w > 0.0)
             .count();
-        Ok(self.estimate(squared_error, 0.0, blocks, blocks, true))
+        let mut e = self.estimate(squared_error, 0.0, 0.0, blocks, blocks, true);
+        e.code_rms = code_rms(&t, values, &decoded);
+        Ok(e)
     }
 
     /// The error of the matrix renumbered by `perm` (`perm[new] = old`; `None` = as given),
@@ -224,8 +263,9 @@ impl<'a> ErrorMeter<'a> {
             ErrorSampling::Blocks { seed, .. } => seed,
         };
         let side = layout.padded() / 4;
-        // (squared error / p, its variance term, blocks encoded), summed over the sample.
-        let (sum, var, count) = (0..weights.len())
+        // (squared error / p, its variance term, squared code error / p, blocks encoded),
+        // summed over the sample.
+        let (sum, var, codes, count) = (0..weights.len())
             .into_par_iter()
             .filter_map(|b| {
                 let p = probability(weights[b]);
@@ -242,22 +282,27 @@ impl<'a> ErrorMeter<'a> {
                     }
                 }
                 let (row, col) = (b / side * 4, b % side * 4);
-                let err = self.block_error(&seen, &encoder, &decoder, row, col);
-                Some((err / p, err * err * (1.0 - p) / (p * p), 1usize))
+                let (err, code) = self.block_error(&seen, &encoder, &decoder, scales, row, col);
+                Some((err / p, err * err * (1.0 - p) / (p * p), code / p, 1usize))
             })
-            .reduce(|| (0.0, 0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+            .reduce(
+                || (0.0, 0.0, 0.0, 0),
+                |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3 + b.3),
+            );
         let exact = count == nonzero;
-        self.estimate(sum, var, count, nonzero, exact)
+        self.estimate(sum, var, codes, count, nonzero, exact)
     }
 
     fn estimate(
         &self,
         squared_error: f64,
         variance: f64,
+        code_squared_error: f64,
         encoded: usize,
         nonzero: usize,
         exact: bool,
     ) -> ErrorEstimate {
+        let entries = (self.m.n * self.m.n * self.m.channels).max(1) as f64;
         let relative = if self.squared_norm > 0.0 {
             (squared_error / self.squared_norm).sqrt()
         } else {
@@ -275,6 +320,11 @@ impl<'a> ErrorMeter<'a> {
             blocks_encoded: encoded,
             blocks_nonzero: nonzero,
             exact,
+            code_rms: self
+                .params
+                .format
+                .is_log()
+                .then(|| (code_squared_error / entries).sqrt()),
         }
     }
 
@@ -304,15 +354,17 @@ impl<'a> ErrorMeter<'a> {
     }
 
     /// Squared error of the block position whose top-left texel is (`row`, `col`), over every
-    /// plane, decoded as the reference decoder does (D3D10).
+    /// plane, decoded as the reference decoder does (D3D10): in value, and in log codes of
+    /// the tile's `scales` (0 for the float formats).
     fn block_error<V>(
         &self,
         seen: &V,
         encoder: &BlockEncoder<'_>,
         decoder: &BlockDecoder,
+        scales: &[LogScale],
         row: usize,
         col: usize,
-    ) -> f64
+    ) -> (f64, f64)
     where
         V: Fn(usize, usize, usize) -> f32,
     {
@@ -327,21 +379,27 @@ impl<'a> ErrorMeter<'a> {
             decoder.decode_plane(layout, tile.index, plane, raw, &mut decoded);
         }
         let n = self.m.n;
-        let mut err = 0f64;
+        let (mut err, mut code_err) = (0f64, 0f64);
         for i in 0..16 {
             let (r, c) = (row + i / 4, col + i % 4);
             if r >= n || c >= n {
                 continue;
             }
             for ch in 0..self.m.channels {
-                let want = f64::from(seen(r, c, ch));
+                let want = seen(r, c, ch);
                 // A sparse texel is exact: the sparse list corrects whatever the block holds.
-                if !want.is_nan() {
-                    err += (f64::from(decoded[ch][i]) - want).powi(2);
+                if want.is_nan() {
+                    continue;
+                }
+                let got = decoded[ch][i];
+                err += (f64::from(got) - f64::from(want)).powi(2);
+                if let Some(scale) = scales.get(layout.scale_index(tile.index, ch)) {
+                    let d = i32::from(scale.encode(got)) - i32::from(scale.encode(want));
+                    code_err += f64::from(d * d);
                 }
             }
         }
-        err
+        (err, code_err)
     }
 }
 
