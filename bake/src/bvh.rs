@@ -182,6 +182,14 @@ impl Occluders {
     /// f32 rounding near them) never count as blockers; a segment too short for that margin is
     /// visible.
     pub fn segment_visible(&self, a: DVec3, b: DVec3) -> bool {
+        self.segment_visible_skipping(a, b, &|_| false)
+    }
+
+    /// [`Self::segment_visible`], except that triangles for which `skip` (given the index in
+    /// the list the BVH was built from) says `true` never block: the surfaces a segment
+    /// starts and ends on when its ends lie off them (a flat site standing in for a curved
+    /// patch, see `form_factor::flat_site`).
+    pub fn segment_visible_skipping(&self, a: DVec3, b: DVec3, skip: &dyn Fn(u32) -> bool) -> bool {
         if self.rt.is_empty() {
             return true;
         }
@@ -194,8 +202,13 @@ impl Occluders {
         let dir = Vec3A::from((d / len).as_vec3());
         let o = Vec3A::from((a - self.origin).as_vec3());
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
-        self.bvh
-            .ray_traverse_miss(ray, |r, id| self.rt[id].intersect(r))
+        self.bvh.ray_traverse_miss(ray, |r, id| {
+            if skip(self.source[id]) {
+                f32::INFINITY
+            } else {
+                self.rt[id].intersect(r)
+            }
+        })
     }
 
     /// The first triangle a ray meets, both sides counting, at a distance in `[t_min, t_max]`

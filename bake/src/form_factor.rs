@@ -11,10 +11,20 @@
 //! Each unordered pair is integrated once, over the patch of smaller area (the better
 //! conditioned direction), giving the exchange `G = A_i F_ij = A_j F_ji`; reciprocity therefore
 //! holds to rounding and the row sums are the honest accuracy check.
+//!
+//! The cost of a pair is the product of the two patches' piece counts, so exact pairs cost the
+//! square of the scene's piece count whatever the patch count (nested spheres of 2 × 1280
+//! triangles: 8 s; a 330 000-triangle room: days). Above [`FormFactorParams::exact_pieces`]
+//! pieces in all, a patch of more than [`MAX_EXACT_PIECES`] pieces is integrated through flat
+//! sites ([`flat_site`]): the paper's own simplification (§4.3, form factors "for sites of the
+//! simplified scene") for far pairs (centres more than [`FAR_RATIO`] times the sum of the
+//! radii apart), while neighbours keep their pieces. Shadow rays still test the full-detail triangles, except
+//! those of a site's own patch, which its flat stand-in may lie off.
 
 use crate::bvh::Occluders;
 use crate::kernel::point_to_polygon;
 use crate::polygon::point_polygon_distance;
+use crate::polygon::{MAX_VERTICES, Polygon};
 use crate::quadrature::{Adaptive, Rule, integrate};
 use crate::voxel::{Patches, Piece};
 use glam::DVec3;
@@ -46,6 +56,10 @@ pub struct FormFactorParams {
     pub quadrature: Adaptive,
     /// Shadow rays.
     pub visibility: Visibility,
+    /// Pieces in all up to which every pair is integrated exactly, piece by piece. Above it,
+    /// patches of more than [`MAX_EXACT_PIECES`] pieces are integrated through flat sites
+    /// (module doc): a scene of 300 000 triangles becomes feasible at all.
+    pub exact_pieces: usize,
 }
 
 impl Default for FormFactorParams {
@@ -60,6 +74,7 @@ impl Default for FormFactorParams {
                 per_sample: 1,
                 skip_unblockable: true,
             },
+            exact_pieces: EXACT_PIECES,
         }
     }
 }
@@ -89,6 +104,7 @@ impl FormFactorParams {
                 per_sample: 4,
                 skip_unblockable: true,
             },
+            exact_pieces: EXACT_PIECES,
         }
     }
 
@@ -115,6 +131,10 @@ pub struct FormFactors {
     /// Largest `|A_i F_ij − A_j F_ji| / max(A_i F_ij, A_j F_ji)` over the stored matrix (f32
     /// rounding only: the exchange is computed once per pair).
     pub reciprocity_error: f64,
+    /// Pieces of all patches.
+    pub pieces: usize,
+    /// Patches integrated through flat sites (0 when every pair was exact).
+    pub sites: usize,
 }
 
 impl FormFactors {
@@ -165,6 +185,149 @@ pub(crate) fn facing(s: &[DVec3], ns: DVec3, t: &[DVec3], nt: DVec3, tol: f64) -
     t.iter().any(|p| ns.dot(*p) - ds > tol) && s.iter().any(|p| nt.dot(*p) - dt > tol)
 }
 
+/// Patches of more pieces than this are integrated through flat sites ([`Sites`]). A plane
+/// wall cut by the grid gives one to four pieces per patch, a box corner up to a dozen; a
+/// curved or finely tessellated surface gives many more, and the exact pair costs their product.
+pub const MAX_EXACT_PIECES: usize = 16;
+
+/// Default of [`FormFactorParams::exact_pieces`]: the exact cost grows as the square of the
+/// piece count (nested spheres of 2 × 1280 triangles take 8 s on 2 cores at any patch count),
+/// and flat sites cost accuracy on coarse curved patches (row sums of F off by up to 6% at 58
+/// patches on those spheres, where the exact pairs are within 0.3%).
+pub const EXACT_PIECES: usize = 20_000;
+
+/// A pair is far when its centres are more than this many times the sum of the patches' radii
+/// apart (their bounding spheres do not meet): each side then sees the other as one flat site.
+/// Near pairs (neighbours) keep their pieces: touching patches are where the kernel is most
+/// sensitive to the shape, and a flattened stand-in there cost a closed box's rows up to 2%.
+const FAR_RATIO: f64 = 1.0;
+
+/// [`Piece::triangle`] of a flat site, which stands for many triangles.
+const SITE: u32 = u32::MAX;
+
+/// The flat stand-in of a patch of many pieces, with the triangles it stands for.
+struct Sites {
+    /// The whole patch as one site: for far pairs.
+    whole: Piece,
+    /// The full-detail triangles of the patch, sorted: its own rays ignore them.
+    triangles: Vec<u32>,
+}
+
+impl Sites {
+    fn new(pieces: &[Piece]) -> Option<Self> {
+        let whole = flat_site(pieces)?;
+        let mut triangles: Vec<u32> = pieces.iter().map(|p| p.triangle).collect();
+        triangles.sort_unstable();
+        triangles.dedup();
+        Some(Self { whole, triangles })
+    }
+}
+
+/// A flat stand-in for `pieces`: the convex hull of their corners projected on the plane
+/// through their area-weighted centre with their mean normal, cut down to [`MAX_VERTICES`]
+/// corners (dropping the corner whose triangle with its neighbours is smallest), scaled about
+/// its centroid to the pieces' area, its centroid moved to their centre, then pushed along the
+/// normal until no corner of the pieces lies in front of it (so that its rays leave from in
+/// front of the surface it stands for). Area, centre and orientation are the pieces': a
+/// distant patch sees it as it sees them. `None` for a degenerate set (no area, no mean
+/// normal, a hull of no area).
+fn flat_site(pieces: &[Piece]) -> Option<Piece> {
+    let area: f64 = pieces.iter().map(|p| p.area).sum();
+    let sum_n: DVec3 = pieces.iter().map(|p| p.normal * p.area).sum();
+    if !(area > 0.0) || !(sum_n.length() > 1e-9 * area) {
+        return None;
+    }
+    let n = sum_n.normalize();
+    let centre = pieces
+        .iter()
+        .map(|p| p.polygon.centroid() * p.area)
+        .sum::<DVec3>()
+        / area;
+    let (u, v) = n.any_orthonormal_pair();
+    // Counter-clockwise in (u, v) must be counter-clockwise about n.
+    let (u, v) = if u.cross(v).dot(n) > 0.0 {
+        (u, v)
+    } else {
+        (v, u)
+    };
+    let corners = pieces.iter().flat_map(|p| p.polygon.vertices());
+    let lift = corners
+        .clone()
+        .map(|x| n.dot(*x - centre))
+        .fold(0f64, f64::max);
+    let mut pts: Vec<[f64; 2]> = corners
+        .map(|x| {
+            let d = *x - centre;
+            [d.dot(u), d.dot(v)]
+        })
+        .collect();
+    let mut hull = convex_hull(&mut pts);
+    let tri = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) * 0.5
+    };
+    while hull.len() > MAX_VERTICES {
+        let m = hull.len();
+        let cut = |i: usize| tri(hull[(i + m - 1) % m], hull[i], hull[(i + 1) % m]);
+        let k = (0..m)
+            .min_by(|&i, &j| cut(i).total_cmp(&cut(j)))
+            .expect("non-empty");
+        hull.remove(k);
+    }
+    let m = hull.len();
+    let (mut hull_area, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 0..m {
+        let (a, b) = (hull[i], hull[(i + 1) % m]);
+        let cross = a[0] * b[1] - b[0] * a[1];
+        hull_area += cross * 0.5;
+        cx += (a[0] + b[0]) * cross;
+        cy += (a[1] + b[1]) * cross;
+    }
+    if !(hull_area > 1e-12 * area) {
+        return None;
+    }
+    let (cx, cy) = (cx / (6.0 * hull_area), cy / (6.0 * hull_area));
+    let k = (area / hull_area).sqrt();
+    let origin = centre + n * lift;
+    let corners: Vec<DVec3> = hull
+        .iter()
+        .map(|p| origin + u * (k * (p[0] - cx)) + v * (k * (p[1] - cy)))
+        .collect();
+    Some(Piece {
+        polygon: Polygon::from_slice(&corners),
+        normal: n,
+        area,
+        triangle: SITE,
+    })
+}
+
+/// Andrew's monotone chain: the convex hull of `pts`, counter-clockwise, without collinear
+/// corners (sorts `pts`).
+fn convex_hull(pts: &mut [[f64; 2]]) -> Vec<[f64; 2]> {
+    pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::with_capacity(pts.len() + 1);
+    for pass in 0..2 {
+        let start = hull.len();
+        let chain = |p: [f64; 2], hull: &mut Vec<[f64; 2]>| {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        };
+        if pass == 0 {
+            pts.iter().for_each(|&p| chain(p, &mut hull));
+        } else {
+            pts.iter().rev().for_each(|&p| chain(p, &mut hull));
+        }
+        hull.pop(); // the last point of each chain starts the other
+    }
+    hull
+}
+
 /// Cache of [`Occluders::may_block`] per pair of full-detail triangles.
 struct BlockCache {
     n: usize,
@@ -206,6 +369,7 @@ fn exchange(
     tol: f64,
     rays: &mut u64,
     live: &mut Vec<(usize, bool)>,
+    skip: &dyn Fn(u32) -> bool,
 ) -> f64 {
     let mut total = 0.0;
     for s in src {
@@ -225,8 +389,10 @@ fn exchange(
                 ) => {
                     !skip_unblockable
                         || match cache {
-                            Some(c) => c.may_block(s.triangle, t.triangle),
-                            None => o.may_block(sv, s.normal, t.polygon.vertices(), t.normal),
+                            Some(c) if s.triangle != SITE && t.triangle != SITE => {
+                                c.may_block(s.triangle, t.triangle)
+                            }
+                            _ => o.may_block(sv, s.normal, t.polygon.vertices(), t.normal),
                         }
                 }
             };
@@ -265,7 +431,7 @@ fn exchange(
                                     t.polygon.vertices(),
                                     sample_index * per_sample as u64 + r as u64,
                                 );
-                                seen += o.segment_visible(q.x, y) as u32;
+                                seen += o.segment_visible_skipping(q.x, y, skip) as u32;
                             }
                             *rays += per_sample as u64;
                             seen as f64 / per_sample as f64
@@ -321,6 +487,36 @@ pub fn form_factors(
         ) => BlockCache::new(patches, o, &patches.triangles),
         _ => None,
     };
+    // Flat sites for patches of many pieces (an exact patch has none), and every patch's
+    // radius about its centre for the near/far test.
+    let use_sites = patches.pieces.len() > params.exact_pieces;
+    let sites: Vec<Option<Sites>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let pieces = patches.pieces_of(i);
+            (use_sites && pieces.len() > MAX_EXACT_PIECES)
+                .then(|| Sites::new(pieces))
+                .flatten()
+        })
+        .collect();
+    let radius: Vec<f64> = (0..n)
+        .map(|i| {
+            let c = patches.patches[i].centre;
+            patches
+                .pieces_of(i)
+                .iter()
+                .flat_map(|p| p.polygon.vertices())
+                .map(|x| (*x - c).length())
+                .fold(0f64, f64::max)
+        })
+        .collect();
+    let geometry = |i: usize, far: bool| -> &[Piece] {
+        match &sites[i] {
+            Some(s) if far => std::slice::from_ref(&s.whole),
+            _ => patches.pieces_of(i),
+        }
+    };
+    let own = |i: usize| -> &[u32] { sites[i].as_ref().map_or(&[], |s| &s.triangles[..]) };
     let done = AtomicUsize::new(0);
     let rows: Vec<(Vec<f64>, u64)> = (0..n)
         .into_par_iter()
@@ -341,15 +537,21 @@ pub fn form_factors(
                     } else {
                         (j, i)
                     };
+                    let (own_a, own_b) = (own(a), own(b));
+                    let skip =
+                        |t: u32| own_a.binary_search(&t).is_ok() || own_b.binary_search(&t).is_ok();
+                    let gap = (patches.patches[a].centre - patches.patches[b].centre).length();
+                    let far = gap > FAR_RATIO * (radius[a] + radius[b]);
                     exchange(
-                        patches.pieces_of(a),
-                        patches.pieces_of(b),
+                        geometry(a, far),
+                        geometry(b, far),
                         occ,
                         cache.as_ref(),
                         params,
                         tol,
                         &mut rays,
                         live,
+                        &skip,
                     )
                 })
                 .collect();
@@ -392,5 +594,94 @@ pub fn form_factors(
         rays_cast,
         row_sums,
         reciprocity_error,
+        pieces: patches.pieces.len(),
+        sites: sites.iter().filter(|s| s.is_some()).count(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn piece(a: DVec3, b: DVec3, c: DVec3) -> Piece {
+        let cross = (b - a).cross(c - a);
+        Piece {
+            polygon: Polygon::triangle(a, b, c),
+            normal: cross.normalize(),
+            area: cross.length() / 2.0,
+            triangle: 0,
+        }
+    }
+
+    #[test]
+    fn the_site_of_a_tiled_square_is_the_square() {
+        // A 2 × 2 square in the plane z = 1, facing +z, as 8 triangles of a 2 × 2 grid: the
+        // hull is the square itself (collinear corners dropped), area 4 and centroid (1, 1, 1)
+        // kept, counter-clockwise about +z, nothing to lift (the pieces are flat). Tolerances:
+        // f64 rounding of a few operations on numbers of order 1.
+        let p = |x: f64, y: f64| DVec3::new(x, y, 1.0);
+        let mut pieces = Vec::new();
+        for i in 0..2 {
+            for j in 0..2 {
+                let (x, y) = (i as f64, j as f64);
+                pieces.push(piece(p(x, y), p(x + 1.0, y), p(x + 1.0, y + 1.0)));
+                pieces.push(piece(p(x, y), p(x + 1.0, y + 1.0), p(x, y + 1.0)));
+            }
+        }
+        let s = flat_site(&pieces).unwrap();
+        assert_eq!(s.triangle, SITE);
+        assert_eq!(s.polygon.len(), 4);
+        assert!((s.area - 4.0).abs() < 1e-12);
+        assert!((s.polygon.centroid() - p(1.0, 1.0)).length() < 1e-12);
+        let vector_area = s.polygon.doubled_area_vector() / 2.0;
+        assert!((vector_area - DVec3::new(0.0, 0.0, 4.0)).length() < 1e-12);
+        for v in s.polygon.vertices() {
+            assert!([0.0, 2.0].iter().any(|c| (v.x - c).abs() < 1e-12), "{v}");
+            assert!((v.z - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn the_site_of_a_bent_fan_keeps_area_and_lies_in_front() {
+        // A fan of 40 triangles around the apex (0, 0, 0.3) over a unit circle at z = 0: a
+        // shallow cone facing +z, whose hull has 40 corners. The site must cut them to
+        // MAX_VERTICES, keep the true (slanted) area, face +z, and lie on or in front of every
+        // corner of the pieces (so that its rays leave from in front of the surface).
+        let apex = DVec3::new(0.0, 0.0, 0.3);
+        let rim = |k: usize| {
+            let a = std::f64::consts::TAU * k as f64 / 40.0;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        };
+        let pieces: Vec<Piece> = (0..40).map(|k| piece(apex, rim(k), rim(k + 1))).collect();
+        let area: f64 = pieces.iter().map(|p| p.area).sum();
+        let s = flat_site(&pieces).unwrap();
+        assert_eq!(s.polygon.len(), MAX_VERTICES);
+        assert!((s.area - area).abs() < 1e-12 * area);
+        let polygon_area = s.polygon.doubled_area_vector().length() / 2.0;
+        assert!(
+            (polygon_area - area).abs() < 1e-9 * area,
+            "{polygon_area} vs {area}"
+        );
+        assert!((s.normal - DVec3::Z).length() < 1e-12);
+        let plane = s.normal.dot(s.polygon.vertices()[0]);
+        for p in &pieces {
+            for v in p.polygon.vertices() {
+                assert!(
+                    s.normal.dot(*v) <= plane + 1e-12,
+                    "{v} in front of the site"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_pieces_have_no_site() {
+        // Zero area, or normals that cancel: no site (the pieces are used instead).
+        let z = DVec3::ZERO;
+        assert!(flat_site(&[piece(z, DVec3::X, DVec3::Y)]).is_some());
+        let up = piece(z, DVec3::X, DVec3::Y);
+        let down = piece(z, DVec3::Y, DVec3::X);
+        assert!(flat_site(&[up, down]).is_none());
+        assert!(flat_site(&[]).is_none());
     }
 }

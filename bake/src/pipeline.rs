@@ -8,7 +8,7 @@ use crate::encode::EncodeError;
 use crate::encode::{
     EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
 };
-use crate::form_factor::{FormFactorParams, Progress, Visibility, form_factors};
+use crate::form_factor::{FormFactorParams, MAX_EXACT_PIECES, Progress, Visibility, form_factors};
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
 use crate::transfer::{
@@ -276,6 +276,30 @@ pub fn discretise(
     stage("form factors");
     let ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
     lap("form_factors", &mut timings);
+    effects.insert(
+        "flat_sites",
+        if ff.sites > 0 {
+            Effect::new(
+                true,
+                format!(
+                    "{} pieces in all (over {}): {} patches of more than {} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
+                    ff.pieces,
+                    ffp.exact_pieces,
+                    ff.sites,
+                    MAX_EXACT_PIECES,
+                    (ff.pieces as f64).powi(2) / 2.0
+                ),
+            )
+        } else {
+            Effect::new(
+                false,
+                format!(
+                    "{} pieces in all (at most {}): every pair integrated piece by piece",
+                    ff.pieces, ffp.exact_pieces
+                ),
+            )
+        },
+    );
 
     let n_all = patches.len();
     let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());
