@@ -282,12 +282,20 @@ pub fn discretise(
             Effect::new(
                 true,
                 format!(
-                    "{} pieces in all (over {}): {} patches of more than {} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
+                    "{} pieces in all (over {}): {} flat patches of more than {} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
                     ff.pieces,
                     ffp.exact_pieces,
                     ff.sites,
                     MAX_EXACT_PIECES,
                     (ff.pieces as f64).powi(2) / 2.0
+                ),
+            )
+        } else if ff.pieces > ffp.exact_pieces {
+            Effect::new(
+                false,
+                format!(
+                    "{} pieces in all (over {}), but no patch of more than {} pieces is flat: every pair integrated piece by piece",
+                    ff.pieces, ffp.exact_pieces, MAX_EXACT_PIECES
                 ),
             )
         } else {
