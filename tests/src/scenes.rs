@@ -165,3 +165,76 @@ pub fn write_scene(dir: &Path, name: &str, quads: &[Quad], materials: &[Material
     std::fs::write(&path, obj).unwrap();
     path
 }
+
+/// A unit icosphere: the icosahedron with every triangle split in four `subdivisions` times,
+/// new corners pushed onto the sphere. Triangles are counter-clockwise seen from outside.
+pub fn icosphere(subdivisions: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let unit = |p: [f64; 3]| {
+        let l = dot(p, p).sqrt();
+        [p[0] / l, p[1] / l, p[2] / l]
+    };
+    let mut v: Vec<[f64; 3]> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .map(unit)
+    .to_vec();
+    let mut f: Vec<[usize; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut mid = std::collections::HashMap::new();
+        let mut split = |a: usize, b: usize, v: &mut Vec<[f64; 3]>| -> usize {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                let (p, q) = (v[a], v[b]);
+                v.push(unit([
+                    (p[0] + q[0]) / 2.0,
+                    (p[1] + q[1]) / 2.0,
+                    (p[2] + q[2]) / 2.0,
+                ]));
+                v.len() - 1
+            })
+        };
+        let mut next = Vec::with_capacity(f.len() * 4);
+        for [a, b, c] in f {
+            let (ab, bc, ca) = (
+                split(a, b, &mut v),
+                split(b, c, &mut v),
+                split(c, a, &mut v),
+            );
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v, f)
+}
