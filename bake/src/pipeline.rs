@@ -276,38 +276,21 @@ pub fn discretise(
     stage("form factors");
     let ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
     lap("form_factors", &mut timings);
-    effects.insert(
-        "flat_sites",
-        if ff.sites > 0 {
-            Effect::new(
-                true,
-                format!(
-                    "{} pieces in all (over {}): {} flat patches of more than {} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
-                    ff.pieces,
-                    ffp.exact_pieces,
-                    ff.sites,
-                    MAX_EXACT_PIECES,
-                    (ff.pieces as f64).powi(2) / 2.0
-                ),
-            )
-        } else if ff.pieces > ffp.exact_pieces {
-            Effect::new(
-                false,
-                format!(
-                    "{} pieces in all (over {}), but no patch of more than {} pieces is flat: every pair integrated piece by piece",
-                    ff.pieces, ffp.exact_pieces, MAX_EXACT_PIECES
-                ),
-            )
-        } else {
-            Effect::new(
-                false,
-                format!(
-                    "{} pieces in all (at most {}): every pair integrated piece by piece",
-                    ff.pieces, ffp.exact_pieces
-                ),
-            )
-        },
-    );
+    let (pieces, budget) = (ff.pieces, ffp.exact_pieces);
+    let why = if ff.sites > 0 {
+        format!(
+            "{pieces} pieces in all (over {budget}): {} flat patches of more than {MAX_EXACT_PIECES} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
+            ff.sites,
+            (pieces as f64).powi(2) / 2.0
+        )
+    } else if pieces > budget {
+        format!(
+            "{pieces} pieces in all (over {budget}), but no patch of more than {MAX_EXACT_PIECES} pieces is flat: every pair integrated piece by piece"
+        )
+    } else {
+        format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
+    };
+    effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
 
     let n_all = patches.len();
     let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());
