@@ -2,7 +2,6 @@
 
 use crate::args::{BakeArgs, parse_bounces};
 use anyhow::{Context, bail};
-use indicatif::{ProgressBar, ProgressStyle};
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::Scene;
@@ -62,23 +61,8 @@ pub(crate) fn bake_scene(
     let t = Instant::now();
     let scene = Scene::load_obj(path).context("cannot load the scene")?;
     let load_ms = t.elapsed().as_secs_f64() * 1e3;
-    let bar = if quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1)
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg:<14} {bar:30} {pos}/{len} ({eta})")
-            .expect("static template"),
-    );
-    let stage = |s: &str| {
-        bar.set_message(s.to_owned());
-        bar.tick();
-    };
-    let progress = |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    };
+    let bar = crate::progress::stage_bar(14, " ({eta})", quiet);
+    let (stage, progress) = crate::progress::callbacks(&bar);
     let out = bake(
         &scene,
         params,

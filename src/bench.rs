@@ -15,7 +15,6 @@
 
 use crate::embedded;
 use anyhow::{Context, bail};
-use indicatif::{ProgressBar, ProgressStyle};
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::encode::{
     EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
@@ -134,19 +133,8 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         bail!("--runs must be at least 1");
     }
     let mut timings = BTreeMap::new();
-    let bar = ProgressBar::new(1);
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg:<28} {bar:30} {pos}/{len}")
-            .expect("static template"),
-    );
-    let stage = |s: &str| {
-        bar.set_message(s.to_owned());
-        bar.tick();
-    };
-    let progress = |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    };
+    let bar = crate::progress::stage_bar(28, "", false);
+    let (stage, progress) = crate::progress::callbacks(&bar);
 
     // The system: patches, F, reflectance, as a bake sees them.
     let t = Instant::now();

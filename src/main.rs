@@ -23,6 +23,7 @@ mod inspect;
 mod lights;
 mod pathtrace;
 mod picture;
+mod progress;
 mod render;
 mod report;
 mod runtime;
