@@ -238,3 +238,36 @@ pub fn icosphere(subdivisions: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
     }
     (v, f)
 }
+
+/// The six outward-facing faces of the cube `[lo, hi]³`, object `object`, material `material`:
+/// a floating blocker inside a room.
+pub fn floating_cube(lo: f64, hi: f64, object: &str, material: &str) -> Vec<Quad> {
+    let mid = (lo + hi) / 2.0;
+    let mut quads = Vec::new();
+    for axis in 0..3 {
+        for (value, out) in [(lo, -1.0), (hi, 1.0)] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let corner = |a: f64, b: f64| {
+                let mut p = [0.0; 3];
+                p[axis] = value;
+                p[u] = a;
+                p[v] = b;
+                p
+            };
+            let mut towards = [mid; 3];
+            towards[axis] = value + out * (hi - lo);
+            quads.push(Quad::facing(
+                object,
+                material,
+                [
+                    corner(lo, lo),
+                    corner(hi, lo),
+                    corner(hi, hi),
+                    corner(lo, hi),
+                ],
+                towards,
+            ));
+        }
+    }
+    quads
+}

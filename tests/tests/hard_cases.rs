@@ -29,7 +29,7 @@ use radiosity_bake::voxel::VoxelParams;
 use radiosity_core::{
     DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
 };
-use radiosity_tests::scenes::{Material, Quad, closed_box, write_scene};
+use radiosity_tests::scenes::{Material, Quad, closed_box, floating_cube, write_scene};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -572,32 +572,7 @@ fn flat_sites_keep_a_finely_tessellated_furnace_exact() {
     let rho = 0.99;
     let mats = [Material::new("white", [rho; 3], [1.0 / PI; 3])];
     let mut quads = closed_box(2.0, 20, |_, _, _| "white".into());
-    let (lo, hi) = (0.8, 1.2);
-    for axis in 0..3 {
-        for (value, out) in [(lo, -1.0), (hi, 1.0)] {
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let corner = |a: f64, b: f64| {
-                let mut p = [0.0; 3];
-                p[axis] = value;
-                p[u] = a;
-                p[v] = b;
-                p
-            };
-            let mut towards = [1.0; 3];
-            towards[axis] = value + out;
-            quads.push(Quad::facing(
-                "cube",
-                "white",
-                [
-                    corner(lo, lo),
-                    corner(hi, lo),
-                    corner(hi, hi),
-                    corner(lo, hi),
-                ],
-                towards,
-            ));
-        }
-    }
+    quads.extend(floating_cube(0.8, 1.2, "cube", "white"));
     let path = write_scene(dir.path(), "fine", &quads, &mats);
     let mut p = params(96);
     p.form_factors.exact_pieces = 0;
