@@ -755,7 +755,7 @@ pub fn check_input(
 /// `value(row, col, channel)` is what the blocks see: the matrix in its final numbering,
 /// [`SPARSE_TEXEL`] where the sparse list holds the entry, and 0 beyond the last patch.
 /// [`encode_dense`] uses this, and so can a caller that encodes single blocks with
-/// [`encode_block`] (e.g. to estimate the compression error from a sample of blocks, with the
+/// [`BlockEncoder`] (e.g. to estimate the compression error from a sample of blocks, with the
 /// same quantisation as the whole matrix).
 pub fn tile_scales<V>(layout: &MatrixLayout, params: &EncodeParams, value: &V) -> Vec<LogScale>
 where
@@ -791,26 +791,6 @@ where
             })
         })
         .collect()
-}
-
-/// Encodes block (`br`, `bc`) of `plane` in `tile` into `out` (`params.format.block_bytes()`
-/// bytes) as [`BlockEncoder::encode`] does; builds the decode tables for this one call, so a
-/// caller encoding many blocks should keep a [`BlockEncoder`].
-#[allow(clippy::too_many_arguments)] // the block's address is four numbers; a struct would only rename them
-pub fn encode_block<V>(
-    layout: &MatrixLayout,
-    params: &EncodeParams,
-    scales: &[LogScale],
-    tile: &Tile,
-    plane: usize,
-    br: usize,
-    bc: usize,
-    value: &V,
-    out: &mut [u8],
-) where
-    V: Fn(usize, usize, usize) -> f32,
-{
-    BlockEncoder::new(layout, params, scales).encode(tile, plane, br, bc, value, out);
 }
 
 /// Encodes single blocks of a matrix whose scales are known, exactly as the first pass of

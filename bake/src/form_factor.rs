@@ -16,8 +16,8 @@
 //! square of the scene's piece count whatever the patch count (nested spheres of 2 × 1280
 //! triangles: 8 s; a 330 000-triangle room: days). Above [`FormFactorParams::exact_pieces`]
 //! pieces in all, a patch of more than [`MAX_EXACT_PIECES`] pieces is integrated through flat
-//! sites ([`flat_site`]): the paper's own simplification (§4.3, form factors "for sites of the
-//! simplified scene") for far pairs (centres more than [`FAR_RATIO`] times the sum of the
+//! sites (`flat_site`): the paper's own simplification (§4.3, form factors "for sites of the
+//! simplified scene") for far pairs (centres more than `FAR_RATIO` times the sum of the
 //! radii apart), while neighbours keep their pieces. Shadow rays still test the full-detail triangles, except
 //! those of a site's own patch, which its flat stand-in may lie off.
 
@@ -185,7 +185,7 @@ pub(crate) fn facing(s: &[DVec3], ns: DVec3, t: &[DVec3], nt: DVec3, tol: f64) -
     t.iter().any(|p| ns.dot(*p) - ds > tol) && s.iter().any(|p| nt.dot(*p) - dt > tol)
 }
 
-/// Flat patches of more pieces than this are integrated through flat sites ([`Sites`]). A plane
+/// Flat patches of more pieces than this are integrated through flat sites (`Sites`). A plane
 /// wall cut by the grid gives one to four pieces per patch, a box corner up to a dozen; a
 /// curved or finely tessellated surface gives many more, and the exact pair costs their product.
 pub const MAX_EXACT_PIECES: usize = 16;
