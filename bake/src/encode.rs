@@ -463,6 +463,18 @@ impl ErrorWeights {
 /// The decode table of formats without codes (f16, f32): never read.
 static NO_TABLE: [f32; 256] = [0.0; 256];
 
+/// A block target with nothing to fit: every texel a don't-care, no decode tables. Callers fill
+/// in the texels, weights and tables of their block.
+fn empty_target() -> BlockTarget<'static> {
+    BlockTarget {
+        values: [[0.0; 16]; 3],
+        weights: [[0.0; 16]; 3],
+        fit: 0,
+        tables: [&NO_TABLE; 3],
+        codes: [[0; 16]; 3],
+    }
+}
+
 /// What encoding one block of a whole matrix needs.
 struct Source<'a> {
     layout: &'a MatrixLayout,
@@ -510,13 +522,7 @@ impl Source<'_> {
         let (n, channels) = (l.n(), l.channels());
         let side = l.padded() / 4;
         let (tile, _, _) = l.locate(b / side * 4, b % side * 4);
-        let mut target = BlockTarget {
-            values: [[0.0; 16]; 3],
-            weights: [[0.0; 16]; 3],
-            fit: 0,
-            tables: [&NO_TABLE; 3],
-            codes: [[0; 16]; 3],
-        };
+        let mut target = empty_target();
         let log = self.params.format.is_log();
         if log {
             for ch in 0..channels {
@@ -841,13 +847,7 @@ impl<'a> BlockEncoder<'a> {
             &[plane][..]
         };
         let log = params.format.is_log();
-        let mut target = BlockTarget {
-            values: [[0.0; 16]; 3],
-            weights: [[0.0; 16]; 3],
-            fit: 0,
-            tables: [&NO_TABLE; 3],
-            codes: [[0; 16]; 3],
-        };
+        let mut target = empty_target();
         if log {
             for &ch in channels {
                 target.tables[ch] = &self.tables[layout.scale_index(tile.index, ch)];
