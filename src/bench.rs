@@ -418,16 +418,31 @@ fn gpu_rows(
             path,
             ..GpuOptions::default()
         };
-        let gather = WgpuGather::on_adapter(matrix, adapter, &options)
+        let mut gather = WgpuGather::on_adapter(matrix, adapter, &options)
             .with_context(|| format!("cannot build the GPU gather on {}", adapter.info))?;
         let chosen = gather.path();
-        let note = format!(
+        let mut note = format!(
             "{}, {} decode, {} dispatches, {:.1} MB on the device",
             gather.adapter(),
             chosen,
             gather.dispatches(),
             gather.device_bytes() as f64 / 1e6
         );
+        // The kernels alone (GPU timestamps): what a frame costs when y stays on the GPU.
+        let x = vec![Rgb::splat(1.0); gather.patches()];
+        let mut y = x.clone();
+        let mut kernel = Vec::new();
+        for _ in 0..21 {
+            gather.gather(&x, &mut y)?;
+            kernel.extend(gather.kernel_ms());
+        }
+        kernel.sort_by(f64::total_cmp);
+        if let Some(k) = kernel.get(kernel.len() / 2) {
+            note += &format!(
+                "; kernels {k:.3} ms (GPU timestamps, median of 21), {:.1} GB/s",
+                cost.bytes as f64 / (k * 1e-3) / 1e9
+            );
+        }
         rows.push(Row {
             method: format!("gpu-{}{suffix}", format.name()),
             gather: Box::new(gather),

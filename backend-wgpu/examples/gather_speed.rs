@@ -1,12 +1,13 @@
 //! Times the GPU gather on a large synthetic matrix: the measurement for a real GPU.
 //!
-//! `cargo run --release -p radiosity-backend-wgpu --example gather_speed -- [N] [FORMAT…]`
+//! `cargo run --release -p radiosity-backend-wgpu --example gather_speed -- [N] [FORMAT…] [splits=S,…]`
 //! (default: 16384 patches, bc1 and bc4, three channels), on the best adapter
 //! (`WGPU_BACKEND=vulkan` etc. restricts the search). Blocks are random but valid (log codes
 //! 1–255 through one scale per tile): the gather's cost does not depend on their content, and
 //! encoding 16M real BC1 blocks would take minutes. For each decode path it prints the median
-//! of 21 frames (upload of x, dispatches, readback of y) and the bytes it must move divided by
-//! that time; compare with the device's memory bandwidth (H100 SXM: 3.35 TB/s; 50% of it is the
+//! of 21 frames (upload of x, dispatches, readback of y), the median GPU time of the kernels
+//! alone (timestamps, where the adapter has them), and the bytes they must move divided by
+//! each; compare with the device's memory bandwidth (H100 SXM: 3.35 TB/s; 50% of it is the
 //! issue's target for BC1).
 
 use radiosity_backend_wgpu::{DecodePath, GpuOptions, WgpuGather, choose_adapter};
@@ -23,6 +24,13 @@ fn main() {
         .iter()
         .filter_map(|a| Format::from_name(a))
         .collect::<Vec<_>>();
+    // `splits=1,4,16` times each column-split count (default: the gather's own choice).
+    let splits: Vec<Option<u32>> = args
+        .iter()
+        .find_map(|a| a.strip_prefix("splits="))
+        .map_or(vec![None], |list| {
+            list.split(',').map(|s| s.parse().ok()).collect()
+        });
     let formats = if formats.is_empty() {
         vec![Format::Bc1, Format::Bc4]
     } else {
@@ -59,37 +67,53 @@ fn main() {
         let mut y = vec![Rgb::ZERO; n as usize];
         let moved = matrix.bytes() as f64 + 24.0 * f64::from(n);
         for path in [DecodePath::Software, DecodePath::HardwareBc] {
-            let options = GpuOptions {
-                path,
-                ..GpuOptions::default()
-            };
-            let t = Instant::now();
-            let mut g = match WgpuGather::on_adapter(&matrix, &adapter, &options) {
-                Ok(g) => g,
-                Err(e) => {
-                    println!("{format} {path}: {e}");
-                    continue;
-                }
-            };
-            let setup = t.elapsed();
-            let mut times: Vec<f64> = (0..21)
-                .map(|_| {
+            for &splits in &splits {
+                let options = GpuOptions {
+                    path,
+                    column_splits: splits,
+                    ..GpuOptions::default()
+                };
+                let t = Instant::now();
+                let mut g = match WgpuGather::on_adapter(&matrix, &adapter, &options) {
+                    Ok(g) => g,
+                    Err(e) => {
+                        println!("{format} {path}: {e}");
+                        continue;
+                    }
+                };
+                let setup = t.elapsed();
+                let mut times = Vec::new();
+                let mut kernel = Vec::new();
+                for _ in 0..21 {
                     let t = Instant::now();
                     g.gather(&x, &mut y).expect("gather");
-                    t.elapsed().as_secs_f64()
-                })
-                .collect();
-            times.sort_by(f64::total_cmp);
-            let median = times[times.len() / 2];
-            println!(
-                "{format} {path}: {:.3} ms per frame (min {:.3}), {:.1} GB/s of {:.1} MB, {} dispatches, setup {:.0} ms",
-                median * 1e3,
-                times[0] * 1e3,
-                moved / median / 1e9,
-                moved / 1e6,
-                g.dispatches(),
-                setup.as_secs_f64() * 1e3
-            );
+                    times.push(t.elapsed().as_secs_f64());
+                    kernel.extend(g.kernel_ms());
+                }
+                times.sort_by(f64::total_cmp);
+                kernel.sort_by(f64::total_cmp);
+                let median = times[times.len() / 2];
+                let splits = splits.map_or("auto".to_owned(), |s| s.to_string());
+                print!(
+                    "{format} {path} splits={splits}: frame {:.3} ms (min {:.3}), {:.1} GB/s of {:.1} MB",
+                    median * 1e3,
+                    times[0] * 1e3,
+                    moved / median / 1e9,
+                    moved / 1e6,
+                );
+                if let Some(&k) = kernel.get(kernel.len() / 2) {
+                    print!(
+                        "; kernels {k:.3} ms (min {:.3}), {:.1} GB/s",
+                        kernel[0],
+                        moved / (k * 1e-3) / 1e9
+                    );
+                }
+                println!(
+                    "; {} dispatches, setup {:.0} ms",
+                    g.dispatches(),
+                    setup.as_secs_f64() * 1e3
+                );
+            }
         }
     }
 }

@@ -127,6 +127,13 @@ pub struct Adapter {
     pub info: AdapterInfo,
 }
 
+impl Adapter {
+    /// The wgpu adapter, for opening devices of one's own on it (the examples' probes).
+    pub fn wgpu_adapter(&self) -> &wgpu::Adapter {
+        &self.inner
+    }
+}
+
 fn instance() -> wgpu::Instance {
     // `with_env` honours WGPU_BACKEND (e.g. `vulkan` or `gl`) to restrict the search.
     wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle().with_env())

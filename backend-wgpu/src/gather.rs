@@ -2,6 +2,7 @@
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
 use crate::plan::{self, Band, PlanLimits};
+use crate::probe;
 use crate::shader::{self, Source};
 use crate::{DecodePath, GpuError, GpuOptions, conv};
 use bytemuck::{Pod, Zeroable};
@@ -20,7 +21,9 @@ struct BandUniform {
     tile_blocks: u32,
     group: u32,
     n: u32,
-    _pad: u32,
+    split: u32,
+    group_stride: u32,
+    _pad: [u32; 3],
 }
 
 /// The finish kernel's per-band uniform (`struct Finish` in `finish.wgsl`).
@@ -33,11 +36,41 @@ struct FinishUniform {
     n: u32,
 }
 
-/// One dispatch: its bind group and workgroup count.
+/// One dispatch: its bind group and workgroup counts (x: block-row groups or finish rows;
+/// y: column splits).
 #[derive(Debug)]
 struct Dispatch {
     bind_group: wgpu::BindGroup,
     workgroups: u32,
+    splits: u32,
+}
+
+/// Workgroups a frame's gather dispatches should add up to at least, when the matrix has
+/// columns enough: a large GPU keeps about 30 workgroups of 64 invocations resident on each of
+/// its 100–150 multiprocessors, and memory latency is hidden only when they are all busy.
+const TARGET_WORKGROUPS: usize = 4096;
+
+/// Fewest block columns one invocation walks in a column split: below this the reduction at
+/// the end of each workgroup outweighs its share of blocks.
+const MIN_COLUMNS_PER_INVOCATION: usize = 4;
+
+/// Column splits per band: enough for [`TARGET_WORKGROUPS`] with `row_workgroups` block-row
+/// groups, as long as each invocation keeps [`MIN_COLUMNS_PER_INVOCATION`] block columns.
+fn column_splits(row_workgroups: usize, cols: usize, max: u32) -> usize {
+    let most = (cols / (64 * MIN_COLUMNS_PER_INVOCATION)).max(1);
+    TARGET_WORKGROUPS
+        .div_ceil(row_workgroups.max(1))
+        .clamp(1, most)
+        .min(max as usize)
+}
+
+/// GPU timestamps around the frame's compute pass, where the adapter has them.
+#[derive(Debug)]
+struct Timer {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period: f64,
 }
 
 /// The wgpu compute gather. Build once per matrix ([`WgpuGather::new`] uploads everything);
@@ -60,6 +93,8 @@ pub struct WgpuGather {
     readback: wgpu::Buffer,
     device_bytes: u64,
     errors: Arc<Mutex<Vec<String>>>,
+    timer: Option<Timer>,
+    kernel_ms: Option<f64>,
 }
 
 /// A storage buffer of at least 4 bytes (an empty binding is invalid) with `data` in it.
@@ -147,12 +182,22 @@ impl WgpuGather {
         let l = matrix.layout;
         let format = l.format();
         let info = adapter.info.clone();
-        let path = match options.path {
-            // A software rasteriser's texture unit is software too, and slower than decoding in
-            // the shader (lavapipe, n = 1913 BC1: 100 ms against 39 ms), so only a GPU's is used.
-            DecodePath::Auto if format.is_block_compressed() && info.bc && info.is_hardware() => {
-                DecodePath::HardwareBc
+        // The texture unit's decode rules, measured once per adapter (`probe`), where its
+        // path is asked for or could be chosen.
+        let hardware_possible = format.is_block_compressed() && info.bc;
+        let texture_model = match options.path {
+            DecodePath::HardwareBc if hardware_possible => probe::texture_decode_model(adapter)?,
+            // A software rasteriser's texture unit is software too, and slower than decoding
+            // in the shader (lavapipe, n = 1913 BC1: 100 ms against 39 ms): not probed.
+            DecodePath::Auto if hardware_possible && info.is_hardware() => {
+                probe::texture_decode_model(adapter).unwrap_or(None)
             }
+            _ => None,
+        };
+        let path = match options.path {
+            // Only a texture unit that decodes exactly as the CPU does (D3D10's or Mesa's
+            // rules, measured): one that rounds otherwise moves entries by whole codes.
+            DecodePath::Auto if texture_model.is_some() => DecodePath::HardwareBc,
             DecodePath::Auto => DecodePath::Software,
             DecodePath::HardwareBc if !format.is_block_compressed() => {
                 return Err(GpuError::Unsupported(format!(
@@ -167,15 +212,16 @@ impl WgpuGather {
             p => p,
         };
         let model = match path {
-            DecodePath::HardwareBc if info.is_mesa_software() => Some(DecodeMode::Mesa),
-            DecodePath::HardwareBc => None,
+            DecodePath::HardwareBc => texture_model,
             _ => Some(options.software_mode),
         };
-        let features = if path == DecodePath::HardwareBc {
+        let mut features = if path == DecodePath::HardwareBc {
             wgpu::Features::TEXTURE_COMPRESSION_BC
         } else {
             wgpu::Features::empty()
         };
+        // GPU timestamps for `kernel_ms`, where the adapter has them.
+        features |= adapter.inner.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) =
             pollster::block_on(adapter.inner.request_device(&wgpu::DeviceDescriptor {
                 label: Some("radiosity gather"),
@@ -306,11 +352,28 @@ impl WgpuGather {
             y_bytes,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         );
+        // y, then (with timestamps) the pass's two u64 timestamps at an 8-aligned offset.
         let readback = mk(
             "y readback",
-            y_bytes,
+            y_bytes.next_multiple_of(8) + 16,
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         );
+        let timer = device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| Timer {
+                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("gather timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                }),
+                resolve: mk(
+                    "timestamps",
+                    16,
+                    wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                ),
+                period: f64::from(queue.get_timestamp_period()),
+            });
         let mut device_bytes = table_bytes + x_bytes + 2 * y_bytes;
 
         // Bands and their sources.
@@ -323,6 +386,28 @@ impl WgpuGather {
             Source::Buffer => (plan::buffer_bands(&l, &lim).map_err(unsupported)?, 1),
             Source::Texture => plan::texture_bands(&l, &lim).map_err(unsupported)?,
         };
+        // Column splits, the same for every band so that every band writes every slab.
+        let band_wgs = bands
+            .iter()
+            .map(|b| b.rows.div_ceil(shader::ROWS))
+            .max()
+            .unwrap_or(1);
+        let band_cols = bands.iter().map(|b| b.cols).min().unwrap_or(1);
+        let splits = match options.column_splits {
+            Some(s) => (s.max(1) as usize)
+                .min(band_cols)
+                .min(lim.workgroups as usize),
+            // A software rasteriser runs workgroups a few at a time on the CPU's cores, where
+            // splits only add reductions (lavapipe, n = 2048 BC1: 10.6 ms whole, 20.4 ms in 3).
+            None if !adapter.is_hardware() => 1,
+            None => column_splits(band_wgs, band_cols, lim.workgroups),
+        };
+        let split_cols = bands
+            .iter()
+            .map(|b| b.cols.div_ceil(splits))
+            .max()
+            .unwrap_or(1);
+        let (texture_groups, groups) = (groups, groups * splits);
         let partial_bytes = (groups * n * 3 * 4) as u64;
         if partial_bytes > lim.binding_bytes {
             return Err(unsupported(format!(
@@ -382,7 +467,9 @@ impl WgpuGather {
                 tile_blocks,
                 group: band.group as u32,
                 n: n32,
-                _pad: 0,
+                split: u32_of(split_cols, "block columns per split")?,
+                group_stride: texture_groups as u32,
+                _pad: [0; 3],
             };
             let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("band"),
@@ -453,6 +540,7 @@ impl WgpuGather {
             dispatches.push(Dispatch {
                 bind_group,
                 workgroups: band.rows.div_ceil(shader::ROWS) as u32,
+                splits: splits as u32,
             });
         }
 
@@ -552,6 +640,7 @@ impl WgpuGather {
             finishes.push(Dispatch {
                 bind_group,
                 workgroups: rows.div_ceil(64) as u32,
+                splits: 1,
             });
         }
 
@@ -572,6 +661,8 @@ impl WgpuGather {
             readback,
             device_bytes,
             errors,
+            timer,
+            kernel_ms: None,
         })
     }
 
@@ -587,11 +678,22 @@ impl WgpuGather {
     }
 
     /// The CPU decode rules that reproduce this gather's decoded entries bit for bit, when
-    /// known: the software path's mode; on the hardware path [`DecodeMode::Mesa`] on Mesa's
-    /// software drivers, and `None` on other drivers (their BC rounding is unknown: D3D10
-    /// allows each palette entry to be off by one code).
+    /// known: the software path's mode; on the hardware path the rules a probe of the texture
+    /// unit matched ([`crate::probe::texture_decode_model`]: D3D10's on a decoder that
+    /// interpolates without rounding, Mesa's on llvmpipe/lavapipe), and `None` on drivers
+    /// that match neither (D3D10 allows each palette entry to be off by one code; an NVIDIA
+    /// H100 is off by up to 7).
     pub fn decode_model(&self) -> Option<DecodeMode> {
         self.model
+    }
+
+    /// GPU time of the last [`Gather::gather`]'s compute pass (every gather and finish
+    /// dispatch, without the upload of `x` and the readback of `y`), in milliseconds, from
+    /// timestamps written by the device; `None` where the adapter has no
+    /// `TIMESTAMP_QUERY` or before the first gather. What a renderer that keeps `y` on the
+    /// GPU would pay per frame.
+    pub fn kernel_ms(&self) -> Option<f64> {
+        self.kernel_ms
     }
 
     /// Dispatches per frame (bands plus sparse bands): more than two means the matrix was cut
@@ -685,20 +787,32 @@ impl Gather for WgpuGather {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("gather"),
-                timestamp_writes: None,
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| wgpu::ComputePassTimestampWrites {
+                        query_set: &t.queries,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: Some(1),
+                    }),
             });
             pass.set_pipeline(&self.gather_pipeline);
             for d in &self.bands {
                 pass.set_bind_group(0, &d.bind_group, &[]);
-                pass.dispatch_workgroups(d.workgroups, 1, 1);
+                pass.dispatch_workgroups(d.workgroups, d.splits, 1);
             }
             pass.set_pipeline(&self.finish_pipeline);
             for d in &self.finishes {
                 pass.set_bind_group(0, &d.bind_group, &[]);
-                pass.dispatch_workgroups(d.workgroups, 1, 1);
+                pass.dispatch_workgroups(d.workgroups, d.splits, 1);
             }
         }
         encoder.copy_buffer_to_buffer(&self.y, 0, &self.readback, 0, self.y.size());
+        let stamps_at = self.y.size().next_multiple_of(8);
+        if let Some(t) = &self.timer {
+            encoder.resolve_query_set(&t.queries, 0..2, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &self.readback, stamps_at, 16);
+        }
         self.queue.submit([encoder.finish()]);
         let (tx, rx) = mpsc::channel();
         self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -718,7 +832,15 @@ impl Gather for WgpuGather {
                 .get_mapped_range(..)
                 .map_err(|e| GatherError::Backend(format!("readback failed: {e}")))?;
             let y: &mut [f32] = bytemuck::cast_slice_mut(irradiance);
-            y.copy_from_slice(bytemuck::cast_slice(&view));
+            y.copy_from_slice(bytemuck::cast_slice(&view[..self.y.size() as usize]));
+            if let Some(t) = &self.timer {
+                let at = stamps_at as usize;
+                let stamp = |i: usize| {
+                    u64::from_le_bytes(view[at + 8 * i..at + 8 * i + 8].try_into().unwrap())
+                };
+                let ticks = stamp(1).wrapping_sub(stamp(0));
+                self.kernel_ms = Some(ticks as f64 * t.period * 1e-6);
+            }
         }
         self.readback.unmap();
         Ok(())
@@ -726,4 +848,4 @@ impl Gather for WgpuGather {
 }
 
 // The uniform structs must match the WGSL structs field for field.
-const _: () = assert!(size_of::<BandUniform>() == 32 && size_of::<FinishUniform>() == 16);
+const _: () = assert!(size_of::<BandUniform>() == 48 && size_of::<FinishUniform>() == 16);

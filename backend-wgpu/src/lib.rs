@@ -60,6 +60,7 @@ mod adapter;
 mod conv;
 mod gather;
 mod plan;
+pub mod probe;
 mod shader;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
@@ -119,6 +120,10 @@ pub struct GpuOptions {
     /// Caps the texture side below the device's `max_texture_dimension_2d`; `None` uses the
     /// device's.
     pub max_texture_side: Option<u32>,
+    /// Column splits per band (workgroups along y, each over a range of block columns, their
+    /// partial sums added by the finish kernel); `None` chooses enough for a large GPU to be
+    /// busy. Tests force several on small matrices.
+    pub column_splits: Option<u32>,
 }
 
 /// Why a GPU gather could not be built.

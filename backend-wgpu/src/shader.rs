@@ -67,23 +67,32 @@ pub(crate) fn gather(format: Format, channels: usize, source: Source, mode: Deco
             .collect::<Vec<_>>()
             .join("\n"),
     };
-    // The block body once per block row of the workgroup, unrolled here so that every `acc`
-    // index is a constant after the driver unrolls the 16-texel loops (a runtime index would
-    // put the sums in scratch memory on GPUs).
+    // The block body once per block row of the workgroup. Everything is unrolled here, in the
+    // text, down to the texel: every sum and every `x` is a scalar variable with a fixed name
+    // (`acc5`, `xc2`). A loop with `acc[i / 4]` left for the driver to unroll put the sums in
+    // scratch memory on an NVIDIA H100 (16384 patches BC1: 1.16 ms, unrolled here: see
+    // ARCHITECTURE.md).
     let body = (0..ROWS)
         .map(|q| {
+            let mut b = block.clone();
+            for r in 0..4 {
+                b = b.replace(&format!("ACC{r}"), &format!("acc{}", 4 * q + r));
+            }
             format!(
-                "{{\n            let rb = rb0 + {q}u;\n            if rb < band.rows {{\n            {}\n            }}\n            }}",
-                block.replace("acc[i / 4u]", &format!("acc[{}u + i / 4u]", 4 * q))
+                "{{\n            let rb = rb0 + {q}u;\n            if rb < band.rows {{\n            {b}\n            }}\n            }}"
             )
         })
         .collect::<Vec<_>>()
         .join("\n");
+    let accs = (0..4 * ROWS)
+        .map(|i| format!("var acc{i}: vec3<f32>;"))
+        .collect::<Vec<_>>()
+        .join("\n    ");
     let reduce = (0..ROWS)
         .map(|q| {
             let o = 4 * q;
             format!(
-                "reduce(lid, rb0 + {q}u, array<vec3<f32>, 4>(acc[{o}u], acc[{}u], acc[{}u], acc[{}u]));",
+                "reduce(lid, slab, rb0 + {q}u, array<vec3<f32>, 4>(acc{o}, acc{}, acc{}, acc{}));",
                 o + 1,
                 o + 2,
                 o + 3
@@ -91,16 +100,22 @@ pub(crate) fn gather(format: Format, channels: usize, source: Source, mode: Deco
         })
         .collect::<Vec<_>>()
         .join("\n    ");
-    let consts = format!(
-        "{consts}\nconst ROWS: u32 = {ROWS}u;\nconst ACC: u32 = {}u;",
-        4 * ROWS
-    );
+    let divisions = [("DIV3", DIV3), ("DIV5", DIV5), ("DIV7", DIV7)]
+        .map(|(name, (m, sh))| {
+            format!("const {name}_MUL: u32 = {m}u;\nconst {name}_SHIFT: u32 = {sh}u;")
+        })
+        .join("\n");
+    let consts = format!("{consts}\nconst ROWS: u32 = {ROWS}u;\n{TEX_BIAS}\n{divisions}");
     GATHER
         .replace("//#CONSTS", &consts)
         .replace("//#SOURCE", &src)
         .replace("//#TABLES", tables)
+        .replace("//#ACC", &accs)
         .replace("//#BODY", &body)
-        .replace("//#REDUCE", &reduce)
+        .replace(
+            "//#REDUCE",
+            &format!("let slab = band.group + wg.y * band.group_stride;\n    {reduce}"),
+        )
 }
 
 /// The finish kernel for `channels` stored channels.
@@ -108,44 +123,93 @@ pub(crate) fn finish(channels: usize) -> String {
     FINISH.replace("//#CONSTS", &format!("const CH: u32 = {channels}u;"))
 }
 
+/// How the texture path turns the texture unit's `t` into a code: `⌊255·t + 1/14⌋`. A decoder
+/// that returns whole codes (Mesa's, D3D10's) gives back its code, and one that interpolates
+/// without rounding gives back exactly D3D10's truncated code, what the encoder assumes:
+/// D3D10's thirds, halves, fifths and sevenths lie at least 1/7 of a code below the next whole
+/// code, so a bias of half that recovers ⌊·⌋ through any float error below 1/14 of a code.
+/// Rounding to nearest instead (the first version) read every such palette entry of an
+/// NVIDIA H100 a third of a code high on average, ten times the error of decoding in the
+/// shader (ARCHITECTURE.md).
+const TEX_BIAS: &str = "const TEX_BIAS: f32 = 0.07142857;";
+
+/// `x / 3 == (x · 683) >> 11` for every `x ≤ 765` (the largest `2a + b` of 8-bit codes), and
+/// likewise `/ 5` up to 1275 and `/ 7` up to 1785: the kernels' D3D10 palette divisions as a
+/// multiply and a shift (tests check every `x`).
+const DIV3: (u32, u32) = (683, 11);
+const DIV5: (u32, u32) = (13108, 16);
+const DIV7: (u32, u32) = (9363, 16);
+
 /// Texel `i`'s coordinates in a band's texture.
-const TEXEL: &str = "vec2<i32>(i32(cbl * 4u + i % 4u), i32(rb * 4u + i / 4u))";
+fn texel(i: usize) -> String {
+    format!(
+        "vec2<i32>(i32(cbl * 4u + {}u), i32(rb * 4u + {}u))",
+        i % 4,
+        i / 4
+    )
+}
+
+/// `ACC{row} += {value} * xc{col}` for texel `i` (`ACC` is renamed per block row later).
+fn add(i: usize, value: &str) -> String {
+    format!("ACC{} += {value} * xc{};", i / 4, i % 4)
+}
+
+/// The same for one channel of the sums and of `x`.
+fn add_channel(i: usize, value: &str, c: &str) -> String {
+    format!("ACC{}.{c} += {value} * xc{}.{c};", i / 4, i % 4)
+}
+
+/// `f(i)` for the 16 texels of a block, one statement a line.
+fn texels(f: impl Fn(usize) -> String) -> String {
+    (0..16).map(f).collect::<Vec<_>>().join("\n            ")
+}
 
 fn bc1_body(source: Source) -> String {
     match source {
-        Source::Buffer => "let base = (rb * band.cols + cbl) * 2u;
+        Source::Buffer => format!(
+            "let base = (rb * band.cols + cbl) * 2u;
             let w0 = blocks[base];
             let w1 = blocks[base + 1u];
-            var pal = bc1_palette(w0 & 0xffffu, w0 >> 16u);
-            var v: array<vec3<f32>, 4>;
-            for (var k = 0u; k < 4u; k++) {
-                let c = vec3<u32>(pal[k]);
-                v[k] = vec3<f32>(tab[c.x], tab[256u + c.y], tab[512u + c.z]);
-            }
-            for (var i = 0u; i < 16u; i++) {
-                acc[i / 4u] += v[(w1 >> (2u * i)) & 3u] * xc[i % 4u];
-            }"
-        .to_owned(),
-        Source::Texture => format!(
-            "for (var i = 0u; i < 16u; i++) {{
-                let t = textureLoad(tex0, {TEXEL}, 0);
-                let c = vec3<u32>(round(t.rgb * 255.0));
-                acc[i / 4u] += vec3<f32>(tab[c.x], tab[256u + c.y], tab[512u + c.z]) * xc[i % 4u];
-            }}"
+            let pal = bc1_palette(w0 & 0xffffu, w0 >> 16u);
+            let c0 = pal[0];
+            let c1 = pal[1];
+            let c2 = pal[2];
+            let c3 = pal[3];
+            let v0 = vec3<f32>(tab[c0.x], tab[256u + c0.y], tab[512u + c0.z]);
+            let v1 = vec3<f32>(tab[c1.x], tab[256u + c1.y], tab[512u + c1.z]);
+            let v2 = vec3<f32>(tab[c2.x], tab[256u + c2.y], tab[512u + c2.z]);
+            let v3 = vec3<f32>(tab[c3.x], tab[256u + c3.y], tab[512u + c3.z]);
+            {}",
+            texels(|i| {
+                let v = format!(
+                    "select(select(v0, v1, (w1 & {b0}u) != 0u), select(v2, v3, (w1 & {b0}u) != 0u), (w1 & {b1}u) != 0u)",
+                    b0 = 1u32 << (2 * i),
+                    b1 = 2u32 << (2 * i)
+                );
+                add(i, &v)
+            })
         ),
+        Source::Texture => texels(|i| {
+            format!(
+                "{{ let c = vec3<u32>(floor(textureLoad(tex0, {}, 0).rgb * 255.0 + TEX_BIAS)); {} }}",
+                texel(i),
+                add(i, "vec3<f32>(tab[c.x], tab[256u + c.y], tab[512u + c.z])")
+            )
+        }),
     }
 }
 
-/// One plane of a one-channel-per-plane format: 16 values `v`, each added to every channel
-/// (grey matrix) or to channel `plane` only.
+/// One plane of a one-channel-per-plane format: 16 values, each added to every channel (grey
+/// matrix) or to channel `plane` only.
 fn plane_body(format: Format, source: Source, plane: usize, grey: bool) -> String {
     let words = words_per_block(format);
     let base = format!("let base = (({plane}u * band.rows + rb) * band.cols + cbl) * {words}u;");
-    let add = if grey {
-        "acc[i / 4u] += v * xc[i % 4u];".to_owned()
-    } else {
-        let c = ["x", "y", "z"][plane];
-        format!("acc[i / 4u].{c} += v * xc[i % 4u].{c};")
+    let add = |i: usize, v: &str| {
+        if grey {
+            add(i, &format!("vec3<f32>({v})"))
+        } else {
+            add_channel(i, v, ["x", "y", "z"][plane])
+        }
     };
     let t = 256 * plane;
     let inner = match (format, source) {
@@ -153,46 +217,83 @@ fn plane_body(format: Format, source: Source, plane: usize, grey: bool) -> Strin
             "{base}
             let w0 = blocks[base];
             let w1 = blocks[base + 1u];
-            var pal = bc4_palette(i32(w0 & 255u), i32((w0 >> 8u) & 255u));
-            var pv: array<f32, 8>;
-            for (var k = 0u; k < 8u; k++) {{
-                pv[k] = tab[{t}u + u32(pal[k])];
-            }}
+            let pal = bc4_palette(w0 & 255u, (w0 >> 8u) & 255u);
+            let p0 = tab[{t}u + pal[0]];
+            let p1 = tab[{t}u + pal[1]];
+            let p2 = tab[{t}u + pal[2]];
+            let p3 = tab[{t}u + pal[3]];
+            let p4 = tab[{t}u + pal[4]];
+            let p5 = tab[{t}u + pal[5]];
+            let p6 = tab[{t}u + pal[6]];
+            let p7 = tab[{t}u + pal[7]];
             let lo = (w0 >> 16u) | (w1 << 16u);
             let hi = w1 >> 16u;
-            for (var i = 0u; i < 16u; i++) {{
-                let v = pv[bc4_index(lo, hi, i)];
-                {add}
-            }}"
+            {}",
+            texels(|i| {
+                // The 3-bit index of texel i: bits 3i..3i+3 of the 48 (lo: 0–31, hi: 32–47).
+                let b = 3 * i;
+                let k = if b + 3 <= 32 {
+                    format!("(lo >> {b}u) & 7u")
+                } else if b >= 32 {
+                    format!("(hi >> {}u) & 7u", b - 32)
+                } else {
+                    format!("((lo >> {b}u) | (hi << {}u)) & 7u", 32 - b)
+                };
+                format!(
+                    "{{ let k = {k}; let b0 = (k & 1u) != 0u; let b1 = (k & 2u) != 0u; \
+                     let v = select(select(select(p0, p1, b0), select(p2, p3, b0), b1), \
+                     select(select(p4, p5, b0), select(p6, p7, b0), b1), k >= 4u); {} }}",
+                    add(i, "v")
+                )
+            })
         ),
-        (Format::Bc4, Source::Texture) => format!(
-            "for (var i = 0u; i < 16u; i++) {{
-                let code = u32(round(textureLoad(tex{plane}, {TEXEL}, 0).r * 255.0));
-                let v = tab[{t}u + code];
-                {add}
-            }}"
-        ),
+        (Format::Bc4, Source::Texture) => texels(|i| {
+            format!(
+                "{{ let v = tab[{t}u + u32(floor(textureLoad(tex{plane}, {}, 0).r * 255.0 + TEX_BIAS))]; {} }}",
+                texel(i),
+                add(i, "v")
+            )
+        }),
         (Format::U8, _) => format!(
             "{base}
-            for (var i = 0u; i < 16u; i++) {{
-                let code = (blocks[base + i / 4u] >> (8u * (i % 4u))) & 255u;
-                let v = tab[{t}u + code];
-                {add}
-            }}"
+            {}",
+            texels(|i| {
+                let word = if i % 4 == 0 {
+                    format!("let w{} = blocks[base + {}u];\n            ", i / 4, i / 4)
+                } else {
+                    String::new()
+                };
+                format!(
+                    "{word}{}",
+                    add(
+                        i,
+                        &format!("tab[{t}u + ((w{} >> {}u) & 255u)]", i / 4, 8 * (i % 4))
+                    )
+                )
+            })
         ),
         (Format::F16, _) => format!(
             "{base}
-            for (var i = 0u; i < 16u; i++) {{
-                let v = f16_value((blocks[base + i / 2u] >> (16u * (i % 2u))) & 0xffffu);
-                {add}
-            }}"
+            {}",
+            texels(|i| {
+                let word = if i % 2 == 0 {
+                    format!("let w{} = blocks[base + {}u];\n            ", i / 2, i / 2)
+                } else {
+                    String::new()
+                };
+                format!(
+                    "{word}{}",
+                    add(
+                        i,
+                        &format!("f16_value((w{} >> {}u) & 0xffffu)", i / 2, 16 * (i % 2))
+                    )
+                )
+            })
         ),
         (Format::F32, _) => format!(
             "{base}
-            for (var i = 0u; i < 16u; i++) {{
-                let v = bitcast<f32>(blocks[base + i]);
-                {add}
-            }}"
+            {}",
+            texels(|i| add(i, &format!("bitcast<f32>(blocks[base + {i}u])")))
         ),
         (Format::Bc1, _) => unreachable!("BC1 has its own body"),
     };
@@ -202,6 +303,16 @@ fn plane_body(format: Format, source: Source, plane: usize, grey: bool) -> Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The multiply-and-shift divisions are exact over every weighted sum of 8-bit codes.
+    #[test]
+    fn palette_divisions_are_exact() {
+        for (d, (m, sh), most) in [(3, DIV3, 765), (5, DIV5, 1275), (7, DIV7, 1785)] {
+            for x in 0..=most {
+                assert_eq!((x * m) >> sh, x / d, "{x} / {d}");
+            }
+        }
+    }
 
     /// Every kernel variant parses and validates with naga (no device needed), so a WGSL slip
     /// fails here rather than at pipeline creation on some adapter.
