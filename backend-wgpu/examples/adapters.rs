@@ -5,6 +5,14 @@ fn main() {
         println!("no adapter");
     }
     for a in list {
-        println!("#{} {} bc={}", a.info.index, a.info, a.info.bc);
+        let features = a.wgpu_adapter().features();
+        println!(
+            "#{} {} bc={} subgroups={} timestamps={}",
+            a.info.index,
+            a.info,
+            a.info.bc,
+            features.contains(wgpu::Features::SUBGROUP),
+            features.contains(wgpu::Features::TIMESTAMP_QUERY)
+        );
     }
 }
