@@ -1,7 +1,7 @@
 //! [`WgpuGather`]: the device, the persistent buffers and textures, the per-frame dispatches.
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
-use crate::plan::{self, Band, PlanLimits};
+use crate::plan::{self, PlanLimits};
 use crate::probe;
 use crate::shader::{self, Source};
 use crate::{DecodePath, GpuError, GpuOptions, conv};
@@ -500,7 +500,13 @@ impl WgpuGather {
                         bytes.clear();
                         plan::copy_plane(&l, &matrix.blocks, p, band, &mut bytes);
                         device_bytes += bytes.len() as u64;
-                        views.push(upload_texture(&device, &queue, tf, band, &bytes));
+                        views.push(upload_texture(
+                            &device,
+                            &queue,
+                            tf,
+                            (band.cols, band.rows),
+                            &bytes,
+                        ));
                     }
                 }
             }
@@ -727,17 +733,17 @@ impl WgpuGather {
     }
 }
 
-/// A `band.cols·4 × band.rows·4` BC texture holding `data` (block-row-major), and its view.
-fn upload_texture(
+/// A `cols·4 × rows·4` BC texture holding `data` (`rows` rows of `cols` blocks), and its view.
+pub(crate) fn upload_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     format: wgpu::TextureFormat,
-    band: &Band,
+    (cols, rows): (usize, usize),
     data: &[u8],
 ) -> wgpu::TextureView {
     let size = wgpu::Extent3d {
-        width: (band.cols * 4) as u32,
-        height: (band.rows * 4) as u32,
+        width: (cols * 4) as u32,
+        height: (rows * 4) as u32,
         depth_or_array_layers: 1,
     };
     let texture = device.create_texture(&wgpu::TextureDescriptor {
@@ -760,8 +766,8 @@ fn upload_texture(
         data,
         wgpu::TexelCopyBufferLayout {
             offset: 0,
-            bytes_per_row: Some((band.cols * 8) as u32),
-            rows_per_image: Some(band.rows as u32),
+            bytes_per_row: Some((cols * 8) as u32),
+            rows_per_image: Some(rows as u32),
         },
         size,
     );

@@ -10,10 +10,10 @@
 
 use crate::GpuError;
 use crate::adapter::Adapter;
+use crate::gather::upload_texture;
 use radiosity_core::{Bc1Block, Bc4Block, DecodeMode};
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
-use wgpu::util::DeviceExt;
 
 /// Blocks per row of a probe texture.
 const WIDE: usize = 64;
@@ -36,27 +36,9 @@ pub fn read_bc_texels(
     .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
     let rows = blocks.len() / 8 / WIDE;
     assert_eq!(rows * WIDE * 8, blocks.len(), "whole rows of blocks");
-    let size = wgpu::Extent3d {
-        width: (WIDE * 4) as u32,
-        height: (rows * 4) as u32,
-        depth_or_array_layers: 1,
-    };
-    let texture = device.create_texture_with_data(
-        &queue,
-        &wgpu::TextureDescriptor {
-            label: Some("probe"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        },
-        wgpu::util::TextureDataOrder::LayerMajor,
-        blocks,
-    );
-    let bytes = u64::from(size.width * size.height) * 16;
+    let view = upload_texture(&device, &queue, format, (WIDE, rows), blocks);
+    let (width, height) = ((WIDE * 4) as u32, (rows * 4) as u32);
+    let bytes = u64::from(width * height) * 16;
     let buffer = |usage| {
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("probe texels"),
@@ -90,7 +72,6 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
         compilation_options: Default::default(),
         cache: None,
     });
-    let view = texture.create_view(&Default::default());
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("probe"),
         layout: &pipeline.get_bind_group_layout(0),
@@ -110,7 +91,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
         let mut pass = enc.begin_compute_pass(&Default::default());
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups(size.width.div_ceil(8), size.height.div_ceil(8), 1);
+        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
     }
     enc.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
     queue.submit([enc.finish()]);
