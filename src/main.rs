@@ -275,8 +275,14 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line: the context chain joined, never a backtrace.
-            let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            // One line: the context chain joined, never a backtrace. A cause its parent already
+            // quotes (`{path}: {source}` errors) is not repeated.
+            let mut msg: Vec<String> = Vec::new();
+            for c in e.chain().map(|c| c.to_string()) {
+                if !msg.last().is_some_and(|m| m.ends_with(&c)) {
+                    msg.push(c);
+                }
+            }
             eprintln!("error: {}", msg.join(": ").replace('\n', " "));
             ExitCode::FAILURE
         }

@@ -122,6 +122,12 @@ fn check(case: &str, args: Vec<OsString>, needle: Option<&str>, out_dir: &Path, 
         "{case}: `{cmd}`: exactly one stderr line, got {stderr:?}"
     );
     assert!(stderr.starts_with("error: "), "{case}: `{cmd}`: {stderr:?}");
+    // No cause said twice (an error quoting its source, then the source again).
+    let parts: Vec<&str> = stderr.trim().split(": ").collect();
+    assert!(
+        parts.windows(2).all(|w| w[0] != w[1]),
+        "{case}: `{cmd}`: a cause repeated in {stderr:?}"
+    );
     if let Some(n) = needle {
         assert!(
             stderr.to_lowercase().contains(&n.to_lowercase()),
