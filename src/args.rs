@@ -29,6 +29,10 @@ pub(crate) struct BakeArgs {
     /// channel
     #[arg(long)]
     pub(crate) tile: Option<u32>,
+    /// Lower MTL reflectances (Kd) at or above R, in (0, 1), to R with a warning instead of
+    /// refusing the scene (many exporters write Kd 1 1 1 for white)
+    #[arg(long, value_name = "R")]
+    pub(crate) max_reflectance: Option<f64>,
 }
 
 pub(crate) fn parse_bounces(s: &str) -> anyhow::Result<BounceSpec> {

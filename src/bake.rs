@@ -4,7 +4,7 @@ use crate::args::{BakeArgs, parse_bounces};
 use anyhow::{Context, bail};
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
-use radiosity_bake::scene::Scene;
+use radiosity_bake::scene::{LoadOptions, Scene};
 use radiosity_bake::voxel::VoxelParams;
 use radiosity_core::Format;
 use std::io::Write;
@@ -52,14 +52,27 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
     Ok(p)
 }
 
+/// How to load the scene, from the shared flags.
+pub(crate) fn load_options(args: &BakeArgs) -> anyhow::Result<LoadOptions> {
+    let mut o = LoadOptions::default();
+    if let Some(r) = args.max_reflectance {
+        if !(r > 0.0 && r < 1.0) {
+            bail!("--max-reflectance must be in (0, 1), not {r}");
+        }
+        o.max_reflectance = Some(r);
+    }
+    Ok(o)
+}
+
 /// Loads and bakes with a progress bar on stderr.
 pub(crate) fn bake_scene(
     path: &Path,
+    load: &LoadOptions,
     params: &BakeParams,
     quiet: bool,
 ) -> anyhow::Result<(BakeOutput, f64)> {
     let t = Instant::now();
-    let scene = Scene::load_obj(path).context("cannot load the scene")?;
+    let scene = Scene::load_obj_with(path, load).context("cannot load the scene")?;
     let load_ms = t.elapsed().as_secs_f64() * 1e3;
     let bar = crate::progress::stage_bar(14, " ({eta})", quiet);
     let (stage, progress) = crate::progress::callbacks(&bar);
@@ -73,8 +86,9 @@ pub(crate) fn bake_scene(
     );
     bar.finish_and_clear();
     let out = out.with_context(|| format!("cannot bake {}", path.display()))?;
-    // Warnings only once the bake has succeeded: a failure stays the one `error:` line.
-    for w in &scene.report.warnings {
+    // Warnings only once the bake has succeeded: a failure stays the one `error:` line. The
+    // report's list: the scene's and the simplification's (a missed patch target).
+    for w in &out.report.warnings {
         eprintln!("warning: {w}");
     }
     Ok((out, load_ms))
@@ -87,6 +101,7 @@ pub(crate) fn run(
     json_out: bool,
 ) -> anyhow::Result<()> {
     let params = params(args)?;
+    let load = load_options(args)?;
     // Refuse an unwritable destination before spending minutes on the bake.
     let dir = output
         .parent()
@@ -99,7 +114,7 @@ pub(crate) fn run(
             dir.display()
         );
     }
-    let (mut out, load_ms) = bake_scene(scene, &params, json_out)?;
+    let (mut out, load_ms) = bake_scene(scene, &load, &params, json_out)?;
     out.report.timings_ms.insert("load", load_ms);
     let bytes = out
         .file

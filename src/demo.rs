@@ -30,11 +30,12 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         order: "best".into(),
         sparse: None,
         tile: None,
+        max_reflectance: None,
     };
     let params = crate::bake::params(&args)?;
     eprintln!("baking the embedded Cornell box (about {patches} patches)…");
     let t = Instant::now();
-    let (baked, _) = crate::bake::bake_scene(&obj, &params, false)?;
+    let (baked, _) = crate::bake::bake_scene(&obj, &Default::default(), &params, false)?;
     let bake_s = t.elapsed().as_secs_f64();
     let bytes = baked.file.to_bytes()?;
     let rad = out.join("demo.rad");

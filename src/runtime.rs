@@ -240,7 +240,8 @@ pub(crate) fn load(
         (file, effects)
     } else {
         let params = crate::bake::params(args)?;
-        let (out, load_ms) = crate::bake::bake_scene(input, &params, quiet)?;
+        let load = crate::bake::load_options(args)?;
+        let (out, load_ms) = crate::bake::bake_scene(input, &load, &params, quiet)?;
         timings.insert("load", load_ms);
         timings.insert(
             "bake",

@@ -69,19 +69,24 @@ pub struct LoadReport {
 }
 
 /// Options of [`Scene::load_obj_with`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LoadOptions {
     /// Invalid materials (reflectance outside `[0, 1)`, bad emission, an unreadable texture)
     /// are errors. `false` turns them into warnings and repairs them (reflectance clamped to
     /// `[0, 0.999]`, emission and texture dropped): for geometry-only uses such as view
     /// factors, where materials do not matter.
     pub validate_materials: bool,
+    /// A reflectance cap in `(0, 1)`: MTL `Kd` channels at or above it (1 included, as many
+    /// exporters write for white) are lowered to it with a warning instead of refused. `None`
+    /// (the default) refuses them.
+    pub max_reflectance: Option<f64>,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
         Self {
             validate_materials: true,
+            max_reflectance: None,
         }
     }
 }
@@ -91,6 +96,7 @@ impl LoadOptions {
     pub fn geometry_only() -> Self {
         Self {
             validate_materials: false,
+            max_reflectance: None,
         }
     }
 }
@@ -337,6 +343,17 @@ impl Scene {
                 .diffuse
                 .map(|d| d.map(f64::from))
                 .unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
+            if let Some(cap) = options.max_reflectance
+                && kd.iter().any(|c| c.is_finite() && *c >= cap)
+            {
+                let lowered = kd.map(|c| if c.is_finite() { c.min(cap) } else { c });
+                let said = bad(format!(
+                    "Kd {} {} {} lowered to {} {} {} (reflectance cap {cap})",
+                    kd[0], kd[1], kd[2], lowered[0], lowered[1], lowered[2]
+                ));
+                self.report.warnings.push(said.to_string());
+                kd = lowered;
+            }
             if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
                 let e = bad(format!(
                     "Kd {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",

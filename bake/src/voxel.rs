@@ -402,8 +402,21 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
             }
             let (h, g, miss) = best.expect("one evaluation at least");
             if miss > params.tolerance {
+                // Too many patches even at the coarsest cells: say why when it is the count of
+                // separate surfaces (furniture of many loose parts), which no cell size merges.
+                let mut roots = component.clone();
+                roots.sort_unstable();
+                roots.dedup();
+                let why = if g.groups.len() > n && roots.len() as f64 > 0.5 * target {
+                    format!(
+                        "; the scene has {} separate connected surfaces, and a patch never spans two",
+                        roots.len()
+                    )
+                } else {
+                    String::new()
+                };
                 warnings.push(format!(
-                    "asked for {n} patches, the nearest the grid gives is {} (cell size {h:.6})",
+                    "asked for {n} patches, the nearest the grid gives is {} (cell size {h:.6}){why}",
                     g.groups.len()
                 ));
             }

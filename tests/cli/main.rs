@@ -242,6 +242,8 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
         (&["--voxel", "-1"], "--voxel"),
         (&["--tile", "6"], "--tile"),
         (&["--tile", "0"], "--tile"),
+        (&["--max-reflectance", "1"], "--max-reflectance"),
+        (&["--max-reflectance", "NaN"], "--max-reflectance"),
     ] {
         let mut args = vec!["bake", s, "-o", r];
         args.extend_from_slice(options);
@@ -366,4 +368,57 @@ fn solve_backends_agree_and_unavailable_ones_are_errors() {
         .output()
         .unwrap();
     assert_one_line_error(&env, "RADIOSITY_BACKEND");
+}
+
+/// Warnings of the simplification reach the terminal, not only `--json`: 64 loose tiles under a
+/// lamp cannot come down to 10 patches, and the bake says why.
+#[test]
+fn bake_prints_a_missed_patch_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::from("mtllib tiles.mtl\nusemtl grey\n");
+    let mut v = 1;
+    for i in 0..8 {
+        for j in 0..8 {
+            let (x, y) = (f64::from(i) * 0.1, f64::from(j) * 0.1);
+            obj += &format!(
+                "v {x} {y} 0\nv {} {y} 0\nv {} {} 0\nv {x} {} 0\nf {v} {} {} {}\n",
+                x + 0.08,
+                x + 0.08,
+                y + 0.08,
+                y + 0.08,
+                v + 1,
+                v + 2,
+                v + 3
+            );
+            v += 4;
+        }
+    }
+    obj += &format!(
+        "usemtl lamp\nv 0 0 1\nv 0 0.8 1\nv 0.8 0.8 1\nv 0.8 0 1\nf {v} {} {} {}\n",
+        v + 1,
+        v + 2,
+        v + 3
+    );
+    std::fs::write(dir.path().join("tiles.obj"), obj).unwrap();
+    std::fs::write(
+        dir.path().join("tiles.mtl"),
+        "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\n",
+    )
+    .unwrap();
+    let scene = dir.path().join("tiles.obj");
+    let rad = dir.path().join("tiles.rad");
+    let out = radiosity_ok(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        rad.to_str().unwrap(),
+        "--patches",
+        "10",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning: asked for 10 patches")
+            && stderr.contains("65 separate connected surfaces"),
+        "{stderr}"
+    );
 }

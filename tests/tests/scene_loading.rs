@@ -175,6 +175,43 @@ fn bad_input_is_a_clear_error() {
     ));
 }
 
+/// A reflectance cap lowers Kd 1 1 1 (CornellBox-Empty-White's walls) to the cap, channel by
+/// channel, with a warning naming the MTL line; channels below the cap stay as they are.
+#[test]
+fn a_reflectance_cap_lowers_white_instead_of_refusing_it() {
+    let path = scenes().join("cornell-box/CornellBox-Empty-White.obj");
+    let capped = LoadOptions {
+        max_reflectance: Some(0.8),
+        ..LoadOptions::default()
+    };
+    let s = Scene::load_obj_with(&path, &capped).unwrap();
+    let plain = Scene::load_obj_with(&path, &LoadOptions::geometry_only()).unwrap();
+    assert!(
+        s.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("CornellBox-Empty-White.mtl:12") && w.contains("lowered to 0.8")),
+        "{:?}",
+        s.report.warnings
+    );
+    for (m, raw) in s.materials.iter().zip(&plain.materials) {
+        for (got, was) in [
+            (m.reflectance.r, raw.reflectance.r),
+            (m.reflectance.g, raw.reflectance.g),
+            (m.reflectance.b, raw.reflectance.b),
+        ] {
+            // Geometry-only loading clamps to 0.999, so `was` ≥ 0.999 means Kd was ≥ 1.
+            let want = if was >= 0.8 { 0.8 } else { was };
+            assert_eq!(got, want, "material {}", m.name);
+        }
+    }
+    assert!(
+        s.materials
+            .iter()
+            .any(|m| m.reflectance.max_channel() == 0.8)
+    );
+}
+
 #[test]
 fn missing_mtl_is_grey_with_a_warning_and_degenerates_are_counted() {
     let dir = tempfile::tempdir().unwrap();

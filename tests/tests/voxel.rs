@@ -142,3 +142,30 @@ fn vertex_weights_sum_to_one_over_compatible_patches() {
         }
     }
 }
+
+/// A floor strewn with 400 loose tiles (separate surfaces, as furniture of many parts is) cannot
+/// come down to 20 patches: a patch never spans two surfaces. The warning says so, with the
+/// count, rather than only that the target was missed.
+#[test]
+fn a_missed_target_names_the_separate_surfaces() {
+    let mut tiles = Vec::new();
+    for i in 0..20 {
+        for j in 0..20 {
+            let (x, y) = (i as f64 * 0.05, j as f64 * 0.05);
+            tiles.push(rect_z(x, x + 0.04, y, y + 0.04, 0.0, true));
+        }
+    }
+    let objs = vec![Obj::new("tiles", tiles)];
+    let dir = tempfile::tempdir().unwrap();
+    let s = load(dir.path(), "tiles", &objs, Placement::general(1.0));
+    let p = simplify(&s, &VoxelParams::with_patches(20)).unwrap();
+    assert!(p.len() >= 400, "{} patches", p.len());
+    assert!(
+        p.warnings
+            .iter()
+            .any(|w| w.contains("asked for 20 patches")
+                && w.contains("400 separate connected surfaces")),
+        "{:?}",
+        p.warnings
+    );
+}
