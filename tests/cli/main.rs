@@ -370,8 +370,8 @@ fn solve_backends_agree_and_unavailable_ones_are_errors() {
     assert_one_line_error(&env, "RADIOSITY_BACKEND");
 }
 
-/// Warnings of the simplification reach the terminal, not only `--json`: 64 loose tiles under a
-/// lamp cannot come down to 10 patches, and the bake says why.
+/// Warnings of the simplification reach the terminal, not only `--json`: 64 tiles under a lamp,
+/// each its own object, cannot come down to 10 patches, and the bake says why.
 #[test]
 fn bake_prints_a_missed_patch_target() {
     let dir = tempfile::tempdir().unwrap();
@@ -381,7 +381,7 @@ fn bake_prints_a_missed_patch_target() {
         for j in 0..8 {
             let (x, y) = (f64::from(i) * 0.1, f64::from(j) * 0.1);
             obj += &format!(
-                "v {x} {y} 0\nv {} {y} 0\nv {} {} 0\nv {x} {} 0\nf {v} {} {} {}\n",
+                "o tile{i}{j}\nv {x} {y} 0\nv {} {y} 0\nv {} {} 0\nv {x} {} 0\nf {v} {} {} {}\n",
                 x + 0.08,
                 x + 0.08,
                 y + 0.08,
@@ -394,7 +394,7 @@ fn bake_prints_a_missed_patch_target() {
         }
     }
     obj += &format!(
-        "usemtl lamp\nv 0 0 1\nv 0 0.8 1\nv 0.8 0.8 1\nv 0.8 0 1\nf {v} {} {} {}\n",
+        "o lamp\nusemtl lamp\nv 0 0 1\nv 0 0.8 1\nv 0.8 0.8 1\nv 0.8 0 1\nf {v} {} {} {}\n",
         v + 1,
         v + 2,
         v + 3
@@ -418,7 +418,7 @@ fn bake_prints_a_missed_patch_target() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("warning: asked for 10 patches")
-            && stderr.contains("65 separate connected surfaces"),
+            && stderr.contains("65 object and material pairs"),
         "{stderr}"
     );
 }
