@@ -54,8 +54,13 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
 
 /// How to load the scene, from the shared flags.
 pub(crate) fn load_options(args: &BakeArgs) -> anyhow::Result<LoadOptions> {
+    capped_loading(args.max_reflectance)
+}
+
+/// Loading with `--max-reflectance`, checked (`bake`, `solve` and `pathtrace` share it).
+pub(crate) fn capped_loading(max_reflectance: Option<f64>) -> anyhow::Result<LoadOptions> {
     let mut o = LoadOptions::default();
-    if let Some(r) = args.max_reflectance {
+    if let Some(r) = max_reflectance {
         if !(r > 0.0 && r < 1.0) {
             bail!("--max-reflectance must be in (0, 1), not {r}");
         }

@@ -41,6 +41,10 @@ pub(crate) struct PathtraceArgs {
     /// Paths per pixel of the image [default: 64].
     #[arg(long)]
     spp: Option<u32>,
+    /// Lower MTL reflectances (Kd) at or above R, in (0, 1), to R with a warning instead of
+    /// refusing the scene (as `bake --max-reflectance`, so both see the same scene)
+    #[arg(long, value_name = "R")]
+    max_reflectance: Option<f64>,
 }
 
 pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
@@ -73,7 +77,8 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
         timings.insert(name.into(), json!(t.elapsed().as_secs_f64() * 1e3));
     };
     let t = Instant::now();
-    let scene = Scene::load_obj(&args.scene).context("cannot load the scene")?;
+    let load = crate::bake::capped_loading(args.max_reflectance)?;
+    let scene = Scene::load_obj_with(&args.scene, &load).context("cannot load the scene")?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -221,6 +221,10 @@ fn pathtrace_bad_input_fails_with_one_line() {
         "--spp",
     );
     assert_one_line_error(&radiosity(&["pathtrace", scene, "--spp", "4"]), "-o");
+    assert_one_line_error(
+        &radiosity(&["pathtrace", scene, "--max-reflectance", "0"]),
+        "--max-reflectance",
+    );
     let lights = dir.path().join("lights.json");
     std::fs::write(
         &lights,
@@ -292,4 +296,32 @@ fn solve_agrees_with_the_path_tracer_on_the_cornell_box() {
             );
         }
     }
+}
+
+/// A scene of `Kd 1 1 1` walls (CornellBox-Empty-White) is refused as it is and traced under
+/// `--max-reflectance`, with the warning that says what was lowered.
+#[test]
+fn pathtrace_takes_a_reflectance_cap() {
+    let white = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box/CornellBox-Empty-White.obj"
+    );
+    assert_one_line_error(
+        &radiosity(&["pathtrace", white, "--samples", "64"]),
+        "Kd 1 1 1",
+    );
+    let out = radiosity(&[
+        "pathtrace",
+        white,
+        "--samples",
+        "64",
+        "--json",
+        "--max-reflectance",
+        "0.8",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("lowered to 0.8 0.8 0.8"), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(!v["objects"].as_array().unwrap().is_empty());
 }
