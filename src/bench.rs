@@ -55,6 +55,8 @@ pub(crate) struct Row {
     pub(crate) cost: Cost,
     /// One-off preparation (encoding, factorisation), ms.
     pub(crate) setup_ms: f64,
+    /// GPU rows: median GPU time of the kernels alone (timestamps), ms.
+    pub(crate) kernel_ms: Option<f64>,
     pub(crate) note: String,
 }
 
@@ -84,6 +86,9 @@ struct RowOut {
     /// Bytes per call ÷ time, GB/s.
     achieved_gb_s: f64,
     setup_ms: f64,
+    /// GPU rows where the adapter has timestamps: median GPU time of the kernels alone, without
+    /// the upload of x and the readback of y, ms (`null` otherwise).
+    kernel_ms: Option<f64>,
     runs: usize,
     note: String,
 }
@@ -242,6 +247,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             file_order: true,
             cost,
             setup_ms,
+            kernel_ms: None,
             note,
         });
     }
@@ -258,6 +264,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         gather: Box::new(faer),
         file_order: false,
         setup_ms: ms(t.elapsed()),
+        kernel_ms: None,
         note: format!("faer matmul, the same M unquantised, {channels} channel matrices"),
     });
     let t = Instant::now();
@@ -268,6 +275,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         gather: Box::new(jacobi),
         file_order: false,
         setup_ms: ms(t.elapsed()),
+        kernel_ms: None,
         note: format!(
             "{JACOBI_ITERATIONS} bounce iterations with F (f32, faer): its error is the bounces it leaves out"
         ),
@@ -278,6 +286,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         gather: Box::new(lu),
         file_order: false,
         setup_ms: lu_setup,
+        kernel_ms: None,
         note: "F·x and triangular solves (f64); the factorisation of I − F^C is made once and reused: it depends only on geometry and reflectance".into(),
     });
 
@@ -351,6 +360,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             roof_gb_s: bound.bandwidth / 1e9,
             achieved_gb_s: row.cost.bytes as f64 / t.as_secs_f64() / 1e9,
             setup_ms: row.setup_ms,
+            kernel_ms: row.kernel_ms,
             runs,
             note: row.note.clone(),
         });
@@ -437,7 +447,8 @@ fn gpu_rows(
             kernel.extend(gather.kernel_ms());
         }
         kernel.sort_by(f64::total_cmp);
-        if let Some(k) = kernel.get(kernel.len() / 2) {
+        let kernel_ms = kernel.get(kernel.len() / 2).copied();
+        if let Some(k) = kernel_ms {
             note += &format!(
                 "; kernels {k:.3} ms (GPU timestamps, median of 21), {:.1} GB/s",
                 cost.bytes as f64 / (k * 1e-3) / 1e9
@@ -449,6 +460,7 @@ fn gpu_rows(
             file_order: true,
             cost,
             setup_ms: setup_ms + ms(t.elapsed()),
+            kernel_ms,
             note,
         });
         Ok(chosen)

@@ -136,7 +136,7 @@ enum Command {
         /// Timed calls per method (default: about 0.8 s of calls each, 7 to 201).
         #[arg(long)]
         runs: Option<usize>,
-        /// Print JSON: {"patches", "rows":[{"method", "ms", "bytes", "rel_error", …}], …}.
+        /// Print JSON: {"patches", "rows":[{"method", "ms", "kernel_ms", "bytes", "rel_error", …}], …}.
         #[arg(long)]
         json: bool,
     },

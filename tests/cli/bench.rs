@@ -53,6 +53,16 @@ fn bench_json_has_every_method_with_sane_values() {
             assert!(x.is_finite() && x >= 0.0, "{name}.{field} = {x}");
         }
         assert!(num(name, "ms") > 0.0 && num(name, "bytes") > 0.0, "{r}");
+        // GPU kernel time (timestamps) only on GPU rows. It is not compared with `ms`: the two
+        // are medians of separate runs, and on a software rasteriser (CI's) both are CPU time
+        // of emulated work that moves by 2× between runs.
+        match r["kernel_ms"].as_f64() {
+            Some(k) => assert!(
+                name.starts_with("gpu-") && k > 0.0 && k.is_finite(),
+                "{name}.kernel_ms = {k}: {r}"
+            ),
+            None => assert!(r["kernel_ms"].is_null(), "{name}: {r}"),
+        }
         // The roofline is a lower bound up to timer resolution: nothing runs 2× faster.
         assert!(
             num(name, "ms") >= 0.5 * num(name, "bound_ms"),
