@@ -22,7 +22,12 @@ pub(crate) struct Chosen {
 }
 
 fn gpu_detail(g: &WgpuGather, why: &str) -> String {
-    format!("{why}; adapter {}, {} decode", g.adapter(), g.path().name())
+    let note = g.path_note().map_or(String::new(), |n| format!(": {n}"));
+    format!(
+        "{why}; adapter {}, {} decode{note}",
+        g.adapter(),
+        g.path().name()
+    )
 }
 
 pub(crate) fn choose(

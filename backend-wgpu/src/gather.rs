@@ -97,6 +97,7 @@ pub struct WgpuGather {
     errors: Arc<Mutex<Vec<String>>>,
     timer: Option<Timer>,
     kernel_ms: Option<f64>,
+    declined: bool,
 }
 
 /// A storage buffer of at least 4 bytes (an empty binding is invalid) with `data` in it.
@@ -217,6 +218,11 @@ impl WgpuGather {
             DecodePath::HardwareBc => texture_model,
             _ => Some(options.software_mode),
         };
+        // `auto` passed over a hardware texture unit because its probe matched no CPU rules.
+        let declined = options.path == DecodePath::Auto
+            && hardware_possible
+            && info.is_hardware()
+            && texture_model.is_none();
         let mut features = if path == DecodePath::HardwareBc {
             wgpu::Features::TEXTURE_COMPRESSION_BC
         } else {
@@ -252,7 +258,8 @@ impl WgpuGather {
             model,
             options,
             errors,
-        );
+        )
+        .map(|g| WgpuGather { declined, ..g });
         let oom = pollster::block_on(oom.pop());
         let validation = pollster::block_on(validation.pop());
         if let Some(e) = oom.or(validation) {
@@ -671,6 +678,7 @@ impl WgpuGather {
             errors,
             timer,
             kernel_ms: None,
+            declined: false,
         })
     }
 
@@ -693,6 +701,16 @@ impl WgpuGather {
     /// H100 is off by up to 7).
     pub fn decode_model(&self) -> Option<DecodeMode> {
         self.model
+    }
+
+    /// Why the path is what it is, where that is not obvious: under [`DecodePath::Auto`] on a
+    /// GPU whose texture unit decodes BC1/BC4 by rules no CPU decoder reproduces (the probe of
+    /// [`crate::probe::texture_decode_model`] matched none, as on an NVIDIA H100), the shader
+    /// decodes instead and this says so. `None` otherwise.
+    pub fn path_note(&self) -> Option<&'static str> {
+        self.declined.then_some(
+            "its texture unit decodes BC off the CPU's rules (probed), so the shader decodes",
+        )
     }
 
     /// GPU time of the last [`Gather::gather`]'s compute pass (every gather and finish

@@ -402,5 +402,13 @@ fn texture_probe_decides_the_hardware_path() {
             DecodePath::Software
         };
         assert_eq!(auto.path(), want, "{}", adapter.info);
+        // The choice is explained exactly when a GPU's texture unit was passed over.
+        assert_eq!(
+            auto.path_note().is_some(),
+            adapter.info.is_hardware() && found.is_none(),
+            "{}",
+            adapter.info
+        );
+        assert_eq!(g.path_note(), None, "an explicit path needs no note");
     }
 }
