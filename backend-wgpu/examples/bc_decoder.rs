@@ -19,7 +19,9 @@
 //! (`radiosity_backend_wgpu::probe::texture_decode_model`) to decide whether its texture path
 //! may be used.
 
-use radiosity_backend_wgpu::probe::{read_bc_texels, texel, texture_decode_model};
+use radiosity_backend_wgpu::probe::{
+    random_bc1_blocks, read_bc_texels, texel, texture_decode_model,
+};
 use radiosity_backend_wgpu::{AdapterChoice, choose_adapter};
 use radiosity_core::{Bc1Block, Bc4Block, DecodeMode, expand_565};
 
@@ -53,17 +55,7 @@ fn main() {
         }
     }
     // BC1: random endpoints, each row of texels using indices 0..3.
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let mut bc1 = Vec::with_capacity(65536 * 8);
-    for _ in 0..65536 {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        let mut b = [0u8; 8];
-        b[..4].copy_from_slice(&(seed as u32).to_le_bytes());
-        b[4..].copy_from_slice(&0xe4e4_e4e4u32.to_le_bytes());
-        bc1.extend_from_slice(&b);
-    }
+    let bc1 = random_bc1_blocks(65536);
 
     let t4 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc4RUnorm, &bc4).expect("probe");
     let mut s4 = Stats::default();

@@ -146,16 +146,22 @@ fn probe_blocks() -> (Vec<u8>, Vec<u8>) {
             pair(r.saturating_add(*d), r.saturating_add(*w));
         }
     }
+    (bc4, random_bc1_blocks(4096))
+}
+
+/// `count` BC1 blocks of seeded random endpoints (both modes), each row of texels using
+/// indices 0, 1, 2, 3 in turn.
+pub fn random_bc1_blocks(count: usize) -> Vec<u8> {
     let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let mut bc1 = Vec::with_capacity(4096 * 8);
-    for _ in 0..4096 {
+    let mut bc1 = Vec::with_capacity(count * 8);
+    for _ in 0..count {
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
         bc1.extend_from_slice(&(seed as u32).to_le_bytes());
         bc1.extend_from_slice(&0xe4e4_e4e4u32.to_le_bytes());
     }
-    (bc4, bc1)
+    bc1
 }
 
 /// The decode rules under which the gather's texture path (codes read as [`code_of`]) gives

@@ -162,6 +162,22 @@ fn add_channel(i: usize, value: &str, c: &str) -> String {
     format!("ACC{}.{c} += {value} * xc{}.{c};", i / 4, i % 4)
 }
 
+/// Texel `i` of a block whose texels are packed `per_word` to a 32-bit word, `bits` each: the
+/// `let` of its word (at the word's first texel, else empty) and the expression of its bits.
+fn packed(i: usize, per_word: usize, bits: usize) -> (String, String) {
+    let w = i / per_word;
+    let word = if i.is_multiple_of(per_word) {
+        format!("let w{w} = blocks[base + {w}u];\n            ")
+    } else {
+        String::new()
+    };
+    let mask = (1u32 << bits) - 1;
+    (
+        word,
+        format!("((w{w} >> {}u) & {mask}u)", bits * (i % per_word)),
+    )
+}
+
 /// `f(i)` for the 16 texels of a block, one statement a line.
 fn texels(f: impl Fn(usize) -> String) -> String {
     (0..16).map(f).collect::<Vec<_>>().join("\n            ")
@@ -261,36 +277,16 @@ fn plane_body(format: Format, source: Source, plane: usize, grey: bool) -> Strin
             "{base}
             {}",
             texels(|i| {
-                let word = if i % 4 == 0 {
-                    format!("let w{} = blocks[base + {}u];\n            ", i / 4, i / 4)
-                } else {
-                    String::new()
-                };
-                format!(
-                    "{word}{}",
-                    add(
-                        i,
-                        &format!("tab[{t}u + ((w{} >> {}u) & 255u)]", i / 4, 8 * (i % 4))
-                    )
-                )
+                let (word, code) = packed(i, 4, 8);
+                format!("{word}{}", add(i, &format!("tab[{t}u + {code}]")))
             })
         ),
         (Format::F16, _) => format!(
             "{base}
             {}",
             texels(|i| {
-                let word = if i % 2 == 0 {
-                    format!("let w{} = blocks[base + {}u];\n            ", i / 2, i / 2)
-                } else {
-                    String::new()
-                };
-                format!(
-                    "{word}{}",
-                    add(
-                        i,
-                        &format!("f16_value((w{} >> {}u) & 0xffffu)", i / 2, 16 * (i % 2))
-                    )
-                )
+                let (word, bits) = packed(i, 2, 16);
+                format!("{word}{}", add(i, &format!("f16_value({bits})")))
             })
         ),
         (Format::F32, _) => format!(
