@@ -8,7 +8,10 @@ use crate::encode::EncodeError;
 use crate::encode::{
     EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
 };
-use crate::form_factor::{FormFactorParams, MAX_EXACT_PIECES, Progress, Visibility, form_factors};
+use crate::form_factor::{
+    CLUSTER_PAIR_PIECES, FAR_RAYS, FormFactorParams, MAX_EXACT_PIECES, NEAR_RAYS, Progress,
+    Visibility, form_factors,
+};
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
 use crate::transfer::{
@@ -291,6 +294,22 @@ pub fn discretise(
         format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
     };
     effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
+    let pairs = (ff.n * (ff.n + 1) / 2) as u64;
+    let why = if ff.clustered_pairs > 0 {
+        format!(
+            "{pieces} pieces in all (over {budget}): {} of {pairs} patch pairs have more than {CLUSTER_PAIR_PIECES} piece pairs and were integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
+            ff.clustered_pairs
+        )
+    } else if pieces > budget {
+        format!(
+            "{pieces} pieces in all (over {budget}), but no pair has more than {CLUSTER_PAIR_PIECES} piece pairs: every pair integrated piece by piece"
+        )
+    } else {
+        format!(
+            "{pieces} pieces in all (at most {budget}): every pair integrated piece by piece, one shadow ray per sample and piece"
+        )
+    };
+    effects.insert("clustered_pairs", Effect::new(ff.clustered_pairs > 0, why));
 
     let n_all = patches.len();
     let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());

@@ -152,6 +152,8 @@ fn effect_decisions_change_the_work_done() {
         dark.report.effects["dark_patches"]
     );
     assert!(!base.report.effects["dark_patches"].on);
+    // A small scene: every pair piece by piece.
+    assert!(!base.report.effects["clustered_pairs"].on);
     // Emission is reported.
     assert!(base.report.effects["emission"].on);
 }

@@ -579,6 +579,9 @@ fn flat_sites_keep_a_finely_tessellated_furnace_exact() {
     let out = bake_ok(&load(&path), &p);
     let sites = &out.report.effects["flat_sites"];
     assert!(sites.on, "{}", sites.why);
+    // Neighbouring wall patches keep their ~60 pieces each: clustered pairs.
+    let clustered = &out.report.effects["clustered_pairs"];
+    assert!(clustered.on, "{}", clustered.why);
     let occlusion = &out.report.effects["occlusion"];
     assert!(
         occlusion.on && out.report.rays_cast > 0,
