@@ -502,9 +502,9 @@ fn exchange(
                             let mut seen = 0u32;
                             for r in 0..count {
                                 let k = sample_index * u64::from(count) + u64::from(r);
-                                let y = polygon_point(t.polygon.vertices(), k);
+                                let y = front_point(t, s, k);
                                 let x = if s.triangle == SITE {
-                                    polygon_point(sv, k + SITE_SOURCE_OFFSET)
+                                    front_point(s, t, k + SITE_SOURCE_OFFSET)
                                 } else {
                                     q.x
                                 };

@@ -54,8 +54,8 @@ fn objects(c: &mut Criterion) {
 
 /// A closed 2 × 2 × 2 room whose walls are `RADIOSITY_BENCH_SPLIT` × `RADIOSITY_BENCH_SPLIT`
 /// quads (default 12: 1 728 triangles) around a floating cube, at about 96 patches: form
-/// factors piece by piece (`exact_pieces` above the piece count) and through flat sites
-/// (`exact_pieces = 0`). The gain grows with the pieces per patch; 20 takes about 7 minutes
+/// factors piece by piece (`exact_pieces` above the piece count) and as a large scene
+/// (`exact_pieces = 0`: flat sites in far pairs, clustered pairs for neighbours of many pieces). The gain grows with the pieces per patch; 20 takes about 7 minutes
 /// (ten 40 s iterations piece by piece). Prints each variant's rays and the range of the row
 /// sums of F (1 for this closed room), so the price in accuracy stands next to the time.
 fn flat_sites(c: &mut Criterion) {
@@ -75,7 +75,7 @@ fn flat_sites(c: &mut Criterion) {
     let patches = simplify(&scene, &VoxelParams::with_patches(96)).expect("simplify");
     let mut g = c.benchmark_group(format!("flat_sites_split_{split}"));
     g.sample_size(10);
-    for (name, exact_pieces) in [("piece_by_piece", usize::MAX), ("flat_sites", 0)] {
+    for (name, exact_pieces) in [("piece_by_piece", usize::MAX), ("sites_and_clusters", 0)] {
         let params = FormFactorParams {
             exact_pieces,
             ..FormFactorParams::default()
@@ -86,10 +86,11 @@ fn flat_sites(c: &mut Criterion) {
             .iter()
             .fold((f64::INFINITY, 0f64), |(l, h), s| (l.min(*s), h.max(*s)));
         eprintln!(
-            "flat_sites_split_{split}/{name}: {} patches, {} pieces, {} as sites, {} rays, row sums [{lo:.5}, {hi:.5}]",
+            "flat_sites_split_{split}/{name}: {} patches, {} pieces, {} as sites, {} clustered pairs, {} rays, row sums [{lo:.5}, {hi:.5}]",
             patches.len(),
             ff.pieces,
             ff.sites,
+            ff.clustered_pairs,
             ff.rays_cast
         );
         g.bench_function(name, |b| {
