@@ -1,5 +1,6 @@
-//! Occlusion over the full-detail triangles: an obvhs BVH2 for segment (shadow-ray) queries and
-//! box queries that find which triangles could possibly block light between two surfaces.
+//! Occlusion over the full-detail triangles: an obvhs CWBVH (8-wide, compressed) for segment
+//! (shadow-ray) and closest-hit queries, and a BVH2 for the box queries that find which
+//! triangles could possibly block light between two surfaces.
 //!
 //! Every triangle blocks from both sides (DESIGN.md): the intersection test does not cull back
 //! faces. Coordinates are stored in f32 relative to the scene centre, so a scene far from the
@@ -11,19 +12,25 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
 use std::time::Duration;
 
 /// The triangles that block light, with a BVH over them.
 pub struct Occluders {
+    /// For box queries ([`Self::may_block`]).
     bvh: Bvh2,
-    /// Ray-test triangles in BVH primitive order.
+    /// For rays: twice as fast as the BVH2 on segments that mostly get through (conference
+    /// room, 400 k segments: 0.53 against 1.14 µs each), 1.8× on closest hits.
+    cw: CwBvh,
+    /// Ray-test triangles in CWBVH primitive order.
     rt: Vec<RayTriangle>,
-    /// f64 corners in BVH primitive order (for the exact plane tests of [`Self::may_block`]).
+    /// Index of each CWBVH primitive in the triangle list the BVH was built from.
+    rt_source: Vec<u32>,
+    /// f64 corners in BVH2 primitive order (for the exact plane tests of [`Self::may_block`]).
     corners: Vec<[DVec3; 3]>,
-    /// Index of each BVH primitive in the triangle list the BVH was built from.
-    source: Vec<u32>,
     /// Local origin of the f32 coordinates.
     origin: DVec3,
     /// Diagonal of the scene bounds: the length scale of every tolerance here.
@@ -142,21 +149,26 @@ impl Occluders {
                 v2: local(t[2]),
             })
             .collect();
-        let bvh = if bt.is_empty() {
-            Bvh2::default()
+        let (bvh, cw) = if bt.is_empty() {
+            (Bvh2::default(), CwBvh::default())
         } else {
-            build_bvh2_from_tris(
-                &bt,
-                BvhBuildParams::medium_build(),
-                &mut Duration::default(),
+            let params = BvhBuildParams::medium_build();
+            (
+                build_bvh2_from_tris(&bt, params, &mut Duration::default()),
+                build_cwbvh_from_tris(&bt, params, &mut Duration::default()),
             )
         };
         let order: Vec<usize> = bvh.primitive_indices.iter().map(|&i| i as usize).collect();
+        let rt_source = cw.primitive_indices.clone();
         Self {
-            rt: order.iter().map(|&i| RayTriangle::new(&bt[i])).collect(),
+            rt: rt_source
+                .iter()
+                .map(|&i| RayTriangle::new(&bt[i as usize]))
+                .collect(),
+            rt_source,
             corners: order.iter().map(|&i| tris[i]).collect(),
-            source: order.iter().map(|&i| i as u32).collect(),
             bvh,
+            cw,
             origin,
             extent,
         }
@@ -202,8 +214,8 @@ impl Occluders {
         let dir = Vec3A::from((d / len).as_vec3());
         let o = Vec3A::from((a - self.origin).as_vec3());
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
-        self.bvh.ray_traverse_miss(ray, |r, id| {
-            if skip(self.source[id]) {
+        self.cw.ray_traverse_miss(ray, |r, id| {
+            if skip(self.rt_source[id]) {
                 f32::INFINITY
             } else {
                 self.rt[id].intersect(r)
@@ -232,7 +244,7 @@ impl Occluders {
         let ray = Ray::new(o, dir, t_min as f32, t_max as f32);
         let mut hit = obvhs::ray::RayHit::none();
         if !self
-            .bvh
+            .cw
             .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
         {
             return None;
@@ -241,7 +253,7 @@ impl Occluders {
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
             distance: f64::from(hit.t),
-            triangle: self.source[id],
+            triangle: self.rt_source[id],
             u,
             v,
         })
