@@ -9,8 +9,7 @@ use crate::encode::{
     EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
-    CLUSTER_PAIR_PIECES, FAR_RAYS, FormFactorParams, MAX_EXACT_PIECES, NEAR_RAYS, Progress,
-    Visibility, form_factors,
+    FAR_RAYS, FormFactorParams, MAX_EXACT_PIECES, NEAR_RAYS, Progress, Visibility, form_factors,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -294,15 +293,10 @@ pub fn discretise(
         format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
     };
     effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
-    let pairs = (ff.n * (ff.n + 1) / 2) as u64;
     let why = if ff.clustered_pairs > 0 {
         format!(
-            "{pieces} pieces in all (over {budget}): {} of {pairs} patch pairs have more than {CLUSTER_PAIR_PIECES} piece pairs and were integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
+            "{pieces} pieces in all (over {budget}): all {} patch pairs integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
             ff.clustered_pairs
-        )
-    } else if pieces > budget {
-        format!(
-            "{pieces} pieces in all (over {budget}), but no pair has more than {CLUSTER_PAIR_PIECES} piece pairs: every pair integrated piece by piece"
         )
     } else {
         format!(
