@@ -3,8 +3,9 @@
 //! triangles could possibly block light between two surfaces.
 //!
 //! Every triangle blocks from both sides (DESIGN.md): the intersection test does not cull back
-//! faces. Coordinates are stored in f32 relative to the scene centre, so a scene far from the
-//! origin loses no precision.
+//! faces. Coordinates are stored in f32 relative to the scene centre and in units of the
+//! scene's extent, so a scene far from the origin loses no precision and one of any size looks
+//! the same to obvhs (its CWBVH failed a scene scaled by 1e-4 in absolute units).
 
 use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
@@ -33,6 +34,9 @@ pub struct Occluders {
     corners: Vec<[DVec3; 3]>,
     /// Local origin of the f32 coordinates.
     origin: DVec3,
+    /// Local unit of the f32 coordinates, `1 / extent`: the BVH sees every scene at unit size,
+    /// so no absolute epsilon inside obvhs depends on the scene's scale.
+    scale: f64,
     /// Diagonal of the scene bounds: the length scale of every tolerance here.
     extent: f64,
 }
@@ -140,7 +144,8 @@ impl Occluders {
         } else {
             ((lo + hi) * 0.5, (hi - lo).length().max(f64::MIN_POSITIVE))
         };
-        let local = |p: DVec3| Vec3A::from((p - origin).as_vec3());
+        let scale = extent.recip();
+        let local = |p: DVec3| Vec3A::from(((p - origin) * scale).as_vec3());
         let bt: Vec<BvhTriangle> = tris
             .iter()
             .map(|t| BvhTriangle {
@@ -170,6 +175,7 @@ impl Occluders {
             bvh,
             cw,
             origin,
+            scale,
             extent,
         }
     }
@@ -182,6 +188,11 @@ impl Occluders {
     /// Whether there is no triangle at all.
     pub fn is_empty(&self) -> bool {
         self.rt.is_empty()
+    }
+
+    /// `p` in the f32 coordinates of the BVH.
+    fn local(&self, p: DVec3) -> Vec3A {
+        Vec3A::from(((p - self.origin) * self.scale).as_vec3())
     }
 
     /// The length scale of the scene (diagonal of its bounds).
@@ -205,14 +216,15 @@ impl Occluders {
         if self.rt.is_empty() {
             return true;
         }
-        let d = b - a;
+        // In local units (the scene extent is 1).
+        let d = (b - a) * self.scale;
         let len = d.length();
-        let margin = (1e-4 * len).max(1e-6 * self.extent);
+        let margin = (1e-4 * len).max(1e-6);
         if len <= 2.0 * margin {
             return true;
         }
         let dir = Vec3A::from((d / len).as_vec3());
-        let o = Vec3A::from((a - self.origin).as_vec3());
+        let o = self.local(a);
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
         self.cw.ray_traverse_miss(ray, |r, id| {
             if skip(self.rt_source[id]) {
@@ -239,9 +251,9 @@ impl Occluders {
             return None;
         }
         let dir = Vec3A::from((direction / len).as_vec3());
-        let o = Vec3A::from((origin - self.origin).as_vec3());
-        let t_max = t_max.min(f64::from(f32::MAX));
-        let ray = Ray::new(o, dir, t_min as f32, t_max as f32);
+        let o = self.local(origin);
+        let t_max = (t_max * self.scale).min(f64::from(f32::MAX));
+        let ray = Ray::new(o, dir, (t_min * self.scale) as f32, t_max as f32);
         let mut hit = obvhs::ray::RayHit::none();
         if !self
             .cw
@@ -252,7 +264,7 @@ impl Occluders {
         let id = hit.primitive_id as usize;
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
-            distance: f64::from(hit.t),
+            distance: f64::from(hit.t) * self.extent,
             triangle: self.rt_source[id],
             u,
             v,
@@ -280,8 +292,8 @@ impl Occluders {
         }
         let (lo, hi) = (lo - tol, hi + tol);
         let bx = Aabb::new(
-            Vec3A::from((lo - self.origin).as_vec3()) - Vec3A::splat(1e-6 * self.extent as f32),
-            Vec3A::from((hi - self.origin).as_vec3()) + Vec3A::splat(1e-6 * self.extent as f32),
+            self.local(lo) - Vec3A::splat(1e-6),
+            self.local(hi) + Vec3A::splat(1e-6),
         );
         let (ds, dt) = (ns.dot(s[0]), nt.dot(t[0]));
         let mut found = false;
