@@ -238,15 +238,17 @@ fn sampled_estimate_is_unbiased_and_honest_about_its_spread() {
 /// bench (`benches/benches/order.rs`) tracks the target at 1024+ patches; here, at n = 286,
 /// the ratios are regression guards set about 10% under the measured values (the inputs are
 /// deterministic; the margin absorbs changes in simplification and form factors): best vs
-/// random ≥ 1.3 (BC1, measured 1.44) and ≥ 1.4 (BC4, measured 1.57); `paper` and `spatial`
-/// each ≥ 1.1× better than random (measured ≥ 1.21). In the paper's own measure, the RMS error
-/// of the log texture in codes, the gain is larger (a code wrong on a tiny entry counts as much
-/// as on a large one, and `random` gets many wrong): measured 3.04× (BC1) and 3.57× (BC4) at
-/// n = 286, 5.8× for BC1 at n = 4106; guarded at 2.7× and 3.2×.
+/// random ≥ 1.2 (BC1, measured 1.29 in session 6; 1.32 before shadow rays ended on the part
+/// of a target in front of the source, 1.44 before the value-space encoder) and ≥ 1.4 (BC4,
+/// measured 1.55); `paper` and `spatial` each ≥ 1.1× better than random (measured ≥ 1.14). In
+/// the paper's own measure, the RMS error of the log texture in codes, the gain is larger (a
+/// code wrong on a tiny entry counts as much as on a large one, and `random` gets many
+/// wrong): measured 3.25× (BC1) and 3.48× (BC4) at n = 286, 8.8× for BC1 at n = 4106; guarded
+/// at 2.7× and 3.2×.
 #[test]
 fn best_beats_random_and_never_loses_to_none() {
     let b = cornell();
-    for (encode, want_best, want_codes) in [(bc1(), 1.3, 2.7), (bc4(), 1.4, 3.2)] {
+    for (encode, want_best, want_codes) in [(bc1(), 1.2, 2.7), (bc4(), 1.4, 3.2)] {
         let c = exact_errors(b, encode);
         let best = &c[order::choose_best(&c)];
         let (random, none) = (
