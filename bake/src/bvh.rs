@@ -3,9 +3,9 @@
 //! triangles could possibly block light between two surfaces.
 //!
 //! Every triangle blocks from both sides (DESIGN.md): the intersection test does not cull back
-//! faces. Coordinates are stored in f32 relative to the scene centre and in units of the
-//! scene's extent, so a scene far from the origin loses no precision and one of any size looks
-//! the same to obvhs (its CWBVH failed a scene scaled by 1e-4 in absolute units).
+//! faces. Coordinates are stored in f32 relative to the scene centre and scaled to one extent
+//! ([`LOCAL_EXTENT`]), so a scene far from the origin loses no precision and one of any size
+//! looks the same to obvhs, whose CWBVH has an absolute epsilon.
 
 use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
@@ -34,12 +34,21 @@ pub struct Occluders {
     corners: Vec<[DVec3; 3]>,
     /// Local origin of the f32 coordinates.
     origin: DVec3,
-    /// Local unit of the f32 coordinates, `1 / extent`: the BVH sees every scene at unit size,
-    /// so no absolute epsilon inside obvhs depends on the scene's scale.
+    /// Local units per scene unit, `LOCAL_EXTENT / extent`: the BVH sees every scene at one
+    /// size (see [`LOCAL_EXTENT`]).
     scale: f64,
     /// Diagonal of the scene bounds: the length scale of every tolerance here.
     extent: f64,
 }
+
+/// The extent of every scene in the BVH's f32 coordinates. obvhs's CWBVH skips every node
+/// that lies within an absolute 1e-4 of a ray's origin (`cwbvh::node::EPSILON`), so the local
+/// unit must make 1e-4 far smaller than the segment margin (1e-6 of the extent, 0.066 here):
+/// in scene units a small scene (the Cornell box's extent is ~3.5) can lose blockers near ray
+/// origins, a scene scaled by 1e-4 lost them all (`results_do_not_depend_on_the_scale`), and at extent 1 the conference room's loose parts merged through
+/// chair details (4269 patches instead of 4410). A power of two, so the scaling is exact
+/// in the exponent; f32 keeps the same relative precision at any scale.
+const LOCAL_EXTENT: f64 = 65_536.0;
 
 /// Relative (to the scene extent) tolerance of the plane tests in [`Occluders::may_block`]:
 /// above f64 rounding of any coordinate, far below any feature a form factor resolves.
@@ -144,7 +153,7 @@ impl Occluders {
         } else {
             ((lo + hi) * 0.5, (hi - lo).length().max(f64::MIN_POSITIVE))
         };
-        let scale = extent.recip();
+        let scale = LOCAL_EXTENT / extent;
         let local = |p: DVec3| Vec3A::from(((p - origin) * scale).as_vec3());
         let bt: Vec<BvhTriangle> = tris
             .iter()
@@ -216,10 +225,10 @@ impl Occluders {
         if self.rt.is_empty() {
             return true;
         }
-        // In local units (the scene extent is 1).
+        // In local units (the scene extent is LOCAL_EXTENT).
         let d = (b - a) * self.scale;
         let len = d.length();
-        let margin = (1e-4 * len).max(1e-6);
+        let margin = (1e-4 * len).max(1e-6 * LOCAL_EXTENT);
         if len <= 2.0 * margin {
             return true;
         }
@@ -264,7 +273,7 @@ impl Occluders {
         let id = hit.primitive_id as usize;
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
-            distance: f64::from(hit.t) * self.extent,
+            distance: f64::from(hit.t) / self.scale,
             triangle: self.rt_source[id],
             u,
             v,
@@ -292,8 +301,8 @@ impl Occluders {
         }
         let (lo, hi) = (lo - tol, hi + tol);
         let bx = Aabb::new(
-            self.local(lo) - Vec3A::splat(1e-6),
-            self.local(hi) + Vec3A::splat(1e-6),
+            self.local(lo) - Vec3A::splat((1e-6 * LOCAL_EXTENT) as f32),
+            self.local(hi) + Vec3A::splat((1e-6 * LOCAL_EXTENT) as f32),
         );
         let (ds, dt) = (ns.dot(s[0]), nt.dot(t[0]));
         let mut found = false;
