@@ -26,10 +26,9 @@ pub struct Occluders {
     /// For rays: twice as fast as the BVH2 on segments that mostly get through (conference
     /// room, 400 k segments: 0.53 against 1.14 µs each), 1.8× on closest hits.
     cw: CwBvh,
-    /// Ray-test triangles in CWBVH primitive order.
+    /// Ray-test triangles in CWBVH primitive order (`cw.primitive_indices` maps them to the
+    /// triangle list the BVH was built from).
     rt: Vec<RayTriangle>,
-    /// Index of each CWBVH primitive in the triangle list the BVH was built from.
-    rt_source: Vec<u32>,
     /// f64 corners in BVH2 primitive order (for the exact plane tests of [`Self::may_block`]).
     corners: Vec<[DVec3; 3]>,
     /// Local origin of the f32 coordinates.
@@ -45,10 +44,16 @@ pub struct Occluders {
 /// that lies within an absolute 1e-4 of a ray's origin (`cwbvh::node::EPSILON`), so the local
 /// unit must make 1e-4 far smaller than the segment margin (1e-6 of the extent, 0.066 here):
 /// in scene units a small scene (the Cornell box's extent is ~3.5) can lose blockers near ray
-/// origins, a scene scaled by 1e-4 lost them all (`results_do_not_depend_on_the_scale`), and at extent 1 the conference room's loose parts merged through
-/// chair details (4269 patches instead of 4410). A power of two, so the scaling is exact
-/// in the exponent; f32 keeps the same relative precision at any scale.
+/// origins, a scene scaled by 1e-4 lost them all (`results_do_not_depend_on_the_scale`), and
+/// at extent 1 the conference room's loose parts merged through chair details (4269 patches
+/// instead of 4410). A power of two, so the scaling is exact in the exponent; f32 keeps the
+/// same relative precision at any scale.
 const LOCAL_EXTENT: f64 = 65_536.0;
+
+/// `p` in the BVH's f32 coordinates: relative to `origin`, `scale` local units per scene unit.
+fn to_local(p: DVec3, origin: DVec3, scale: f64) -> Vec3A {
+    Vec3A::from(((p - origin) * scale).as_vec3())
+}
 
 /// Relative (to the scene extent) tolerance of the plane tests in [`Occluders::may_block`]:
 /// above f64 rounding of any coordinate, far below any feature a form factor resolves.
@@ -154,7 +159,7 @@ impl Occluders {
             ((lo + hi) * 0.5, (hi - lo).length().max(f64::MIN_POSITIVE))
         };
         let scale = LOCAL_EXTENT / extent;
-        let local = |p: DVec3| Vec3A::from(((p - origin) * scale).as_vec3());
+        let local = |p: DVec3| to_local(p, origin, scale);
         let bt: Vec<BvhTriangle> = tris
             .iter()
             .map(|t| BvhTriangle {
@@ -173,13 +178,12 @@ impl Occluders {
             )
         };
         let order: Vec<usize> = bvh.primitive_indices.iter().map(|&i| i as usize).collect();
-        let rt_source = cw.primitive_indices.clone();
         Self {
-            rt: rt_source
+            rt: cw
+                .primitive_indices
                 .iter()
                 .map(|&i| RayTriangle::new(&bt[i as usize]))
                 .collect(),
-            rt_source,
             corners: order.iter().map(|&i| tris[i]).collect(),
             bvh,
             cw,
@@ -201,7 +205,7 @@ impl Occluders {
 
     /// `p` in the f32 coordinates of the BVH.
     fn local(&self, p: DVec3) -> Vec3A {
-        Vec3A::from(((p - self.origin) * self.scale).as_vec3())
+        to_local(p, self.origin, self.scale)
     }
 
     /// The length scale of the scene (diagonal of its bounds).
@@ -236,7 +240,7 @@ impl Occluders {
         let o = self.local(a);
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
         self.cw.ray_traverse_miss(ray, |r, id| {
-            if skip(self.rt_source[id]) {
+            if skip(self.cw.primitive_indices[id]) {
                 f32::INFINITY
             } else {
                 self.rt[id].intersect(r)
@@ -274,7 +278,7 @@ impl Occluders {
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
             distance: f64::from(hit.t) / self.scale,
-            triangle: self.rt_source[id],
+            triangle: self.cw.primitive_indices[id],
             u,
             v,
         })
