@@ -1,6 +1,7 @@
 //! [`WgpuGather`]: the device, the persistent buffers and textures, the per-frame dispatches.
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
+use crate::device::{self, SerialDevice};
 use crate::plan::{self, PlanLimits};
 use crate::probe;
 use crate::shader::{self, Source};
@@ -79,8 +80,6 @@ struct Timer {
 /// every [`Gather::gather`] then uploads `x`, dispatches, and reads `y` back.
 #[derive(Debug)]
 pub struct WgpuGather {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
     adapter: AdapterInfo,
     path: DecodePath,
     model: Option<DecodeMode>,
@@ -98,6 +97,9 @@ pub struct WgpuGather {
     timer: Option<Timer>,
     kernel_ms: Option<f64>,
     declined: bool,
+    /// Last, so that every resource above is gone when it drops and the device is destroyed
+    /// under the process-wide lock ([`crate::device`]).
+    dev: SerialDevice,
 }
 
 /// A storage buffer of at least 4 bytes (an empty binding is invalid) with `data` in it.
@@ -230,14 +232,19 @@ impl WgpuGather {
         };
         // GPU timestamps for `kernel_ms`, where the adapter has them.
         features |= adapter.inner.features() & wgpu::Features::TIMESTAMP_QUERY;
-        let (device, queue) =
-            pollster::block_on(adapter.inner.request_device(&wgpu::DeviceDescriptor {
+        // Bound first, so it drops last: on an error below, every resource is gone before the
+        // device is destroyed under the lock.
+        let dev = device::open(
+            &adapter.inner,
+            &wgpu::DeviceDescriptor {
                 label: Some("radiosity gather"),
                 required_features: features,
                 required_limits: adapter.inner.limits(),
                 ..Default::default()
-            }))
-            .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+            },
+        )
+        .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+        let device = dev.device();
         let errors = Arc::new(Mutex::new(Vec::new()));
         {
             let errors = errors.clone();
@@ -249,17 +256,8 @@ impl WgpuGather {
         }
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let built = Self::build(
-            matrix,
-            device.clone(),
-            queue,
-            info,
-            path,
-            model,
-            options,
-            errors,
-        )
-        .map(|g| WgpuGather { declined, ..g });
+        let built = Self::build(matrix, dev.clone(), info, path, model, options, errors)
+            .map(|g| WgpuGather { declined, ..g });
         let oom = pollster::block_on(oom.pop());
         let validation = pollster::block_on(validation.pop());
         if let Some(e) = oom.or(validation) {
@@ -278,8 +276,7 @@ impl WgpuGather {
 
     fn build(
         matrix: &TransferMatrix<'_>,
-        device: wgpu::Device,
-        queue: wgpu::Queue,
+        dev: SerialDevice,
         adapter: AdapterInfo,
         path: DecodePath,
         model: Option<DecodeMode>,
@@ -295,6 +292,7 @@ impl WgpuGather {
         );
         assert_eq!(matrix.scales.len(), l.scale_count(), "scale count");
         let unsupported = GpuError::Unsupported;
+        let (device, queue) = (dev.device(), dev.queue());
         let dl = device.limits();
         let cap = |own: u64, opt: Option<u64>| opt.map_or(own, |o| o.min(own));
         let lim = PlanLimits {
@@ -333,7 +331,7 @@ impl WgpuGather {
                     &tables[ty * row_tables..(ty + 1) * row_tables]
                 };
                 storage(
-                    &device,
+                    device,
                     "tables",
                     bytemuck::cast_slice(part),
                     wgpu::BufferUsages::empty(),
@@ -457,7 +455,7 @@ impl WgpuGather {
             Source::Texture => DecodeMode::D3d10,
         };
         let gather_pipeline = pipeline(
-            &device,
+            device,
             "gather",
             &shader::gather(format, channels, source, mode),
             "gather",
@@ -495,7 +493,7 @@ impl WgpuGather {
                     }
                     device_bytes += bytes.len() as u64;
                     keep_buffers.push(storage(
-                        &device,
+                        device,
                         "blocks",
                         &bytes,
                         wgpu::BufferUsages::empty(),
@@ -508,8 +506,8 @@ impl WgpuGather {
                         plan::copy_plane(&l, &matrix.blocks, p, band, &mut bytes);
                         device_bytes += bytes.len() as u64;
                         views.push(upload_texture(
-                            &device,
-                            &queue,
+                            device,
+                            queue,
                             tf,
                             (band.cols, band.rows),
                             &bytes,
@@ -573,7 +571,7 @@ impl WgpuGather {
             ],
         });
         let finish_pipeline = pipeline(
-            &device,
+            device,
             "finish",
             &shader::finish(channels),
             "finish",
@@ -589,19 +587,19 @@ impl WgpuGather {
                 .collect();
             let (a, b) = (a as usize, b as usize);
             let ptr = storage(
-                &device,
+                device,
                 "sparse rows",
                 bytemuck::cast_slice(&ptr),
                 wgpu::BufferUsages::empty(),
             );
             let cols = storage(
-                &device,
+                device,
                 "sparse columns",
                 bytemuck::cast_slice(&sp.cols[a..b]),
                 wgpu::BufferUsages::empty(),
             );
             let vals = storage(
-                &device,
+                device,
                 "sparse values",
                 bytemuck::cast_slice(&sp.values[a * channels..b * channels]),
                 wgpu::BufferUsages::empty(),
@@ -660,8 +658,6 @@ impl WgpuGather {
         }
 
         Ok(WgpuGather {
-            device,
-            queue,
             name: format!("gpu-{}", format.name()),
             adapter,
             path,
@@ -679,6 +675,7 @@ impl WgpuGather {
             timer,
             kernel_ms: None,
             declined: false,
+            dev,
         })
     }
 
@@ -803,13 +800,15 @@ impl Gather for WgpuGather {
 
     fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
         check_gather_args(self.n, exitance, irradiance)?;
-        self.queue
+        self.dev
+            .queue()
             .write_buffer(&self.x, 0, bytemuck::cast_slice(exitance));
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("gather"),
-            });
+        let mut encoder =
+            self.dev
+                .device()
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("gather"),
+                });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("gather"),
@@ -839,12 +838,13 @@ impl Gather for WgpuGather {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolve, 0);
             encoder.copy_buffer_to_buffer(&t.resolve, 0, &self.readback, stamps_at, 16);
         }
-        self.queue.submit([encoder.finish()]);
+        self.dev.queue().submit([encoder.finish()]);
         let (tx, rx) = mpsc::channel();
         self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
-        self.device
+        self.dev
+            .device()
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GatherError::Backend(format!("{}: {e}", self.adapter.name)))?;
         let mapped = rx

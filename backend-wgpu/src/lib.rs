@@ -58,6 +58,7 @@
 
 mod adapter;
 mod conv;
+mod device;
 mod gather;
 mod plan;
 pub mod probe;

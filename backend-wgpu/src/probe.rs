@@ -10,6 +10,7 @@
 
 use crate::GpuError;
 use crate::adapter::Adapter;
+use crate::device;
 use crate::gather::upload_texture;
 use radiosity_core::{Bc1Block, Bc4Block, DecodeMode};
 use std::collections::HashMap;
@@ -28,15 +29,20 @@ pub fn read_bc_texels(
 ) -> Result<Vec<[f32; 4]>, GpuError> {
     let info = &adapter.info;
     let inner = adapter.wgpu_adapter();
-    let (device, queue) = pollster::block_on(inner.request_device(&wgpu::DeviceDescriptor {
-        label: Some("bc probe"),
-        required_features: wgpu::Features::TEXTURE_COMPRESSION_BC,
-        ..Default::default()
-    }))
+    // Bound first, so it drops last: the device is destroyed under the lock (`device`).
+    let dev = device::open(
+        inner,
+        &wgpu::DeviceDescriptor {
+            label: Some("bc probe"),
+            required_features: wgpu::Features::TEXTURE_COMPRESSION_BC,
+            ..Default::default()
+        },
+    )
     .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+    let (device, queue) = (dev.device(), dev.queue());
     let rows = blocks.len() / 8 / WIDE;
     assert_eq!(rows * WIDE * 8, blocks.len(), "whole rows of blocks");
-    let view = upload_texture(&device, &queue, format, (WIDE, rows), blocks);
+    let view = upload_texture(device, queue, format, (WIDE, rows), blocks);
     let (width, height) = ((WIDE * 4) as u32, (rows * 4) as u32);
     let bytes = u64::from(width * height) * 16;
     let buffer = |usage| {
