@@ -67,14 +67,14 @@ pub(crate) fn gather(format: Format, channels: usize, source: Source, mode: Deco
             .collect::<Vec<_>>()
             .join("\n"),
     };
-    // The block body once per block row of the workgroup, each behind a branch on the band's
-    // last block row. Without the branches (the last row read again instead) the H100 ran BC1
-    // at 16384 patches in 0.326 ms instead of 0.376, but the wgpu test suite, 14 s there
-    // before, did not finish in 90 s: reverted, cause not found (ARCHITECTURE.md). Everything
-    // is unrolled here, in the text, down to the texel: every sum and every `x` is a scalar
-    // variable with a fixed name (`acc5`, `xc2`). A loop with `acc[i / 4]` left for the driver
-    // to unroll put the sums in scratch memory on an NVIDIA H100 (16384 patches BC1: 1.16 ms,
-    // unrolled here 0.38 ms; ARCHITECTURE.md).
+    // The block body once per block row of the workgroup, without a branch: past the band's
+    // last block row the last one is read again, and `reduce` writes only real rows (a branch
+    // per block row kept the driver from scheduling the rows' loads together: H100, 16384
+    // patches, BC1 0.376 → 0.327 ms, f16 0.740 → 0.700 ms). Everything is unrolled here, in
+    // the text, down to the texel: every sum and every `x` is a scalar variable with a fixed
+    // name (`acc5`, `xc2`). A loop with `acc[i / 4]` left for the driver to unroll put the sums
+    // in scratch memory on an NVIDIA H100 (16384 patches BC1: 1.16 ms, unrolled here 0.38 ms;
+    // ARCHITECTURE.md).
     let body = (0..ROWS)
         .map(|q| {
             let mut b = block.clone();
@@ -82,7 +82,7 @@ pub(crate) fn gather(format: Format, channels: usize, source: Source, mode: Deco
                 b = b.replace(&format!("ACC{r}"), &format!("acc{}", 4 * q + r));
             }
             format!(
-                "{{\n            let rb = rb0 + {q}u;\n            if rb < band.rows {{\n            {b}\n            }}\n            }}"
+                "{{\n            let rb = min(rb0 + {q}u, band.rows - 1u);\n            {b}\n            }}"
             )
         })
         .collect::<Vec<_>>()
