@@ -266,3 +266,102 @@ fn many_pieces_go_through_clustered_pairs_and_keep_a_sphere_in_a_box() {
     let (lo, hi) = range(&fast, false);
     assert!(lo > 0.98 && hi < 1.02, "wall rows [{lo}, {hi}]");
 }
+
+/// Two triangles of the quad `c` (corners in order), wound so that their normal is `normal`.
+fn quad(c: [glam::DVec3; 4], normal: glam::DVec3, object: u32) -> Vec<([glam::DVec3; 3], u32)> {
+    let (a, b, d) = if (c[1] - c[0]).cross(c[2] - c[0]).dot(normal) > 0.0 {
+        (c[0], c[1], c[3])
+    } else {
+        (c[0], c[3], c[1])
+    };
+    let e = c[2];
+    let first = [a, b, e];
+    let second = [a, e, d];
+    vec![(first, object), (second, object)]
+}
+
+#[test]
+fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
+    use glam::DVec3;
+    // A small plate 0.1 above a 10 × 10 panel, facing it, inside a fence of four walls 0.5 from
+    // its centre and 0.3 high: the plate sees the panel only inside the fence (1% of its
+    // area), where the kernel is concentrated (the conference room's small parts in front of
+    // large panels). Shadow rays to points spread uniformly over the panel saw it through the
+    // fence almost never and gave F ≈ 0.01 of the truth; rays drawn in proportion to the
+    // kernel must agree with cosine-weighted hemisphere rays from the plate.
+    let z = DVec3::Z;
+    let sq = |h: f64, r: f64| {
+        [
+            DVec3::new(-r, -r, h),
+            DVec3::new(r, -r, h),
+            DVec3::new(r, r, h),
+            DVec3::new(-r, r, h),
+        ]
+    };
+    let mut tris = quad(sq(0.0, 5.0), z, 0);
+    tris.extend(quad(sq(0.1, 0.1), -z, 1));
+    let (r, h) = (0.5, 0.3);
+    for (k, n) in [DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y]
+        .into_iter()
+        .enumerate()
+    {
+        // The wall at -r·n, facing +n (inwards).
+        let side = DVec3::new(n.y, -n.x, 0.0) * r;
+        let base = -n * r;
+        let c = [
+            base - side,
+            base + side,
+            base + side + z * h,
+            base - side + z * h,
+        ];
+        tris.extend(quad(c, n, 2 + k as u32));
+    }
+    let names = ["panel", "plate", "wall0", "wall1", "wall2", "wall3"];
+    let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
+    let occ = Occluders::new(&scene);
+
+    // Hemisphere rays from the plate: the share that first meets the panel's front is F.
+    let mut rng = radiosity_bake::rng::SplitMix64(7);
+    let rays = 40_000;
+    let mut on_panel = 0;
+    for _ in 0..rays {
+        let x = DVec3::new(
+            0.2 * rng.next_f64() - 0.1,
+            0.2 * rng.next_f64() - 0.1,
+            0.1 - 1e-7,
+        );
+        let (r1, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
+        let d = DVec3::new(
+            r1.sqrt() * phi.cos(),
+            r1.sqrt() * phi.sin(),
+            -(1.0 - r1).sqrt(),
+        );
+        if let Some(hit) = occ.closest_hit(x, d, 0.0, 100.0) {
+            on_panel += (tris[hit.triangle as usize].1 == 0) as u32;
+        }
+    }
+    let truth = f64::from(on_panel) / f64::from(rays);
+
+    let p = simplify(&scene, &VoxelParams::with_cell_size(1000.0)).unwrap();
+    let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
+    let (plate, panel) = (find(1), find(0));
+    for exact_pieces in [usize::MAX, 0] {
+        let params = FormFactorParams {
+            visibility: Visibility::Rays {
+                per_sample: 16,
+                skip_unblockable: true,
+            },
+            exact_pieces,
+            ..Default::default()
+        };
+        let ff = form_factors(&p, Some(&occ), &params, None);
+        let f = f64::from(ff.get(plate, panel));
+        println!(
+            "exact_pieces {exact_pieces}: F(plate → panel) {f:.4}, hemisphere rays {truth:.4}"
+        );
+        // Measured 0.0003 (exact pairs) and 0.012 (clustered: 1024 rays, the lift of its ray
+        // ends) from the hemisphere estimate, whose own noise is 0.001 (40 000 rays); 5% of F.
+        // Uniform ray ends gave 0.012 against 0.967.
+        assert!((f - truth).abs() <= 0.05 * truth, "F {f} against {truth}");
+    }
+}
