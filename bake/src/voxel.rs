@@ -420,9 +420,12 @@ const LIFT: f64 = 1e-3;
 /// The triangle condition keeps every guarantee of the orientation rule for surfaces modelled
 /// with polygons of at least a tenth of a cell face (floors, walls, thin walls, boxes: the
 /// Cornell box bakes as before): their slivers at the rim of a surface or in a corner cell are
-/// small groups by area but stay apart. Only finely tessellated parts merge. A tenth: the
-/// conference room at `--patches 4096` gave 4169 patches at cell size 130 with it, and the
-/// count and cell size move little between 0.05 and 0.2 (see `ARCHITECTURE.md`).
+/// small groups by area but stay apart. Only finely tessellated parts merge; a thin wall
+/// tessellated that finely may, at its rim, put a sliver of one side (under a tenth of a face)
+/// in a patch of the other. A tenth: the
+/// conference room at `--patches 4096` gets cells of 130 units and 294 floor patches with it,
+/// 148 and 228 with 0.05, 130 and 294 with 0.2 (`ARCHITECTURE.md`, "Small groups merge");
+/// smaller than a quarter keeps `orientation_splits_patches`' surfaces apart.
 const SMALL_GROUP: f64 = 0.1;
 
 /// Merges the small groups ([`SMALL_GROUP`]) into others of their cell, object and material,
