@@ -649,33 +649,33 @@ impl<'a> Pairs<'a> {
             live,
             entries,
             targets,
+            starts,
             ..
         } = scratch;
         entries.clear();
         targets.clear();
+        starts.clear();
         targets.extend(dst.iter().map(centre_radius));
+        // The contributions come in a fixed order (per source piece: its centre-to-centre
+        // pairs in target order, then its near ones), and visibility is drawn along their
+        // running sum. Only the near ones are kept: centre-to-centre pairs are cheap to
+        // recompute and are about `|src|·|dst|` many (48 bytes each: with patches of up to
+        // 25 000 pieces, the conference room's bake was killed at 24 GB keeping them), so they
+        // are summed here and recomputed, in the same order and to the same bits, only for the
+        // source pieces where a ray is drawn.
+        let mut total = 0.0;
         for (si, s) in src.iter().enumerate() {
             let sv = s.polygon.vertices();
             let (cs, rs) = centre_radius(s);
+            starts.push((total, entries.len()));
             live.clear();
             for (ti, t) in dst.iter().enumerate() {
-                let (ct, rt) = targets[ti];
-                let d = ct - cs;
-                let r2 = d.length_squared();
-                if r2 > (POINT_RATIO * (rs + rt)).powi(2) {
-                    let inv = r2.sqrt().recip();
-                    let (c1, c2) = (s.normal.dot(d) * inv, -t.normal.dot(d) * inv);
-                    if c1 > 0.0 && c2 > 0.0 {
-                        entries.push(Entry {
-                            x: cs,
-                            s: si as u32,
-                            t: ti as u32,
-                            g: s.area * t.area * c1 * c2 / (std::f64::consts::PI * r2),
-                            centre: true,
-                        });
+                if near(cs, rs, targets[ti]) {
+                    if facing(sv, s.normal, t.polygon.vertices(), t.normal, self.tol) {
+                        live.push((ti, true));
                     }
-                } else if facing(sv, s.normal, t.polygon.vertices(), t.normal, self.tol) {
-                    live.push((ti, true));
+                } else if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
+                    total += g;
                 }
             }
             if live.is_empty() {
@@ -694,6 +694,7 @@ impl<'a> Pairs<'a> {
                         &mut |q| {
                             let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
                             if f > 0.0 {
+                                total += q.w * f;
                                 entries.push(Entry {
                                     x: q.x,
                                     s: si as u32,
@@ -707,7 +708,6 @@ impl<'a> Pairs<'a> {
                 }
             }
         }
-        let total: f64 = entries.iter().map(|e| e.g).sum();
         let (per_sample, occ) = match (self.params.visibility, self.occ) {
             (Visibility::Rays { per_sample, .. }, Some(o)) => (per_sample.max(1) as usize, o),
             _ => return total,
@@ -738,17 +738,65 @@ impl<'a> Pairs<'a> {
         let step = total / budget as f64;
         let mut next = (0.5 + base as f64 * 0.618_033_988_749_895).fract() * step;
         let (mut run, mut hits, mut drawn) = (0.0, 0usize, 0u64);
-        for e in entries.iter() {
-            run += e.g;
-            while next < run && drawn < budget as u64 {
-                hits += visible(e, drawn) as usize;
-                drawn += 1;
-                next += step;
+        // Draws the rays that fall in a contribution ending at `run`.
+        let draw = |e: &Entry, run: f64, next: &mut f64, hits: &mut usize, drawn: &mut u64| {
+            while *next < run && *drawn < budget as u64 {
+                *hits += visible(e, *drawn) as usize;
+                *drawn += 1;
+                *next += step;
+            }
+        };
+        for (si, s) in src.iter().enumerate() {
+            let (end, near_end) = starts
+                .get(si + 1)
+                .copied()
+                .unwrap_or((total, entries.len()));
+            if next >= end || drawn >= budget as u64 {
+                // No ray falls in this source piece's contributions.
+                run = end;
+                continue;
+            }
+            let (cs, rs) = centre_radius(s);
+            for (ti, t) in dst.iter().enumerate() {
+                if near(cs, rs, targets[ti]) {
+                    continue;
+                }
+                if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
+                    run += g;
+                    let e = Entry {
+                        x: cs,
+                        s: si as u32,
+                        t: ti as u32,
+                        g,
+                        centre: true,
+                    };
+                    draw(&e, run, &mut next, &mut hits, &mut drawn);
+                }
+            }
+            for e in &entries[starts[si].1..near_end] {
+                run += e.g;
+                draw(e, run, &mut next, &mut hits, &mut drawn);
             }
         }
         *rays += drawn;
         total * hits as f64 / drawn.max(1) as f64
     }
+}
+
+/// Whether a source piece (centre `cs`, radius `rs`) and a target piece (centre and radius
+/// `ct`) are near: not more than [`POINT_RATIO`] times the sum of their radii apart.
+fn near(cs: DVec3, rs: f64, ct: (DVec3, f64)) -> bool {
+    (ct.0 - cs).length_squared() <= (POINT_RATIO * (rs + ct.1)).powi(2)
+}
+
+/// The unoccluded exchange of source piece `s` (centre `cs`) and target piece `t` (centre
+/// `ct`) centre to centre, for pieces that are not [`near`]; `None` when they face away.
+fn centre_to_centre(s: &Piece, cs: DVec3, t: &Piece, ct: DVec3) -> Option<f64> {
+    let d = ct - cs;
+    let r2 = d.length_squared();
+    let inv = r2.sqrt().recip();
+    let (c1, c2) = (s.normal.dot(d) * inv, -t.normal.dot(d) * inv);
+    (c1 > 0.0 && c2 > 0.0).then(|| s.area * t.area * c1 * c2 / (std::f64::consts::PI * r2))
 }
 
 /// A point of piece `p` (the `k`-th of [`polygon_point`]) in front of the plane of `other`:
@@ -793,8 +841,12 @@ struct Scratch {
     /// Pairs that went through [`Pairs::clustered`] on this thread.
     clustered: u64,
     live: Vec<(usize, bool)>,
+    /// The near contributions of a clustered pair.
     entries: Vec<Entry>,
     targets: Vec<(DVec3, f64)>,
+    /// Per source piece of a clustered pair: the running sum of the contributions before its
+    /// own, and its first near contribution in `entries`.
+    starts: Vec<(f64, usize)>,
 }
 
 /// A piece's area-weighted centre and the largest distance from it to a corner.
