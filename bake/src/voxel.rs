@@ -280,8 +280,9 @@ fn component_areas(scene: &Scene, component: &[u32]) -> Vec<f64> {
     area
 }
 
-/// What loose parts need to merge: each surface's area and the occluders for the visibility
-/// test (built on first use: most scenes at most cell sizes have no loose part).
+/// What loose parts and small groups need to merge: each surface's area, the surfaces, and
+/// the occluders for the visibility test (built on first use: most scenes at most cell sizes
+/// have no loose part and no small group of fine triangles).
 struct Loose<'a> {
     area: Vec<f64>,
     occluders: std::cell::OnceCell<Occluders>,
@@ -422,10 +423,9 @@ const LIFT: f64 = 1e-3;
 /// Cornell box bakes as before): their slivers at the rim of a surface or in a corner cell are
 /// small groups by area but stay apart. Only finely tessellated parts merge; a thin wall
 /// tessellated that finely may, at its rim, put a sliver of one side (under a tenth of a face)
-/// in a patch of the other. A tenth: the
-/// conference room at `--patches 4096` gets cells of 130 units and 294 floor patches with it,
-/// 148 and 228 with 0.05, 130 and 294 with 0.2 (`ARCHITECTURE.md`, "Small groups merge");
-/// smaller than a quarter keeps `orientation_splits_patches`' surfaces apart.
+/// in a patch of the other. A tenth: the conference room at `--patches 4096` gets cells of 130
+/// units and 294 floor patches with it, 148 and 228 with 0.05, 130 and 294 with 0.2
+/// (`ARCHITECTURE.md`, "Small groups merge").
 const SMALL_GROUP: f64 = 0.1;
 
 /// Merges the small groups ([`SMALL_GROUP`]) into others of their cell, object and material,

@@ -1,5 +1,5 @@
-//! Voxel simplification: patch targets, area preservation, orientation splitting, vertex
-//! interpolation weights.
+//! Voxel simplification: patch targets, area preservation, orientation splitting, small curved
+//! parts merging, vertex interpolation weights.
 
 mod bake_support;
 
