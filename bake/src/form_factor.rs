@@ -647,27 +647,48 @@ impl<'a> Pairs<'a> {
     ) -> f64 {
         let Scratch {
             live,
-            entries,
             targets,
             starts,
+            blocks,
             ..
         } = scratch;
-        entries.clear();
         targets.clear();
         starts.clear();
+        blocks.clear();
         targets.extend(dst.iter().map(centre_radius));
+        // The near contributions of source piece `s` and target piece `t`: each near target
+        // gets its own adaptive quadrature of the source, so that a source piece that touches
+        // one target is refined next to that one only.
+        let near_contributions = |s: &Piece, t: &Piece, out: &mut dyn FnMut(DVec3, f64)| {
+            let sv = s.polygon.vertices();
+            let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
+            for i in 1..sv.len() - 1 {
+                integrate(
+                    [sv[0], sv[i], sv[i + 1]],
+                    &self.params.quadrature,
+                    &dist,
+                    &mut |q| {
+                        let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
+                        if f > 0.0 {
+                            out(q.x, q.w * f);
+                        }
+                    },
+                );
+            }
+        };
         // The contributions come in a fixed order (per source piece: its centre-to-centre
-        // pairs in target order, then its near ones), and visibility is drawn along their
-        // running sum. Only the near ones are kept: centre-to-centre pairs are cheap to
-        // recompute and are about `|src|·|dst|` many (48 bytes each: with patches of up to
-        // 25 000 pieces, the conference room's bake was killed at 24 GB keeping them), so they
-        // are summed here and recomputed, in the same order and to the same bits, only for the
-        // source pieces where a ray is drawn.
+        // pairs in target order, then the quadrature of each near target), and visibility is
+        // drawn along their running sum. None is kept: they are about `|src|·|dst|` many, and
+        // a touching pair of pieces has hundreds of quadrature points (48 bytes each: with
+        // patches of up to 25 000 pieces, the conference room's bake was killed at 21–24 GB
+        // keeping them). This pass sums them and records the running sum where each source
+        // piece and each near piece pair starts; the drawing pass recomputes them, in the same
+        // order and to the same bits, only where a ray falls.
         let mut total = 0.0;
-        for (si, s) in src.iter().enumerate() {
+        for s in src {
             let sv = s.polygon.vertices();
             let (cs, rs) = centre_radius(s);
-            starts.push((total, entries.len()));
+            starts.push((total, blocks.len()));
             live.clear();
             for (ti, t) in dst.iter().enumerate() {
                 if near(cs, rs, targets[ti]) {
@@ -678,34 +699,9 @@ impl<'a> Pairs<'a> {
                     total += g;
                 }
             }
-            if live.is_empty() {
-                continue;
-            }
-            // Each near target gets its own adaptive quadrature of the source: a source piece
-            // that touches one target is refined next to that one only.
             for &(k, _) in live.iter() {
-                let t = &dst[k];
-                let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
-                for i in 1..sv.len() - 1 {
-                    integrate(
-                        [sv[0], sv[i], sv[i + 1]],
-                        &self.params.quadrature,
-                        &dist,
-                        &mut |q| {
-                            let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
-                            if f > 0.0 {
-                                total += q.w * f;
-                                entries.push(Entry {
-                                    x: q.x,
-                                    s: si as u32,
-                                    t: k as u32,
-                                    g: q.w * f,
-                                    centre: false,
-                                });
-                            }
-                        },
-                    );
-                }
+                blocks.push((total, k as u32));
+                near_contributions(s, &dst[k], &mut |_, g| total += g);
             }
         }
         let (per_sample, occ) = match (self.params.visibility, self.occ) {
@@ -746,36 +742,57 @@ impl<'a> Pairs<'a> {
                 *next += step;
             }
         };
+        let done = |next: f64, drawn: u64, end: f64| next >= end || drawn >= budget as u64;
         for (si, s) in src.iter().enumerate() {
-            let (end, near_end) = starts
-                .get(si + 1)
-                .copied()
-                .unwrap_or((total, entries.len()));
-            if next >= end || drawn >= budget as u64 {
-                // No ray falls in this source piece's contributions.
-                run = end;
-                continue;
+            let (end, blocks_end) = starts.get(si + 1).copied().unwrap_or((total, blocks.len()));
+            let own_blocks = starts[si].1..blocks_end;
+            // Where this source piece's centre-to-centre pairs end and its near ones begin.
+            let far_end = if own_blocks.is_empty() {
+                end
+            } else {
+                blocks[own_blocks.start].0
+            };
+            if done(next, drawn, far_end) {
+                run = far_end;
+            } else {
+                let (cs, rs) = centre_radius(s);
+                for (ti, t) in dst.iter().enumerate() {
+                    if near(cs, rs, targets[ti]) {
+                        continue;
+                    }
+                    if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
+                        run += g;
+                        let e = Entry {
+                            x: cs,
+                            s: si as u32,
+                            t: ti as u32,
+                            centre: true,
+                        };
+                        draw(&e, run, &mut next, &mut hits, &mut drawn);
+                    }
+                }
             }
-            let (cs, rs) = centre_radius(s);
-            for (ti, t) in dst.iter().enumerate() {
-                if near(cs, rs, targets[ti]) {
+            for b in own_blocks.clone() {
+                let block_end = if b + 1 < own_blocks.end {
+                    blocks[b + 1].0
+                } else {
+                    end
+                };
+                if done(next, drawn, block_end) {
+                    run = block_end;
                     continue;
                 }
-                if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
+                let k = blocks[b].1;
+                near_contributions(s, &dst[k as usize], &mut |x, g| {
                     run += g;
                     let e = Entry {
-                        x: cs,
+                        x,
                         s: si as u32,
-                        t: ti as u32,
-                        g,
-                        centre: true,
+                        t: k,
+                        centre: false,
                     };
                     draw(&e, run, &mut next, &mut hits, &mut drawn);
-                }
-            }
-            for e in &entries[starts[si].1..near_end] {
-                run += e.g;
-                draw(e, run, &mut next, &mut hits, &mut drawn);
+                });
             }
         }
         *rays += drawn;
@@ -825,13 +842,12 @@ fn front_point(p: &Piece, other: &Piece, k: u64) -> DVec3 {
 /// the lift they are 0.99575 and 0.99918, the sphere's kernel value.
 const LIFT: f64 = 1e-5;
 
-/// A contribution of a clustered pair before visibility: source point `x` (the centre of
-/// source piece `s` for a centre-to-centre pair), target piece `t`, unoccluded exchange `g`.
+/// A contribution of a clustered pair that a ray is drawn for: source point `x` (the centre of
+/// source piece `s` for a centre-to-centre pair), target piece `t`.
 struct Entry {
     x: DVec3,
     s: u32,
     t: u32,
-    g: f64,
     centre: bool,
 }
 
@@ -841,12 +857,13 @@ struct Scratch {
     /// Pairs that went through [`Pairs::clustered`] on this thread.
     clustered: u64,
     live: Vec<(usize, bool)>,
-    /// The near contributions of a clustered pair.
-    entries: Vec<Entry>,
     targets: Vec<(DVec3, f64)>,
     /// Per source piece of a clustered pair: the running sum of the contributions before its
-    /// own, and its first near contribution in `entries`.
+    /// own, and its first near target in `blocks`.
     starts: Vec<(f64, usize)>,
+    /// Per near piece pair of a clustered pair: the running sum before its quadrature, and the
+    /// target piece.
+    blocks: Vec<(f64, u32)>,
 }
 
 /// A piece's area-weighted centre and the largest distance from it to a corner.
