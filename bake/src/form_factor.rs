@@ -672,62 +672,57 @@ impl<'a> Pairs<'a> {
     ) -> f64 {
         let Scratch {
             live,
-            entries,
             targets,
+            starts,
+            blocks,
             ..
         } = scratch;
-        entries.clear();
         targets.clear();
+        starts.clear();
+        blocks.clear();
         targets.extend(dst.iter().map(centre_radius));
-        for (si, s) in src.iter().enumerate() {
+        // The near contributions of source piece `s` and target piece `t`: each near target
+        // gets its own adaptive quadrature of the source, so that a source piece that touches
+        // one target is refined next to that one only.
+        let near_contributions = |s: &Piece, t: &Piece, out: &mut dyn FnMut(DVec3, f64)| {
+            let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
+            for tri in fan(s.polygon.vertices()) {
+                integrate(tri, &self.params.quadrature, &dist, &mut |q| {
+                    let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
+                    if f > 0.0 {
+                        out(q.x, q.w * f);
+                    }
+                });
+            }
+        };
+        // The contributions come in a fixed order (per source piece: its centre-to-centre
+        // pairs in target order, then the quadrature of each near target), and visibility is
+        // drawn along their running sum. None is kept: they are about `|src|·|dst|` many, and
+        // a touching pair of pieces has hundreds of quadrature points (48 bytes each: with
+        // patches of up to 25 000 pieces, the conference room's bake was killed at 21–24 GB
+        // keeping them). This pass sums them and records the running sum where each source
+        // piece and each near piece pair starts; the drawing pass recomputes them, in the same
+        // order and to the same bits, only where a ray falls.
+        let mut total = 0.0;
+        for s in src {
             let sv = s.polygon.vertices();
             let (cs, rs) = centre_radius(s);
+            starts.push((total, blocks.len()));
             live.clear();
             for (ti, t) in dst.iter().enumerate() {
-                let (ct, rt) = targets[ti];
-                let d = ct - cs;
-                let r2 = d.length_squared();
-                if r2 > (POINT_RATIO * (rs + rt)).powi(2) {
-                    let inv = r2.sqrt().recip();
-                    let (c1, c2) = (s.normal.dot(d) * inv, -t.normal.dot(d) * inv);
-                    if c1 > 0.0 && c2 > 0.0 {
-                        entries.push(Entry {
-                            x: cs,
-                            s: si as u32,
-                            t: ti as u32,
-                            g: s.area * t.area * c1 * c2 / (std::f64::consts::PI * r2),
-                            centre: true,
-                        });
+                if near(cs, rs, targets[ti]) {
+                    if facing(sv, s.normal, t.polygon.vertices(), t.normal, self.tol) {
+                        live.push((ti, true));
                     }
-                } else if facing(sv, s.normal, t.polygon.vertices(), t.normal, self.tol) {
-                    live.push((ti, true));
+                } else if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
+                    total += g;
                 }
             }
-            if live.is_empty() {
-                continue;
-            }
-            // Each near target gets its own adaptive quadrature of the source: a source piece
-            // that touches one target is refined next to that one only.
             for &(k, _) in live.iter() {
-                let t = &dst[k];
-                let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
-                for tri in fan(sv) {
-                    integrate(tri, &self.params.quadrature, &dist, &mut |q| {
-                        let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
-                        if f > 0.0 {
-                            entries.push(Entry {
-                                x: q.x,
-                                s: si as u32,
-                                t: k as u32,
-                                g: q.w * f,
-                                centre: false,
-                            });
-                        }
-                    });
-                }
+                blocks.push((total, k as u32));
+                near_contributions(s, &dst[k], &mut |_, g| total += g);
             }
         }
-        let total: f64 = entries.iter().map(|e| e.g).sum();
         let (per_sample, occ) = match (self.params.visibility, self.occ) {
             (Visibility::Rays { per_sample, .. }, Some(o)) => (per_sample.max(1) as usize, o),
             _ => return total,
@@ -753,7 +748,76 @@ impl<'a> Pairs<'a> {
             let lift = LIFT * occ.extent();
             occ.segment_visible_skipping(x + s.normal * lift, y + t.normal * lift, skip)
         };
-        let (hits, drawn, total) = systematic(entries, |e| e.g, budget, base, visible);
+        if !(total > 0.0) {
+            return 0.0;
+        }
+        // Systematic sampling in proportion to g: `budget` evenly spaced positions along the
+        // running sum, from a per-pair offset. Unbiased for Σ g·V; an entry larger than
+        // total/budget is drawn at least ⌊g·budget/total⌋ times.
+        let step = total / budget as f64;
+        let mut next = (0.5 + base as f64 * 0.618_033_988_749_895).fract() * step;
+        let (mut run, mut hits, mut drawn) = (0.0, 0usize, 0u64);
+        // Draws the rays that fall in a contribution ending at `run`.
+        let draw = |e: &Entry, run: f64, next: &mut f64, hits: &mut usize, drawn: &mut u64| {
+            while *next < run && *drawn < budget as u64 {
+                *hits += visible(e, *drawn) as usize;
+                *drawn += 1;
+                *next += step;
+            }
+        };
+        let done = |next: f64, drawn: u64, end: f64| next >= end || drawn >= budget as u64;
+        for (si, s) in src.iter().enumerate() {
+            let (end, blocks_end) = starts.get(si + 1).copied().unwrap_or((total, blocks.len()));
+            let own_blocks = starts[si].1..blocks_end;
+            // Where this source piece's centre-to-centre pairs end and its near ones begin.
+            let far_end = if own_blocks.is_empty() {
+                end
+            } else {
+                blocks[own_blocks.start].0
+            };
+            if done(next, drawn, far_end) {
+                run = far_end;
+            } else {
+                let (cs, rs) = centre_radius(s);
+                for (ti, t) in dst.iter().enumerate() {
+                    if near(cs, rs, targets[ti]) {
+                        continue;
+                    }
+                    if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
+                        run += g;
+                        let e = Entry {
+                            x: cs,
+                            s: si as u32,
+                            t: ti as u32,
+                            centre: true,
+                        };
+                        draw(&e, run, &mut next, &mut hits, &mut drawn);
+                    }
+                }
+            }
+            for b in own_blocks.clone() {
+                let block_end = if b + 1 < own_blocks.end {
+                    blocks[b + 1].0
+                } else {
+                    end
+                };
+                if done(next, drawn, block_end) {
+                    run = block_end;
+                    continue;
+                }
+                let k = blocks[b].1;
+                near_contributions(s, &dst[k as usize], &mut |x, g| {
+                    run += g;
+                    let e = Entry {
+                        x,
+                        s: si as u32,
+                        t: k,
+                        centre: false,
+                    };
+                    draw(&e, run, &mut next, &mut hits, &mut drawn);
+                });
+            }
+        }
         *rays += drawn;
         total * hits as f64 / drawn.max(1) as f64
     }
@@ -882,6 +946,22 @@ fn kernel_point(x: DVec3, ns: DVec3, poly: &Polygon, nt: DVec3, seed: u64) -> Op
     None
 }
 
+/// Whether a source piece (centre `cs`, radius `rs`) and a target piece (centre and radius
+/// `ct`) are near: not more than [`POINT_RATIO`] times the sum of their radii apart.
+fn near(cs: DVec3, rs: f64, ct: (DVec3, f64)) -> bool {
+    (ct.0 - cs).length_squared() <= (POINT_RATIO * (rs + ct.1)).powi(2)
+}
+
+/// The unoccluded exchange of source piece `s` (centre `cs`) and target piece `t` (centre
+/// `ct`) centre to centre, for pieces that are not [`near`]; `None` when they face away.
+fn centre_to_centre(s: &Piece, cs: DVec3, t: &Piece, ct: DVec3) -> Option<f64> {
+    let d = ct - cs;
+    let r2 = d.length_squared();
+    let inv = r2.sqrt().recip();
+    let (c1, c2) = (s.normal.dot(d) * inv, -t.normal.dot(d) * inv);
+    (c1 > 0.0 && c2 > 0.0).then(|| s.area * t.area * c1 * c2 / (std::f64::consts::PI * r2))
+}
+
 /// A point of piece `p` (the `k`-th of [`polygon_point`]) in front of the plane of `other`:
 /// drawn from the part of `p` in front of it when the first draw is not, the centre of `p` when
 /// that part has no area.
@@ -908,13 +988,12 @@ fn front_point(p: &Piece, other: &Piece, k: u64) -> DVec3 {
 /// the lift they are 0.99575 and 0.99918, the sphere's kernel value.
 const LIFT: f64 = 1e-5;
 
-/// A contribution of a clustered pair before visibility: source point `x` (the centre of
-/// source piece `s` for a centre-to-centre pair), target piece `t`, unoccluded exchange `g`.
+/// A contribution of a clustered pair that a ray is drawn for: source point `x` (the centre of
+/// source piece `s` for a centre-to-centre pair), target piece `t`.
 struct Entry {
     x: DVec3,
     s: u32,
     t: u32,
-    g: f64,
     centre: bool,
 }
 
@@ -926,8 +1005,13 @@ struct Scratch {
     live: Vec<(usize, bool)>,
     /// Exact pairs' contributions that need rays: (target piece, source point, weight).
     samples: Vec<(u32, DVec3, f64)>,
-    entries: Vec<Entry>,
     targets: Vec<(DVec3, f64)>,
+    /// Per source piece of a clustered pair: the running sum of the contributions before its
+    /// own, and its first near target in `blocks`.
+    starts: Vec<(f64, usize)>,
+    /// Per near piece pair of a clustered pair: the running sum before its quadrature, and the
+    /// target piece.
+    blocks: Vec<(f64, u32)>,
 }
 
 /// A piece's area-weighted centre and the largest distance from it to a corner.

@@ -1,7 +1,9 @@
 //! Voxel simplification (the paper's pre-processing step 1): the full-detail triangles are cut
 //! by a regular grid, and inside each cell the pieces are grouped into patches by object,
 //! material and orientation, so the two sides of a thin wall, or a floor and the wall standing
-//! on it, never become one patch.
+//! on it, never become one patch. Finely tessellated parts small against a cell face join one
+//! patch whatever their orientation (`SMALL_GROUP`), so that curved furniture does not take
+//! the patch budget from the large surfaces.
 //!
 //! Each patch keeps the exact pieces it is made of (convex polygons, counter-clockwise about
 //! their triangle's normal), so form factors are computed on the true geometry, not on a disc
@@ -34,6 +36,8 @@ pub struct VoxelParams {
     /// Pieces in one cell join a patch only if their normals are within this angle of the
     /// patch's first piece. Small: curved surfaces split into more patches; large (towards
     /// 90°): a floor and a wall in one cell could merge. 35° keeps every right angle apart.
+    /// Groups small against the cell face, of small triangles, then merge whatever their
+    /// orientation (`SMALL_GROUP`).
     pub max_normal_angle_deg: f64,
     /// Accepted relative miss of a [`Resolution::TargetPatches`] target (0.1 = ±10%).
     pub tolerance: f64,
@@ -222,7 +226,7 @@ fn cut(poly: Polygon, origin: DVec3, h: f64, out: &mut Vec<([i64; 3], Polygon)>)
 }
 
 struct Grouping {
-    /// Per group: (key, seed normal, pieces).
+    /// Per group: (object, material, pieces).
     groups: Vec<(u32, u32, Vec<Piece>)>,
 }
 
@@ -276,24 +280,39 @@ fn component_areas(scene: &Scene, component: &[u32]) -> Vec<f64> {
     area
 }
 
-/// What loose parts need to merge: each surface's area and the occluders for the visibility
-/// test (built on first use: most scenes at most cell sizes have no loose part).
+/// What loose parts and small groups need to merge: each surface's area, the surfaces, and
+/// the occluders for the visibility test (built on first use: most scenes at most cell sizes
+/// have no loose part and no small group of fine triangles).
 struct Loose<'a> {
     area: Vec<f64>,
     occluders: std::cell::OnceCell<Occluders>,
     scene: &'a Scene,
+    component: &'a [u32],
 }
 
 impl Loose<'_> {
     fn occluders(&self) -> &Occluders {
         self.occluders.get_or_init(|| Occluders::new(self.scene))
     }
+
+    /// Whether two pieces see each other: no surface but their own two blocks the segment
+    /// between their centres, both lifted `lift` off their surfaces along their normals so that
+    /// pieces lying in one plane (tiles, slats) do not block each other. Each end is
+    /// `(centre, unit normal, connected surface)`.
+    fn sees(&self, a: (DVec3, DVec3, u32), b: (DVec3, DVec3, u32), lift: f64) -> bool {
+        self.occluders()
+            .segment_visible_skipping(a.0 + a.1 * lift, b.0 + b.1 * lift, &|id| {
+                let c = self.component[id as usize];
+                c == a.2 || c == b.2
+            })
+    }
 }
 
 /// Cuts and groups at cell size `h`; returns the groups (object, material, pieces). Pieces
 /// join a group only within one cell, object, material and connected component
 /// ([`components`]), with normals within the angle; loose parts ([`LOOSE_PART`]) of different
-/// components may share a group when they see each other.
+/// components may share a group when they see each other. Small groups then merge whatever
+/// their orientation ([`absorb_small_groups`]).
 fn group(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f64) -> Grouping {
     /// Stands for every loose part in the grouping key.
     const LOOSE: u32 = u32::MAX;
@@ -307,7 +326,9 @@ fn group(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f
     let mut groups: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
     let mut seeds: Vec<DVec3> = Vec::new();
     let mut cells = Vec::new();
+    let mut cell_of: Vec<[i64; 3]> = Vec::new();
     let small = LOOSE_PART * h * h;
+    let lift = LIFT * h;
     for (t, tri) in scene.triangles.iter().enumerate() {
         let p = scene.corners(t);
         let normal = scene.triangle_normal(t);
@@ -341,21 +362,10 @@ fn group(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f
                     .entry((cell, tri.object, tri.material, own))
                     .or_default();
                 mine.iter().copied().find(|&g| fits(g)).or_else(|| {
-                    // Both ends lifted a little off their surfaces along the normal, so that
-                    // parts lying in one plane (tiles, slats) do not block each other.
-                    let lift = 1e-3 * h;
-                    let centre = piece.polygon.centroid() + normal * lift;
+                    let end = (piece.polygon.centroid(), normal, own);
                     let g = cands.iter().copied().find(|&g| {
                         let (at, other) = first[g];
-                        fits(g)
-                            && loose.occluders().segment_visible_skipping(
-                                centre,
-                                at + seeds[g] * lift,
-                                &|id| {
-                                    let c = component[id as usize];
-                                    c == own || c == other
-                                },
-                            )
+                        fits(g) && loose.sees(end, (at, seeds[g], other), lift)
                     })?;
                     mine.push(g);
                     Some(g)
@@ -376,12 +386,120 @@ fn group(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f
                     }
                     first.push((piece.polygon.centroid(), own));
                     seeds.push(normal);
+                    cell_of.push(cell);
                     groups.push((tri.object, tri.material, vec![piece]));
                 }
             }
         }
     }
-    Grouping { groups }
+    let ends: Vec<(DVec3, DVec3, u32)> = first
+        .iter()
+        .zip(&seeds)
+        .map(|(&(centre, surface), &normal)| (centre, normal, surface))
+        .collect();
+    Grouping {
+        groups: absorb_small_groups(groups, &cell_of, &ends, loose, h),
+    }
+}
+
+/// How far visibility tests lift their ends off the surfaces, in cells (see [`Loose::sees`]).
+const LIFT: f64 = 1e-3;
+
+/// A group whose area, and the area of each triangle it was cut from, are below this share of
+/// a cell face (`h²`) is small, and is not kept apart by orientation ([`absorb_small_groups`]).
+///
+/// The orientation rule exists for large surfaces: a floor and the wall standing on it, or the
+/// two sides of a thin wall. Curved furniture instead splits into a group per normal cone in
+/// every cell it touches, each a small part of the cell face, so that in the conference room
+/// (330k triangles) the patch count stayed near 4400 at any cell size, and `--patches 4096`
+/// gave cells of 1093 units, a third of the room, for a floor of 4.4 million square units in 6
+/// patches. Form factors are computed on a patch's true pieces with their own normals, so a
+/// patch of pieces facing different ways is still integrated right; what merging loses is that
+/// they share one radiosity, which for a part small against the cell is the resolution the
+/// grid gives anyway.
+///
+/// The triangle condition keeps every guarantee of the orientation rule for surfaces modelled
+/// with polygons of at least a tenth of a cell face (floors, walls, thin walls, boxes: the
+/// Cornell box bakes as before): their slivers at the rim of a surface or in a corner cell are
+/// small groups by area but stay apart. Only finely tessellated parts merge; a thin wall
+/// tessellated that finely may, at its rim, put a sliver of one side (under a tenth of a face)
+/// in a patch of the other. A tenth: the conference room at `--patches 4096` gets cells of 130
+/// units and 294 floor patches with it, 148 and 228 with 0.05, 130 and 294 with 0.2
+/// (`ARCHITECTURE.md`, "Small groups merge").
+const SMALL_GROUP: f64 = 0.1;
+
+/// Merges the small groups ([`SMALL_GROUP`]) into others of their cell, object and material,
+/// whatever their orientation: each joins the first large group of its own connected surface,
+/// else the first large group it sees ([`Loose::sees`] between the two groups' first pieces),
+/// else in the same way a small group kept before it, else stays as one. Large groups never
+/// merge with one another, and two surfaces join only by the same visibility test as loose
+/// parts, so a small part behind a wall stays on its side.
+///
+/// `groups`, `cell` and `ends` (each group's first piece: centre, normal, surface) are in
+/// creation order, which the result keeps (a merged patch sits where its first group was).
+fn absorb_small_groups(
+    mut groups: Vec<(u32, u32, Vec<Piece>)>,
+    cell: &[[i64; 3]],
+    ends: &[(DVec3, DVec3, u32)],
+    loose: &Loose<'_>,
+    h: f64,
+) -> Vec<(u32, u32, Vec<Piece>)> {
+    let small = SMALL_GROUP * h * h;
+    let is_small: Vec<bool> = groups
+        .iter()
+        .map(|(_, _, pieces)| {
+            pieces.iter().map(|p| p.area).sum::<f64>() < small
+                && pieces
+                    .iter()
+                    .all(|p| loose.scene.triangle_area(p.triangle as usize) < small)
+        })
+        .collect();
+    let mut by_key: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
+    for (g, (object, material, _)) in groups.iter().enumerate() {
+        by_key
+            .entry((cell[g], *object, *material))
+            .or_default()
+            .push(g);
+    }
+    let lift = LIFT * h;
+    // The group each one joins (itself when it stays); a group that others join never joins
+    // another, so one step reaches the end.
+    let mut into: Vec<usize> = (0..groups.len()).collect();
+    for list in by_key.values() {
+        if list.iter().all(|&g| !is_small[g]) {
+            continue;
+        }
+        // Large groups first, then the small groups that stayed, each in creation order.
+        let mut targets: Vec<usize> = list.iter().copied().filter(|&g| !is_small[g]).collect();
+        let large = targets.len();
+        for &g in list.iter().filter(|&&g| is_small[g]) {
+            let own = |t: &usize| ends[*t].2 == ends[g].2;
+            let seen = |t: &usize| loose.sees(ends[*t], ends[g], lift);
+            let (big, kept) = targets.split_at(large);
+            let found = big
+                .iter()
+                .find(|t| own(t))
+                .or_else(|| big.iter().find(|t| seen(t)))
+                .or_else(|| kept.iter().find(|t| own(t)))
+                .or_else(|| kept.iter().find(|t| seen(t)));
+            match found {
+                Some(&t) => into[g] = t,
+                None => targets.push(g),
+            }
+        }
+    }
+    let mut slot = vec![usize::MAX; groups.len()];
+    let mut merged: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
+    for g in 0..groups.len() {
+        let t = into[g];
+        if slot[t] == usize::MAX {
+            slot[t] = merged.len();
+            merged.push((groups[t].0, groups[t].1, Vec::new()));
+        }
+        let pieces = std::mem::take(&mut groups[g].2);
+        merged[slot[t]].2.extend(pieces);
+    }
+    merged
 }
 
 /// Mean reflectance of a piece: `Kd` times the mean texture over it.
@@ -435,6 +553,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         area: component_areas(scene, &component),
         occluders: std::cell::OnceCell::new(),
         scene,
+        component: &component,
     };
     let mut warnings = Vec::new();
     let (lo, hi) = scene.bounds();
