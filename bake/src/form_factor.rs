@@ -521,12 +521,10 @@ fn exchange(
             // Each piece pair numbers its own rays: a quadrature that differs in one pair (by
             // rounding) must not renumber the rays of the others.
             let base = (si as u64) << 40 | u64::from(group[0].0) << 20;
-            let (hits, drawn, sum) = systematic(
-                group,
-                |e| e.2,
-                budget,
-                base,
-                |e, k| {
+            let sum: f64 = group.iter().map(|e| e.2).sum();
+            let mut sampler = Systematic::new(sum, budget, base);
+            for (i, e) in group.iter().enumerate() {
+                sampler.feed(e.2, i + 1 == group.len(), |k| {
                     let k = base + k;
                     let (x, y) = if site {
                         let x = if s.triangle == SITE {
@@ -539,10 +537,10 @@ fn exchange(
                         (e.1, ray_end(e.1, s, t, k))
                     };
                     o.segment_visible_skipping(x, y, skip)
-                },
-            );
-            *rays += drawn;
-            total += sum * hits as f64 / drawn.max(1) as f64;
+                });
+            }
+            *rays += sampler.drawn;
+            total += sampler.estimate(sum);
         }
     }
     total
@@ -751,21 +749,7 @@ impl<'a> Pairs<'a> {
         if !(total > 0.0) {
             return 0.0;
         }
-        // Systematic sampling in proportion to g: `budget` evenly spaced positions along the
-        // running sum, from a per-pair offset. Unbiased for Σ g·V; an entry larger than
-        // total/budget is drawn at least ⌊g·budget/total⌋ times.
-        let step = total / budget as f64;
-        let mut next = (0.5 + base as f64 * 0.618_033_988_749_895).fract() * step;
-        let (mut run, mut hits, mut drawn) = (0.0, 0usize, 0u64);
-        // Draws the rays that fall in a contribution ending at `run`.
-        let draw = |e: &Entry, run: f64, next: &mut f64, hits: &mut usize, drawn: &mut u64| {
-            while *next < run && *drawn < budget as u64 {
-                *hits += visible(e, *drawn) as usize;
-                *drawn += 1;
-                *next += step;
-            }
-        };
-        let done = |next: f64, drawn: u64, end: f64| next >= end || drawn >= budget as u64;
+        let mut sampler = Systematic::new(total, budget, base);
         for (si, s) in src.iter().enumerate() {
             let (end, blocks_end) = starts.get(si + 1).copied().unwrap_or((total, blocks.len()));
             let own_blocks = starts[si].1..blocks_end;
@@ -775,8 +759,8 @@ impl<'a> Pairs<'a> {
             } else {
                 blocks[own_blocks.start].0
             };
-            if done(next, drawn, far_end) {
-                run = far_end;
+            if sampler.idle_until(far_end) {
+                sampler.skip_to(far_end);
             } else {
                 let (cs, rs) = centre_radius(s);
                 for (ti, t) in dst.iter().enumerate() {
@@ -784,14 +768,13 @@ impl<'a> Pairs<'a> {
                         continue;
                     }
                     if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
-                        run += g;
                         let e = Entry {
                             x: cs,
                             s: si as u32,
                             t: ti as u32,
                             centre: true,
                         };
-                        draw(&e, run, &mut next, &mut hits, &mut drawn);
+                        sampler.feed(g, false, |k| visible(&e, k));
                     }
                 }
             }
@@ -801,25 +784,24 @@ impl<'a> Pairs<'a> {
                 } else {
                     end
                 };
-                if done(next, drawn, block_end) {
-                    run = block_end;
+                if sampler.idle_until(block_end) {
+                    sampler.skip_to(block_end);
                     continue;
                 }
                 let k = blocks[b].1;
                 near_contributions(s, &dst[k as usize], &mut |x, g| {
-                    run += g;
                     let e = Entry {
                         x,
                         s: si as u32,
                         t: k,
                         centre: false,
                     };
-                    draw(&e, run, &mut next, &mut hits, &mut drawn);
+                    sampler.feed(g, false, |k| visible(&e, k));
                 });
             }
         }
-        *rays += drawn;
-        total * hits as f64 / drawn.max(1) as f64
+        *rays += sampler.drawn;
+        sampler.estimate(total)
     }
 }
 
@@ -837,38 +819,60 @@ fn fan(v: &[DVec3]) -> impl Iterator<Item = [DVec3; 3]> + '_ {
         .filter(move |t| area(t) > 1e-12 * total)
 }
 
-/// Systematic sampling in proportion to the weights `g` (positive) of `items`: `budget` evenly
-/// spaced positions along their running sum, from an offset set by `seed`; `visible(item,
-/// draw)` for each. Returns (visible draws, draws, sum of the weights): `sum · visible / draws` is an
-/// unbiased estimate of `Σ g·V`, and an item larger than `sum / budget` is drawn at least
-/// `⌊g · budget / sum⌋` times.
-fn systematic<T>(
-    items: &[T],
-    g: impl Fn(&T) -> f64,
-    budget: usize,
-    seed: u64,
-    mut visible: impl FnMut(&T, u64) -> bool,
-) -> (u64, u64, f64) {
-    let total: f64 = items.iter().map(&g).sum();
-    if !(total > 0.0) || budget == 0 {
-        return (0, 0, total.max(0.0));
-    }
-    let step = total / budget as f64;
-    let mut next = (0.5 + seed as f64 * 0.618_033_988_749_895).fract() * step;
-    let (mut run, mut hits, mut drawn) = (0.0, 0u64, 0u64);
-    for (i, e) in items.iter().enumerate() {
-        run += g(e);
-        // Every position lies below the sum; one that rounding leaves past the last running
-        // sum still belongs to the last item. Always `budget` draws, so callers that number
-        // rays by running counts number them the same at any scale of the weights.
-        let last = i + 1 == items.len();
-        while drawn < budget as u64 && (next < run || last) {
-            hits += visible(e, drawn) as u64;
-            drawn += 1;
-            next += step;
+/// Systematic sampling in proportion to weights that arrive one at a time (and sum to the
+/// `total` given): `budget` evenly spaced positions along their running sum, from an offset set
+/// by `seed`, and one visibility test for each. `total · visible / drawn` is unbiased for
+/// `Σ g·V`, and a weight larger than `total / budget` is drawn at least `⌊g · budget / total⌋`
+/// times. Exact pairs feed their stored contributions; clustered pairs recompute theirs and
+/// skip, with [`Self::idle_until`] and [`Self::skip_to`], the stretches where no position falls.
+struct Systematic {
+    step: f64,
+    next: f64,
+    run: f64,
+    budget: u64,
+    drawn: u64,
+    hits: u64,
+}
+
+impl Systematic {
+    fn new(total: f64, budget: usize, seed: u64) -> Self {
+        let step = total / budget.max(1) as f64;
+        Self {
+            step,
+            next: (0.5 + seed as f64 * 0.618_033_988_749_895).fract() * step,
+            run: 0.0,
+            budget: budget as u64,
+            drawn: 0,
+            hits: 0,
         }
     }
-    (hits, drawn, total)
+
+    /// The next weight: `visible(draw)` for each position that falls in it. With `last`, also
+    /// the positions that rounding left past the final running sum (they belong to it), so a
+    /// caller that numbers its rays by draw gets every number at any scale of the weights.
+    fn feed(&mut self, g: f64, last: bool, mut visible: impl FnMut(u64) -> bool) {
+        self.run += g;
+        while self.drawn < self.budget && (self.next < self.run || last) {
+            self.hits += visible(self.drawn) as u64;
+            self.drawn += 1;
+            self.next += self.step;
+        }
+    }
+
+    /// Whether no position falls before `end` of the running sum.
+    fn idle_until(&self, end: f64) -> bool {
+        self.next >= end || self.drawn >= self.budget
+    }
+
+    /// Moves the running sum to `end`, over weights in which no position falls.
+    fn skip_to(&mut self, end: f64) {
+        self.run = end;
+    }
+
+    /// `total · visible / drawn`.
+    fn estimate(&self, total: f64) -> f64 {
+        total * self.hits as f64 / self.drawn.max(1) as f64
+    }
 }
 
 /// Shadow rays per pair of pieces in exact pairs, at least (times `per_sample`); more when the

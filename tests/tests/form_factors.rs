@@ -359,7 +359,7 @@ fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
         println!(
             "exact_pieces {exact_pieces}: F(plate → panel) {f:.4}, hemisphere rays {truth:.4}"
         );
-        // Measured 0.0003 (exact pairs) and 0.012 (clustered: 1024 rays, the lift of its ray
+        // Measured 0.003 (exact pairs) and 0.012 (clustered: 1024 rays, the lift of its ray
         // ends) from the hemisphere estimate, whose own noise is 0.001 (40 000 rays); 5% of F.
         // Uniform ray ends gave 0.012 against 0.967.
         assert!((f - truth).abs() <= 0.05 * truth, "F {f} against {truth}");
