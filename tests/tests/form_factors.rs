@@ -365,3 +365,93 @@ fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
         assert!((f - truth).abs() <= 0.05 * truth, "F {f} against {truth}");
     }
 }
+
+/// Rows of F against an independent estimate: cosine-weighted hemisphere rays from each patch's
+/// pieces (chosen by area), closest hit, a front face of another patch counts. Prints the RMS
+/// and mean of `row sum − hemisphere share`. Not a check (it measures), so ignored; run with
+/// `RADIOSITY_ROWS_SCENE=path.obj RADIOSITY_ROWS_PATCHES=256 cargo test --release -p
+/// radiosity-tests --test form_factors rows_against_hemisphere_rays -- --ignored --nocapture`
+/// (default: the Cornell box at 256 patches).
+#[test]
+#[ignore]
+fn rows_against_hemisphere_rays() {
+    use glam::DVec3;
+    use radiosity_bake::scene::LoadOptions;
+    let path = std::env::var("RADIOSITY_ROWS_SCENE").unwrap_or_else(|_| {
+        format!(
+            "{}/../scenes/cornell-box/CornellBox-Original.obj",
+            env!("CARGO_MANIFEST_DIR")
+        )
+    });
+    let n: usize = std::env::var("RADIOSITY_ROWS_PATCHES").map_or(256, |v| v.parse().unwrap());
+    let rays: u32 = std::env::var("RADIOSITY_ROWS_RAYS").map_or(20_000, |v| v.parse().unwrap());
+    let opts = LoadOptions {
+        max_reflectance: Some(0.8),
+        ..Default::default()
+    };
+    let s = Scene::load_obj_with(std::path::Path::new(&path), &opts).unwrap();
+    let p = simplify(&s, &VoxelParams::with_patches(n)).unwrap();
+    let occ = Occluders::new(&s);
+    let ff = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);
+    // Which patch a hit on a triangle belongs to: the piece of that triangle nearest the hit.
+    let mut owner: std::collections::HashMap<u32, Vec<(usize, DVec3)>> = Default::default();
+    for i in 0..p.len() {
+        for piece in p.pieces_of(i) {
+            owner
+                .entry(piece.triangle)
+                .or_default()
+                .push((i, piece.polygon.centroid()));
+        }
+    }
+    let lift = 1e-6 * occ.extent();
+    let mut rng = radiosity_bake::rng::SplitMix64(11);
+    let (mut sq, mut sum) = (0.0, 0.0);
+    for i in 0..p.len() {
+        let pieces = p.pieces_of(i);
+        let total: f64 = pieces.iter().map(|q| q.area).sum();
+        let mut seen = 0u32;
+        for _ in 0..rays {
+            let mut pick = rng.next_f64() * total;
+            let piece = pieces
+                .iter()
+                .find(|q| {
+                    pick -= q.area;
+                    pick <= 0.0
+                })
+                .unwrap_or(&pieces[pieces.len() - 1]);
+            let v = piece.polygon.vertices();
+            let k = 1 + (rng.next_f64() * (v.len() - 2) as f64) as usize;
+            let (mut a, mut b) = (rng.next_f64(), rng.next_f64());
+            if a + b > 1.0 {
+                (a, b) = (1.0 - a, 1.0 - b);
+            }
+            let x = v[0] + (v[k] - v[0]) * a + (v[k + 1] - v[0]) * b;
+            let nrm = piece.normal;
+            let (t1, t2) = nrm.any_orthonormal_pair();
+            let (r1, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
+            let d = (t1 * phi.cos() + t2 * phi.sin()) * r1.sqrt() + nrm * (1.0 - r1).sqrt();
+            let o = x + nrm * lift;
+            if let Some(h) = occ.closest_hit(o, d, 0.0, 10.0 * occ.extent()) {
+                let hp = o + d * h.distance;
+                if s.triangle_normal(h.triangle as usize).dot(d) < 0.0 {
+                    let who = owner.get(&h.triangle).and_then(|l| {
+                        l.iter()
+                            .min_by(|u, w| (u.1 - hp).length().total_cmp(&(w.1 - hp).length()))
+                    });
+                    seen += who.is_some_and(|w| w.0 != i) as u32;
+                }
+            }
+        }
+        let diff = ff.row_sums[i] - f64::from(seen) / f64::from(rays);
+        sq += diff * diff;
+        sum += diff;
+    }
+    let m = p.len() as f64;
+    println!(
+        "{} patches: rows of F − hemisphere share: RMS {:.4}, mean {:+.4} ({rays} rays a patch)",
+        p.len(),
+        (sq / m).sqrt(),
+        sum / m
+    );
+    assert!(sq.is_finite());
+}
