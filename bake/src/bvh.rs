@@ -284,6 +284,25 @@ impl Occluders {
         })
     }
 
+    /// Whether a ray from `from` toward `to`, a point of triangle `target`, reaches it: the
+    /// first triangle it meets is `target`, or lies at `to` (within 1e-4 of the distance: a
+    /// neighbour of `target` that rounding puts there), or there is none before `to`. The
+    /// closest-hit question of a hemisphere ray, asked of one point: unlike
+    /// [`Self::segment_visible`] it needs no margin at `to`, so a surface just in front of the
+    /// target (a second layer of a modelled panel) hides it, and one just behind the start
+    /// does not (see `form_factor::CLUSTER_LIFT`).
+    pub fn reaches(&self, from: DVec3, to: DVec3, target: u32) -> bool {
+        let d = to - from;
+        let len = d.length();
+        if !(len > 0.0) {
+            return true;
+        }
+        match self.closest_hit(from, d, 0.0, len * (1.0 + 1e-4)) {
+            None => true,
+            Some(h) => h.triangle == target || h.distance >= len * (1.0 - 1e-4),
+        }
+    }
+
     /// Whether any triangle could block some segment from a point of polygon `s` (unit normal
     /// `ns`, light leaving its front) to a point of polygon `t` (normal `nt`, receiving on its
     /// front). Conservative: `false` is a proof that nothing blocks (so no ray is needed);
