@@ -280,6 +280,38 @@ fn quad(c: [glam::DVec3; 4], normal: glam::DVec3, object: u32) -> Vec<([glam::DV
     vec![(first, object), (second, object)]
 }
 
+/// The share of 40 000 cosine-weighted rays from a square facing down (centre `c`, half-width
+/// `r`; rays leave 1e-7 below it) whose first hit is a triangle of object `object`: the form
+/// factor from the square to that object, as hemisphere rays see it.
+fn downward_share(
+    occ: &Occluders,
+    tris: &[([glam::DVec3; 3], u32)],
+    rng: &mut radiosity_bake::rng::SplitMix64,
+    c: glam::DVec3,
+    r: f64,
+    object: u32,
+) -> f64 {
+    let rays = 40_000;
+    let mut on = 0;
+    for _ in 0..rays {
+        let x = glam::DVec3::new(
+            c.x + (2.0 * r * rng.next_f64() - r),
+            c.y + (2.0 * r * rng.next_f64() - r),
+            c.z - 1e-7,
+        );
+        let (r1, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
+        let d = glam::DVec3::new(
+            r1.sqrt() * phi.cos(),
+            r1.sqrt() * phi.sin(),
+            -(1.0 - r1).sqrt(),
+        );
+        if let Some(hit) = occ.closest_hit(x, d, 0.0, 1000.0) {
+            on += (tris[hit.triangle as usize].1 == object) as u32;
+        }
+    }
+    f64::from(on) / f64::from(rays)
+}
+
 #[test]
 fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
     use glam::DVec3;
@@ -322,25 +354,7 @@ fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
 
     // Hemisphere rays from the plate: the share that first meets the panel's front is F.
     let mut rng = radiosity_bake::rng::SplitMix64(7);
-    let rays = 40_000;
-    let mut on_panel = 0;
-    for _ in 0..rays {
-        let x = DVec3::new(
-            0.2 * rng.next_f64() - 0.1,
-            0.2 * rng.next_f64() - 0.1,
-            0.1 - 1e-7,
-        );
-        let (r1, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
-        let d = DVec3::new(
-            r1.sqrt() * phi.cos(),
-            r1.sqrt() * phi.sin(),
-            -(1.0 - r1).sqrt(),
-        );
-        if let Some(hit) = occ.closest_hit(x, d, 0.0, 100.0) {
-            on_panel += (tris[hit.triangle as usize].1 == 0) as u32;
-        }
-    }
-    let truth = f64::from(on_panel) / f64::from(rays);
+    let truth = downward_share(&occ, &tris, &mut rng, DVec3::new(0.0, 0.0, 0.1), 0.1, 0);
 
     let p = simplify(&scene, &VoxelParams::with_cell_size(1000.0)).unwrap();
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
@@ -398,21 +412,7 @@ fn clustered_rays_see_across_a_narrow_gap_and_not_through_a_thin_layer() {
 
     // Hemisphere rays from the plate: the share that first meets the floor.
     let mut rng = radiosity_bake::rng::SplitMix64(5);
-    let rays = 40_000;
-    let mut on_floor = 0;
-    for _ in 0..rays {
-        let x = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.5 - 1e-7);
-        let (r1, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
-        let d = DVec3::new(
-            r1.sqrt() * phi.cos(),
-            r1.sqrt() * phi.sin(),
-            -(1.0 - r1).sqrt(),
-        );
-        if let Some(hit) = occ.closest_hit(x, d, 0.0, 1000.0) {
-            on_floor += (tris[hit.triangle as usize].1 == 0) as u32;
-        }
-    }
-    let truth = f64::from(on_floor) / f64::from(rays);
+    let truth = downward_share(&occ, &tris, &mut rng, z * 0.5, 0.5, 0);
 
     let p = simplify(&scene, &VoxelParams::with_cell_size(1000.0)).unwrap();
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
