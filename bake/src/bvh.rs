@@ -29,6 +29,10 @@ pub struct Occluders {
     /// Ray-test triangles in CWBVH primitive order (`cw.primitive_indices` maps them to the
     /// triangle list the BVH was built from).
     rt: Vec<RayTriangle>,
+    /// Unnormalised normals (corner order) of the same triangles, in the same order.
+    normals: Vec<Vec3A>,
+    /// Corners in the order the triangles were given (for [`Self::reaches`]).
+    given: Vec<[DVec3; 3]>,
     /// f64 corners in BVH2 primitive order (for the exact plane tests of [`Self::may_block`]).
     corners: Vec<[DVec3; 3]>,
     /// Local origin of the f32 coordinates.
@@ -49,6 +53,19 @@ pub struct Occluders {
 /// instead of 4410). A power of two, so the scaling is exact in the exponent; f32 keeps the
 /// same relative precision at any scale.
 const LOCAL_EXTENT: f64 = 65_536.0;
+
+/// Whether `p`, a point in the plane of triangle `t` (or next to it), lies inside it by at
+/// least `margin` from every edge.
+fn inside_by(t: &[DVec3; 3], p: DVec3, margin: f64) -> bool {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    (0..3).all(|k| {
+        let (a, b) = (t[k], t[(k + 1) % 3]);
+        // Signed distance from the edge's line, positive inside.
+        let inward = n.cross(b - a);
+        let l = inward.length();
+        l > 0.0 && (p - a).dot(inward) / l > margin
+    })
+}
 
 /// `p` in the BVH's f32 coordinates: relative to `origin`, `scale` local units per scene unit.
 fn to_local(p: DVec3, origin: DVec3, scale: f64) -> Vec3A {
@@ -184,6 +201,15 @@ impl Occluders {
                 .iter()
                 .map(|&i| RayTriangle::new(&bt[i as usize]))
                 .collect(),
+            normals: cw
+                .primitive_indices
+                .iter()
+                .map(|&i| {
+                    let t = &bt[i as usize];
+                    (t.v1 - t.v0).cross(t.v2 - t.v0)
+                })
+                .collect(),
+            given: tris.to_vec(),
             corners: order.iter().map(|&i| tris[i]).collect(),
             bvh,
             cw,
@@ -285,22 +311,43 @@ impl Occluders {
     }
 
     /// Whether a ray from `from` toward `to`, a point of triangle `target`, reaches it: the
-    /// first triangle it meets is `target`, or lies at `to` (within 1e-4 of the distance: a
-    /// neighbour of `target` that rounding puts there), or there is none before `to`. The
-    /// closest-hit question of a hemisphere ray, asked of one point: unlike
+    /// first triangle it meets is `target`, or there is none before `to`, or the one met at
+    /// `to` (within 1e-4 of the distance) is not a copy of the target in front of it (see the
+    /// body). The closest-hit question of a hemisphere ray, asked of one point: unlike
     /// [`Self::segment_visible`] it needs no margin at `to`, so a surface just in front of the
     /// target (a second layer of a modelled panel) hides it, and one just behind the start
     /// does not (see `form_factor::CLUSTER_LIFT`).
     pub fn reaches(&self, from: DVec3, to: DVec3, target: u32) -> bool {
-        let d = to - from;
+        let d = (to - from) * self.scale;
         let len = d.length();
-        if !(len > 0.0) {
+        if self.rt.is_empty() || !(len > 0.0) || !len.is_finite() {
             return true;
         }
-        match self.closest_hit(from, d, 0.0, len * (1.0 + 1e-4)) {
-            None => true,
-            Some(h) => h.triangle == target || h.distance >= len * (1.0 - 1e-4),
+        let dir = Vec3A::from((d / len).as_vec3());
+        let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + 1e-4)) as f32);
+        let mut hit = obvhs::ray::RayHit::none();
+        if !self
+            .cw
+            .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
+        {
+            return true;
         }
+        let id = hit.primitive_id as usize;
+        if self.cw.primitive_indices[id] == target {
+            return true;
+        }
+        if f64::from(hit.t) < len * (1.0 - 1e-4) {
+            return false;
+        }
+        // Met at the target's own distance: a neighbour of the target (a point within rounding
+        // of its edge), the back of a two-sided panel, or a coincident copy of the target
+        // (a surface modelled twice). Only the copy stands in front of it, so that the two
+        // together count once: a triangle that faces the ray, with `to` well inside the target.
+        if self.normals[id].dot(dir) >= 0.0 {
+            return true;
+        }
+        let margin = 1e-6 * self.extent;
+        !inside_by(&self.given[target as usize], to, margin)
     }
 
     /// Whether any triangle could block some segment from a point of polygon `s` (unit normal

@@ -1007,11 +1007,12 @@ const LIFT: f64 = 1e-5;
 /// it (row 0.019 against 0.998 by hemisphere rays), and lifted ends stepped past thin layers
 /// over their pieces (rows of 1.2 against 0.99). Measured with hemisphere rays from 118 random
 /// rows of that room (4000 each), on the 95 whose rays mostly meet front faces: RMS 0.112 →
-/// 0.037, largest difference 0.98 → 0.19, rows above 1.05 7 → 1. On the other 23, patches that
+/// 0.048, largest difference 0.98 → 0.29, rows above 1.05 7 → 1. On the other 23, patches that
 /// sit inside other objects (most of their hemisphere rays meet back faces first), it is
 /// 0.14 → 0.27 (mean +0.08 → +0.15): what such a patch sees is a question of the model more
-/// than of the method, and not settled. 1e-6 of the extent is ten times f32 rounding of a point
-/// on its surface in the BVH's coordinates.
+/// than of the method, and not settled. The largest row sum of the whole room went 1.65 →
+/// 1.74 (ARCHITECTURE.md, "First hit, not a lifted segment"). 1e-6 of the extent is ten times
+/// f32 rounding of a point on its surface in the BVH's coordinates.
 const CLUSTER_LIFT: f64 = 1e-6;
 
 /// A contribution of a clustered pair that a ray is drawn for: source point `x` (the centre of
