@@ -293,21 +293,23 @@ impl Occluders {
         let o = self.local(origin);
         let t_max = (t_max * self.scale).min(f64::from(f32::MAX));
         let ray = Ray::new(o, dir, (t_min * self.scale) as f32, t_max as f32);
-        let mut hit = obvhs::ray::RayHit::none();
-        if !self
-            .cw
-            .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
-        {
-            return None;
-        }
-        let id = hit.primitive_id as usize;
+        let (id, t) = self.first_hit(ray)?;
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
-            distance: f64::from(hit.t) / self.scale,
+            distance: f64::from(t) / self.scale,
             triangle: self.cw.primitive_indices[id],
             u,
             v,
         })
+    }
+
+    /// The first triangle `ray` (local coordinates) meets: its CWBVH primitive index and the
+    /// local distance.
+    fn first_hit(&self, ray: Ray) -> Option<(usize, f32)> {
+        let mut hit = obvhs::ray::RayHit::none();
+        self.cw
+            .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
+            .then_some((hit.primitive_id as usize, hit.t))
     }
 
     /// Whether a ray from `from` toward `to`, a point of triangle `target`, reaches it: the
@@ -325,18 +327,13 @@ impl Occluders {
         }
         let dir = Vec3A::from((d / len).as_vec3());
         let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + 1e-4)) as f32);
-        let mut hit = obvhs::ray::RayHit::none();
-        if !self
-            .cw
-            .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
-        {
+        let Some((id, t)) = self.first_hit(ray) else {
             return true;
-        }
-        let id = hit.primitive_id as usize;
+        };
         if self.cw.primitive_indices[id] == target {
             return true;
         }
-        if f64::from(hit.t) < len * (1.0 - 1e-4) {
+        if f64::from(t) < len * (1.0 - 1e-4) {
             return false;
         }
         // Met at the target's own distance: a neighbour of the target (a point within rounding
