@@ -29,8 +29,6 @@ pub struct Occluders {
     /// Ray-test triangles in CWBVH primitive order (`cw.primitive_indices` maps them to the
     /// triangle list the BVH was built from).
     rt: Vec<RayTriangle>,
-    /// Unnormalised normals (corner order) of the same triangles, in the same order.
-    normals: Vec<Vec3A>,
     /// Corners in the order the triangles were given (for [`Self::reaches`]).
     given: Vec<[DVec3; 3]>,
     /// f64 corners in BVH2 primitive order (for the exact plane tests of [`Self::may_block`]).
@@ -201,14 +199,6 @@ impl Occluders {
                 .iter()
                 .map(|&i| RayTriangle::new(&bt[i as usize]))
                 .collect(),
-            normals: cw
-                .primitive_indices
-                .iter()
-                .map(|&i| {
-                    let t = &bt[i as usize];
-                    (t.v1 - t.v0).cross(t.v2 - t.v0)
-                })
-                .collect(),
             given: tris.to_vec(),
             corners: order.iter().map(|&i| tris[i]).collect(),
             bvh,
@@ -330,7 +320,8 @@ impl Occluders {
         let Some((id, t)) = self.first_hit(ray) else {
             return true;
         };
-        if self.cw.primitive_indices[id] == target {
+        let met = self.cw.primitive_indices[id];
+        if met == target {
             return true;
         }
         if f64::from(t) < len * (1.0 - 1e-4) {
@@ -340,7 +331,8 @@ impl Occluders {
         // of its edge), the back of a two-sided panel, or a coincident copy of the target
         // (a surface modelled twice). Only the copy stands in front of it, so that the two
         // together count once: a triangle that faces the ray, with `to` well inside the target.
-        if self.normals[id].dot(dir) >= 0.0 {
+        let c = &self.given[met as usize];
+        if (c[1] - c[0]).cross(c[2] - c[0]).dot(to - from) >= 0.0 {
             return true;
         }
         let margin = 1e-6 * self.extent;
