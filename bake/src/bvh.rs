@@ -29,8 +29,9 @@ pub struct Occluders {
     /// Ray-test triangles in CWBVH primitive order (`cw.primitive_indices` maps them to the
     /// triangle list the BVH was built from).
     rt: Vec<RayTriangle>,
-    /// Corners in the order the triangles were given (for [`Self::reaches`]).
-    given: Vec<[DVec3; 3]>,
+    /// Where each triangle, by its index in the list given, sits in [`Self::corners`] (for
+    /// [`Self::reaches`]).
+    slot: Vec<u32>,
     /// f64 corners in BVH2 primitive order (for the exact plane tests of [`Self::may_block`]).
     corners: Vec<[DVec3; 3]>,
     /// Local origin of the f32 coordinates.
@@ -199,7 +200,13 @@ impl Occluders {
                 .iter()
                 .map(|&i| RayTriangle::new(&bt[i as usize]))
                 .collect(),
-            given: tris.to_vec(),
+            slot: {
+                let mut slot = vec![0u32; tris.len()];
+                for (k, &i) in order.iter().enumerate() {
+                    slot[i] = k as u32;
+                }
+                slot
+            },
             corners: order.iter().map(|&i| tris[i]).collect(),
             bvh,
             cw,
@@ -331,12 +338,17 @@ impl Occluders {
         // of its edge), the back of a two-sided panel, or a coincident copy of the target
         // (a surface modelled twice). Only the copy stands in front of it, so that the two
         // together count once: a triangle that faces the ray, with `to` well inside the target.
-        let c = &self.given[met as usize];
+        let c = self.given(met);
         if (c[1] - c[0]).cross(c[2] - c[0]).dot(to - from) >= 0.0 {
             return true;
         }
         let margin = 1e-6 * self.extent;
-        !inside_by(&self.given[target as usize], to, margin)
+        !inside_by(self.given(target), to, margin)
+    }
+
+    /// The corners of triangle `t` (its index in the list given).
+    fn given(&self, t: u32) -> &[DVec3; 3] {
+        &self.corners[self.slot[t as usize] as usize]
     }
 
     /// Whether any triangle could block some segment from a point of polygon `s` (unit normal
