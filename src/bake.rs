@@ -14,15 +14,8 @@ use std::time::Instant;
 /// Builds bake parameters from the shared flags (also used by `solve SCENE.obj`).
 pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
     let mut p = BakeParams::default();
-    match (args.patches, args.voxel) {
-        (Some(_), Some(_)) => bail!("give --patches or --voxel, not both"),
-        (Some(0), _) => bail!("--patches must be at least 1"),
-        (Some(n), None) => p.voxel = VoxelParams::with_patches(n),
-        (None, Some(s)) if !(s.is_finite() && s > 0.0) => {
-            bail!("--voxel must be a positive size, not {s}")
-        }
-        (None, Some(s)) => p.voxel = VoxelParams::with_cell_size(s),
-        (None, None) => {}
+    if let Some(v) = voxel_params(args.patches, args.voxel)? {
+        p.voxel = v;
     }
     p.bounces = parse_bounces(&args.bounces)?;
     p.format = match args.format.as_str() {
@@ -50,6 +43,23 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
         )
     })?;
     Ok(p)
+}
+
+/// The simplification asked for by `--patches N` or `--voxel SIZE` (`None`: the default).
+pub(crate) fn voxel_params(
+    patches: Option<usize>,
+    voxel: Option<f64>,
+) -> anyhow::Result<Option<VoxelParams>> {
+    Ok(match (patches, voxel) {
+        (Some(_), Some(_)) => bail!("give --patches or --voxel, not both"),
+        (Some(0), _) => bail!("--patches must be at least 1"),
+        (Some(n), None) => Some(VoxelParams::with_patches(n)),
+        (None, Some(s)) if !(s.is_finite() && s > 0.0) => {
+            bail!("--voxel must be a positive size, not {s}")
+        }
+        (None, Some(s)) => Some(VoxelParams::with_cell_size(s)),
+        (None, None) => None,
+    })
 }
 
 /// How to load the scene, from the shared flags.

@@ -16,6 +16,7 @@ mod backend;
 mod bake;
 mod bench;
 mod camera;
+mod check_rows;
 mod demo;
 mod embedded;
 mod export_dds;
@@ -125,6 +126,9 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Check sampled rows of the form-factor matrix against hemisphere rays (without the whole
+    /// matrix): how far F's row sums are from the share of light that lands on patches.
+    CheckRows(check_rows::CheckRowsArgs),
     /// Reference Monte-Carlo path tracing: per-object irradiance with standard errors, and an image.
     Pathtrace(pathtrace::PathtraceArgs),
     /// Time the gather in every format against its peers (faer, Jacobi, LU) on the embedded
@@ -266,6 +270,7 @@ fn main() -> ExitCode {
             report::output_dir(output).and_then(|dir| report::run(quick, &dir))
         }
         Command::Pathtrace(args) => pathtrace::run(&args),
+        Command::CheckRows(args) => check_rows::run(&args),
         Command::Inspect {
             file,
             json,

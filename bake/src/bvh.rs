@@ -282,6 +282,31 @@ impl Occluders {
         t_min: f64,
         t_max: f64,
     ) -> Option<Hit> {
+        self.closest_hit_passing(origin, direction, t_min, t_max, &|_| false)
+    }
+
+    /// [`Self::closest_hit`] from a point on a surface: it passes through every triangle whose
+    /// plane holds `origin` (within 1e-9 of the extent, in f64): its own, its coplanar
+    /// neighbours, the other side of a zero-thickness panel. A ray leaving a plane meets
+    /// those only through f32 rounding, so the ray needs no lift, and a surface a real gap in
+    /// front of `origin` is met however small the gap.
+    pub fn closest_hit_from_surface(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        t_max: f64,
+    ) -> Option<Hit> {
+        self.closest_hit_passing(origin, direction, 0.0, t_max, &|t| self.holds(t, origin))
+    }
+
+    fn closest_hit_passing(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        t_min: f64,
+        t_max: f64,
+        pass: &dyn Fn(u32) -> bool,
+    ) -> Option<Hit> {
         let len = direction.length();
         if self.rt.is_empty() || !(len > 0.0) || !len.is_finite() {
             return None;
@@ -290,7 +315,7 @@ impl Occluders {
         let o = self.local(origin);
         let t_max = (t_max * self.scale).min(f64::from(f32::MAX));
         let ray = Ray::new(o, dir, (t_min * self.scale) as f32, t_max as f32);
-        let (id, t) = self.first_hit(ray)?;
+        let (id, t) = self.first_hit(ray, pass)?;
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
             distance: f64::from(t) / self.scale,
@@ -300,22 +325,43 @@ impl Occluders {
         })
     }
 
-    /// The first triangle `ray` (local coordinates) meets: its CWBVH primitive index and the
-    /// local distance.
-    fn first_hit(&self, ray: Ray) -> Option<(usize, f32)> {
+    /// The first triangle `ray` (local coordinates) meets, except those `pass` (given a
+    /// triangle's index in the list given) lets it through: its CWBVH primitive index and the
+    /// local distance. `pass` is asked only about triangles the ray meets.
+    fn first_hit(&self, ray: Ray, pass: &dyn Fn(u32) -> bool) -> Option<(usize, f32)> {
         let mut hit = obvhs::ray::RayHit::none();
+        let prims = &self.cw.primitive_indices;
         self.cw
-            .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
+            .ray_traverse(ray, &mut hit, |r, id| {
+                let t = self.rt[id].intersect(r);
+                if t < f32::INFINITY && pass(prims[id]) {
+                    f32::INFINITY
+                } else {
+                    t
+                }
+            })
             .then_some((hit.primitive_id as usize, hit.t))
     }
 
-    /// Whether a ray from `from` toward `to`, a point of triangle `target`, reaches it: the
-    /// first triangle it meets is `target`, or there is none before `to`, or the one met at
-    /// `to` (within 1e-4 of the distance) is not a copy of the target in front of it (see the
-    /// body). The closest-hit question of a hemisphere ray, asked of one point: unlike
-    /// [`Self::segment_visible`] it needs no margin at `to`, so a surface just in front of the
-    /// target (a second layer of a modelled panel) hides it, and one just behind the start
-    /// does not (see `form_factor::CLUSTER_LIFT`).
+    /// Whether the plane of triangle `t` (its index in the list given) holds `x`, within 1e-9
+    /// of the extent (f64; a point computed on a triangle is within 1e-15 of it, a real gap
+    /// in a scene is far above).
+    fn holds(&self, t: u32, x: DVec3) -> bool {
+        let c = self.given(t);
+        let n = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
+        n.dot(x - c[0]).abs() <= 1e-9 * self.extent
+    }
+
+    /// Whether a ray from `from`, a point on a surface, toward `to`, a point of triangle
+    /// `target`, reaches it: the first triangle it meets is `target`, or there is none before
+    /// `to`, or the one met at `to` (within 1e-4 of the distance) is not a copy of the target
+    /// in front of it (see the body). Triangles whose planes hold `from` are passed through
+    /// (as in [`Self::closest_hit_from_surface`]), so the ray starts on the surface itself.
+    /// The closest-hit question of a hemisphere ray, asked of one point: unlike
+    /// [`Self::segment_visible`] it needs no margin at either end, so a surface just in front
+    /// of the target (a second layer of a modelled panel) hides it, and one a hair in front of
+    /// the start (two parts in contact, modelled 5e-4 apart in a room 3300 across) is met, not
+    /// stepped over (ARCHITECTURE.md, "First hit, not a lifted segment").
     pub fn reaches(&self, from: DVec3, to: DVec3, target: u32) -> bool {
         let d = (to - from) * self.scale;
         let len = d.length();
@@ -324,7 +370,7 @@ impl Occluders {
         }
         let dir = Vec3A::from((d / len).as_vec3());
         let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + 1e-4)) as f32);
-        let Some((id, t)) = self.first_hit(ray) else {
+        let Some((id, t)) = self.first_hit(ray, &|t| self.holds(t, from)) else {
             return true;
         };
         let met = self.cw.primitive_indices[id];

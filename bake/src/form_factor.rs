@@ -526,17 +526,16 @@ fn exchange(
             for (i, e) in group.iter().enumerate() {
                 sampler.feed(e.2, i + 1 == group.len(), |k| {
                     let k = base + k;
-                    let (x, y) = if site {
+                    if site {
                         let x = if s.triangle == SITE {
                             front_point(s, t, k + SITE_SOURCE_OFFSET)
                         } else {
                             e.1
                         };
-                        (x, front_point(t, s, k))
+                        o.segment_visible_skipping(x, front_point(t, s, k), skip)
                     } else {
-                        (e.1, ray_end(e.1, s, t, k))
-                    };
-                    o.segment_visible_skipping(x, y, skip)
+                        o.reaches(e.1, ray_end(e.1, s, t, k), t.triangle)
+                    }
                 });
             }
             *rays += sampler.drawn;
@@ -748,7 +747,7 @@ impl<'a> Pairs<'a> {
                 let lift = LIFT * occ.extent();
                 occ.segment_visible_skipping(x + s.normal * lift, y + t.normal * lift, skip)
             } else {
-                occ.reaches(x + s.normal * (CLUSTER_LIFT * occ.extent()), y, t.triangle)
+                occ.reaches(x, y, t.triangle)
             }
         };
         if !(total > 0.0) {
@@ -991,29 +990,15 @@ fn front_point(p: &Piece, other: &Piece, k: u64) -> DVec3 {
     }
 }
 
-/// Clustered rays leave and reach their pieces this far (relative to the scene's extent) in
-/// front of them. Without it, grazing rays met the surface they start on or its coplanar
+/// Segments to and from flat sites leave and reach them this far (relative to the scene's
+/// extent) in front of them, since a site lies off its triangles. (Rays between pieces, exact
+/// or clustered, start on the source surface and ask [`Occluders::reaches`] instead.) Without
+/// it, grazing rays met the surface they start on or its coplanar
 /// neighbours a little beyond the segment margin (f32 rounding puts a point on a surface up to
 /// ~1e-7 of the extent off it): the room bench's lowest row fell to 0.98737 and the
 /// sphere-in-a-box test's to 0.99899 once the CWBVH stopped hiding hits near the origin; with
 /// the lift they are 0.99575 and 0.99918, the sphere's kernel value.
 const LIFT: f64 = 1e-5;
-
-/// Clustered rays between pieces start this far (relative to the scene's extent) in front of
-/// the source piece and ask whether the first triangle they meet is the target piece's
-/// ([`Occluders::reaches`]), the question a cosine-weighted hemisphere ray answers. Segments
-/// lifted by [`LIFT`] at both ends (session 6 to 7) were wrong both ways in the conference
-/// room: a panel 0.022 units in front of another (the lift is 0.033 there) saw nothing through
-/// it (row 0.019 against 0.998 by hemisphere rays), and lifted ends stepped past thin layers
-/// over their pieces (rows of 1.2 against 0.99). Measured with hemisphere rays from 118 random
-/// rows of that room (4000 each), on the 95 whose rays mostly meet front faces: RMS 0.112 →
-/// 0.048, largest difference 0.98 → 0.29, rows above 1.05 7 → 1. On the other 23, patches that
-/// sit inside other objects (most of their hemisphere rays meet back faces first), it is
-/// 0.14 → 0.27 (mean +0.08 → +0.15): what such a patch sees is a question of the model more
-/// than of the method, and not settled. The largest row sum of the whole room went 1.65 →
-/// 1.74 (ARCHITECTURE.md, "First hit, not a lifted segment"). 1e-6 of the extent is ten times
-/// f32 rounding of a point on its surface in the BVH's coordinates.
-const CLUSTER_LIFT: f64 = 1e-6;
 
 /// A contribution of a clustered pair that a ray is drawn for: source point `x` (the centre of
 /// source piece `s` for a centre-to-centre pair), target piece `t`.
@@ -1053,6 +1038,94 @@ fn centre_radius(p: &Piece) -> (DVec3, f64) {
     (c, r)
 }
 
+/// What every pair of one computation shares: the visibility mode, the unblockable-pair cache
+/// and the tolerance (from the scene's extent).
+struct Setup<'a> {
+    occ: Option<&'a Occluders>,
+    cache: Option<BlockCache>,
+    tol: f64,
+}
+
+impl<'a> Setup<'a> {
+    fn new(patches: &Patches, occluders: Option<&'a Occluders>, params: &FormFactorParams) -> Self {
+        let extent = {
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            for p in &patches.pieces {
+                for v in p.polygon.vertices() {
+                    lo = lo.min(*v);
+                    hi = hi.max(*v);
+                }
+            }
+            if patches.pieces.is_empty() {
+                1.0
+            } else {
+                (hi - lo).length()
+            }
+        };
+        let occ = match params.visibility {
+            Visibility::Off => None,
+            Visibility::Rays { .. } => occluders,
+        };
+        let cache = match (params.visibility, occ) {
+            (
+                Visibility::Rays {
+                    skip_unblockable: true,
+                    ..
+                },
+                Some(o),
+            ) => BlockCache::new(patches, o, &patches.triangles),
+            _ => None,
+        };
+        Self {
+            occ,
+            cache,
+            tol: 1e-9 * extent,
+        }
+    }
+}
+
+/// Rows `rows` of the form-factor matrix of `patches`, each `F_i0 … F_i(n−1)` in f64, with the
+/// shadow rays they cast: the same pairs, seeds and quadrature as [`form_factors`], so each
+/// value is the one the whole matrix stores (before its f32 rounding) at about `rows.len() / n`
+/// of its cost (each pair is computed once per row asked for, not once in all). For checking
+/// a large scene's rows without computing all of them (`radiosity check-rows`).
+///
+/// # Panics
+/// If a row index is not below `patches.len()`.
+pub fn form_factor_rows(
+    patches: &Patches,
+    occluders: Option<&Occluders>,
+    params: &FormFactorParams,
+    rows: &[usize],
+    progress: Option<Progress<'_>>,
+) -> (Vec<Vec<f64>>, u64) {
+    let n = patches.len();
+    assert!(rows.iter().all(|&i| i < n), "row index out of range");
+    let setup = Setup::new(patches, occluders, params);
+    let ctx = Pairs::new(patches, setup.occ, setup.cache.as_ref(), params, setup.tol);
+    let done = AtomicUsize::new(0);
+    let out: Vec<(Vec<f64>, u64)> = rows
+        .par_iter()
+        .map_init(Scratch::default, |scratch, &i| {
+            let mut rays = 0u64;
+            let ai = patches.patches[i].area;
+            let row = (0..n)
+                // In the whole matrix's order (lower index first): a tie in area is
+                // integrated from the lower index.
+                .map(|j| ctx.exchange(i.min(j), i.max(j), &mut rays, scratch) / ai)
+                .collect();
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(p) = progress {
+                p(d, rows.len());
+            }
+            (row, rays)
+        })
+        .collect();
+    let rays = out.iter().map(|r| r.1).sum();
+    (out.into_iter().map(|r| r.0).collect(), rays)
+}
+
 /// Computes the form-factor matrix of `patches`. `occluders` is needed for
 /// [`Visibility::Rays`] (ignored otherwise); `progress` is told about finished rows.
 pub fn form_factors(
@@ -1062,39 +1135,10 @@ pub fn form_factors(
     progress: Option<Progress<'_>>,
 ) -> FormFactors {
     let n = patches.len();
-    let extent = {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for p in &patches.pieces {
-            for v in p.polygon.vertices() {
-                lo = lo.min(*v);
-                hi = hi.max(*v);
-            }
-        }
-        if patches.pieces.is_empty() {
-            1.0
-        } else {
-            (hi - lo).length()
-        }
-    };
-    let tol = 1e-9 * extent;
-    let occ = match params.visibility {
-        Visibility::Off => None,
-        Visibility::Rays { .. } => occluders,
-    };
-    let cache = match (params.visibility, occ) {
-        (
-            Visibility::Rays {
-                skip_unblockable: true,
-                ..
-            },
-            Some(o),
-        ) => BlockCache::new(patches, o, &patches.triangles),
-        _ => None,
-    };
+    let setup = Setup::new(patches, occluders, params);
     // Flat sites for patches of many pieces (an exact patch has none), and every patch's
     // radius about its centre for the near/far test.
-    let ctx = Pairs::new(patches, occ, cache.as_ref(), params, tol);
+    let ctx = Pairs::new(patches, setup.occ, setup.cache.as_ref(), params, setup.tol);
     let done = AtomicUsize::new(0);
     let clustered = std::sync::atomic::AtomicU64::new(0);
     let rows: Vec<(Vec<f64>, u64)> = (0..n)

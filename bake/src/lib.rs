@@ -14,6 +14,7 @@
 //! - [`form_factor`]: the n × n form-factor matrix ([`form_factor::form_factors`]) with an
 //!   analytic point-to-polygon kernel, adaptive quadrature and ray-sampled visibility.
 //! - [`view_factors`]: object-to-object view factors from the full-detail geometry.
+//! - [`row_check`]: rows of F against hemisphere rays, an independent check of the form factors.
 #![deny(missing_docs)]
 
 pub mod effects;
@@ -30,6 +31,7 @@ pub mod pipeline;
 pub mod polygon;
 pub mod quadrature;
 pub mod rng;
+pub mod row_check;
 pub mod scene;
 pub mod texture;
 pub mod transfer;

@@ -422,3 +422,72 @@ fn bake_prints_a_missed_patch_target() {
         "{stderr}"
     );
 }
+
+#[test]
+fn check_rows_prints_text_and_json() {
+    // Sampled rows of the Cornell box's F against hemisphere rays (`radiosity check-rows`).
+    // The JSON has one sample per row asked for, every share in [0, 1], and a summary whose
+    // RMS is that of the listed differences; the text has the three summary lines.
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box/CornellBox-Original.obj"
+    );
+    let args = ["check-rows", scene, "--patches", "256", "--rows", "10"];
+    let out = radiosity_ok(&args);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        ["open (", "enclosed (", "all "]
+            .iter()
+            .all(|l| text.contains(l)),
+        "{text}"
+    );
+    let mut json = args.to_vec();
+    json.extend(["--json", "--rays", "500"]);
+    let v: serde_json::Value = serde_json::from_slice(&radiosity_ok(&json).stdout).unwrap();
+    let c = &v["check"];
+    assert_eq!(c["rays"], 500);
+    let samples = c["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 10);
+    let mut sq = 0.0;
+    for s in samples {
+        let (f, h) = (
+            s["row_sum"].as_f64().unwrap(),
+            s["hemisphere"].as_f64().unwrap(),
+        );
+        assert!((0.0..=1.0).contains(&h) && f.is_finite(), "{s}");
+        sq += (f - h) * (f - h);
+    }
+    let rms = (sq / 10.0).sqrt();
+    // The same sums in another order: f64 rounding only.
+    assert!((c["all"]["rms"].as_f64().unwrap() - rms).abs() < 1e-12);
+    assert!(v["patches"].as_u64().unwrap() > 200 && v["shadow_rays"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn check_rows_refuses_bad_counts() {
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box/CornellBox-Original.obj"
+    );
+    assert_one_line_error(&radiosity(&["check-rows", scene, "--rows", "0"]), "--rows");
+    assert_one_line_error(&radiosity(&["check-rows", scene, "--rays", "0"]), "--rays");
+    assert_one_line_error(
+        &radiosity(&["check-rows", scene, "--patches", "0"]),
+        "--patches",
+    );
+    assert_one_line_error(
+        &radiosity(&["check-rows", "/nonexistent/scene.obj"]),
+        "cannot load the scene",
+    );
+    // Malformed geometry is refused as `bake` refuses it. (Materials are not checked: like
+    // `view-factors`, the check needs the geometry only, so a `Kd 1` scene is checked as is.)
+    let bad = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/bad/obj/");
+    for (file, needle) in [
+        ("bad-index.obj", "bad vertex index"),
+        ("nan-coordinate.obj", "is not finite"),
+        ("empty.obj", "no non-degenerate triangle"),
+    ] {
+        let path = format!("{bad}{file}");
+        assert_one_line_error(&radiosity(&["check-rows", &path, "--rows", "4"]), needle);
+    }
+}
