@@ -235,6 +235,20 @@ pub const FAR_RAYS: usize = 32;
 /// vary faster.
 pub const NEAR_RAYS: usize = 64;
 
+/// A clustered pair whose unoccluded form factor from its smaller patch is `F` gets at least
+/// this many times `F` shadow rays (times `per_sample`; at most [`MAX_PAIR_RAYS`]). Sampled
+/// visibility `v` costs the pair an error of about `F·√(v(1−v)/rays)`, so a fixed budget let
+/// the few pairs that carry a row decide it: in the conference room a small part facing a
+/// large curved patch of its own object (unoccluded F 1.82, about half of it hidden by the
+/// patch itself) got 0.74 from 64 rays, 0.94 from 256, 0.84 from 1024, against 0.86 by
+/// hemisphere rays. Minimising the summed variance for a given total puts rays in proportion
+/// to `F`; 512 gives such a pair about 900 rays (error near 0.03) and leaves every pair with
+/// `F` below 1/8 at the fixed budget.
+pub const PAIR_RAYS_PER_FORM_FACTOR: f64 = 512.0;
+
+/// The most shadow rays one clustered pair gets from [`PAIR_RAYS_PER_FORM_FACTOR`].
+pub const MAX_PAIR_RAYS: usize = 4096;
+
 /// A pair is far when its centres are more than this many times the sum of the patches' radii
 /// apart (their bounding spheres do not meet): each side then sees the other as one flat site.
 /// Near pairs (neighbours) keep their pieces: touching patches are where the kernel is most
@@ -724,7 +738,15 @@ impl<'a> Pairs<'a> {
             (Visibility::Rays { per_sample, .. }, Some(o)) => (per_sample.max(1) as usize, o),
             _ => return total,
         };
-        let budget = per_sample * if far { FAR_RAYS } else { NEAR_RAYS };
+        // At least FAR_RAYS / NEAR_RAYS, more for a pair that carries much of the source's row:
+        // the sampled visibility's error in F is about F·√(v(1−v)/rays).
+        let area: f64 = src.iter().map(|p| p.area).sum();
+        let share = if area > 0.0 {
+            (PAIR_RAYS_PER_FORM_FACTOR * total / area).min(MAX_PAIR_RAYS as f64) as usize
+        } else {
+            0
+        };
+        let budget = per_sample * share.max(if far { FAR_RAYS } else { NEAR_RAYS });
         let base = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 24;
         let visible = |e: &Entry, k: u64| {
             let (s, t) = (&src[e.s as usize], &dst[e.t as usize]);
