@@ -11,6 +11,15 @@ use radiosity_bake::form_factor::{
 use radiosity_bake::scene::Scene;
 use radiosity_bake::voxel::{Patches, VoxelParams, simplify};
 
+/// The Cornell box of `scenes/cornell-box`.
+fn cornell_box() -> Scene {
+    Scene::load_obj(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell-box/CornellBox-Original.obj"),
+    )
+    .unwrap()
+}
+
 /// Σ over patch pairs of A_i F_ij, divided by the area of object `a`.
 fn object_factor(p: &Patches, ff: &FormFactors, a: u32, b: u32) -> f64 {
     let mut g = 0.0;
@@ -114,11 +123,7 @@ fn closed_box_rows_sum_to_one() {
 
 #[test]
 fn cornell_box_with_rays() {
-    let s = Scene::load_obj(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell-box/CornellBox-Original.obj"),
-    )
-    .unwrap();
+    let s = cornell_box();
     let p = simplify(&s, &VoxelParams::with_patches(256)).unwrap();
     let occ = Occluders::new(&s);
     let rows_seen = std::sync::atomic::AtomicUsize::new(0);
@@ -269,6 +274,17 @@ fn many_pieces_go_through_clustered_pairs_and_keep_a_sphere_in_a_box() {
     assert!(lo > 0.98 && hi < 1.02, "wall rows [{lo}, {hi}]");
 }
 
+/// The corners of the square of half-width `r` centred at `c` in a plane z = const, in order.
+fn square(c: glam::DVec3, r: f64) -> [glam::DVec3; 4] {
+    use glam::DVec3;
+    [
+        c + DVec3::new(-r, -r, 0.0),
+        c + DVec3::new(r, -r, 0.0),
+        c + DVec3::new(r, r, 0.0),
+        c + DVec3::new(-r, r, 0.0),
+    ]
+}
+
 /// Two triangles of the quad `c` (corners in order), wound so that their normal is `normal`.
 fn quad(c: [glam::DVec3; 4], normal: glam::DVec3, object: u32) -> Vec<([glam::DVec3; 3], u32)> {
     let (a, b, d) = if (c[1] - c[0]).cross(c[2] - c[0]).dot(normal) > 0.0 {
@@ -393,21 +409,13 @@ fn clustered_rays_see_across_a_narrow_gap_and_not_through_a_thin_layer() {
     // (exact_pieces 0) must give the plates their catalogue factor and see the floor only
     // around the rug, as hemisphere rays do.
     let z = DVec3::Z;
-    let sq = |c: DVec3, r: f64| {
-        [
-            c + DVec3::new(-r, -r, 0.0),
-            c + DVec3::new(r, -r, 0.0),
-            c + DVec3::new(r, r, 0.0),
-            c + DVec3::new(-r, r, 0.0),
-        ]
-    };
     let gap = 5e-4;
     let far = DVec3::new(30.0, 0.0, 1.0);
-    let mut tris = quad(sq(DVec3::ZERO, 50.0), z, 0);
-    tris.extend(quad(sq(z * gap, 1.5), z, 1));
-    tris.extend(quad(sq(z * 0.5, 0.5), -z, 2));
-    tris.extend(quad(sq(far, 0.5), z, 3));
-    tris.extend(quad(sq(far + z * gap, 0.5), -z, 4));
+    let mut tris = quad(square(DVec3::ZERO, 50.0), z, 0);
+    tris.extend(quad(square(z * gap, 1.5), z, 1));
+    tris.extend(quad(square(z * 0.5, 0.5), -z, 2));
+    tris.extend(quad(square(far, 0.5), z, 3));
+    tris.extend(quad(square(far + z * gap, 0.5), -z, 4));
     let names = ["floor", "rug", "plate", "low", "high"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
     let occ = Occluders::new(&scene);
@@ -447,11 +455,7 @@ fn sampled_rows_are_the_rows_of_the_whole_matrix() {
     // clustered pairs with flat sites (the sphere in a box, forced). Equality after the f32
     // rounding the matrix applies: the same pair, seed and quadrature give the same bits.
     let dir = tempfile::tempdir().unwrap();
-    let cornell = Scene::load_obj(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell-box/CornellBox-Original.obj"),
-    )
-    .unwrap();
+    let cornell = cornell_box();
     let ball = sphere_in_a_box(dir.path());
     let clustered = FormFactorParams {
         exact_pieces: 0,
@@ -486,14 +490,6 @@ fn hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets() {
     // agree with the hemisphere estimate, which must see across the gap, not see the other
     // sheet, and put the crated plate (and only it) among the enclosed rows.
     let z = DVec3::Z;
-    let sq = |c: DVec3, r: f64| {
-        [
-            c + DVec3::new(-r, -r, 0.0),
-            c + DVec3::new(r, -r, 0.0),
-            c + DVec3::new(r, r, 0.0),
-            c + DVec3::new(-r, r, 0.0),
-        ]
-    };
     let wall = |c: DVec3, r: f64| {
         [
             c + DVec3::new(0.0, -r, -r),
@@ -506,9 +502,9 @@ fn hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets() {
     let low = DVec3::new(30.0, 0.0, 1.0);
     let panel = DVec3::new(-20.0, 0.0, 2.0);
     let crate_at = DVec3::new(0.0, 30.0, 2.0);
-    let mut tris = quad(sq(DVec3::ZERO, 50.0), z, 0);
-    tris.extend(quad(sq(low, 0.5), z, 1));
-    tris.extend(quad(sq(low + z * gap, 0.5), -z, 2));
+    let mut tris = quad(square(DVec3::ZERO, 50.0), z, 0);
+    tris.extend(quad(square(low, 0.5), z, 1));
+    tris.extend(quad(square(low + z * gap, 0.5), -z, 2));
     tris.extend(quad(wall(panel, 1.0), DVec3::X, 3));
     tris.extend(quad(wall(panel, 1.0), -DVec3::X, 4));
     // The crate: a 2-unit cube, faces facing out, a 0.5 plate inside it facing up.
@@ -525,7 +521,7 @@ fn hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets() {
         let c = crate_at + n;
         tris.extend(quad([c - u - v, c + u - v, c + u + v, c - u + v], n, 5));
     }
-    tris.extend(quad(sq(crate_at, 0.25), z, 6));
+    tris.extend(quad(square(crate_at, 0.25), z, 6));
     let names = ["floor", "low", "high", "front", "back", "crate", "inside"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
     let occ = Occluders::new(&scene);
@@ -584,11 +580,7 @@ fn cornell_box_rows_agree_with_hemisphere_rays() {
     // estimate's own noise is 0.0059; 0.015 leaves room for the noise and flags a real
     // regression (a 1% row error on every row would already give 0.012).
     use radiosity_bake::row_check::{RowCheckParams, check_scene};
-    let s = Scene::load_obj(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell-box/CornellBox-Original.obj"),
-    )
-    .unwrap();
+    let s = cornell_box();
     let out = check_scene(
         &s,
         &VoxelParams::with_patches(1024),
@@ -616,17 +608,9 @@ fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
     // A fixed 64 rays left such a pair's F about 0.06 off (the conference room: 0.74 against
     // 0.86); it must get rays in proportion to its F, and agree with hemisphere rays.
     let z = DVec3::Z;
-    let sq = |c: DVec3, r: f64| {
-        [
-            c + DVec3::new(-r, -r, 0.0),
-            c + DVec3::new(r, -r, 0.0),
-            c + DVec3::new(r, r, 0.0),
-            c + DVec3::new(-r, r, 0.0),
-        ]
-    };
-    let mut tris = quad(sq(DVec3::ZERO, 0.5), z, 0);
-    tris.extend(quad(sq(z * 0.05, 0.5), -z, 1));
-    tris.extend(quad(sq(z * 0.025, 0.25), z, 2));
+    let mut tris = quad(square(DVec3::ZERO, 0.5), z, 0);
+    tris.extend(quad(square(z * 0.05, 0.5), -z, 1));
+    tris.extend(quad(square(z * 0.025, 0.25), z, 2));
     let names = ["low", "high", "blocker"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
     let occ = Occluders::new(&scene);
