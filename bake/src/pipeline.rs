@@ -12,6 +12,7 @@ use crate::form_factor::{
     FAR_RAYS, FormFactorParams, MAX_EXACT_PIECES, NEAR_RAYS, Progress, Visibility, form_factors,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
+use crate::row_check::check_dark;
 use crate::scene::Scene;
 use crate::transfer::{
     BounceSpec, Dense, TransferError, analyse_closure, cap_row_sums, enforce_closure,
@@ -258,7 +259,7 @@ pub fn discretise(
     };
 
     stage("simplify");
-    let patches = simplify(scene, &params.voxel)?;
+    let mut patches = simplify(scene, &params.voxel)?;
     lap("simplify", &mut timings);
 
     let mut effects = Effects::new();
@@ -348,22 +349,45 @@ pub fn discretise(
     );
 
     // Patches that see nothing (row of F zero) receive and give no indirect light: drop them.
-    let live: Vec<usize> = (0..n_all)
-        .filter(|&i| f.row(i).iter().any(|v| *v > 0.0))
-        .collect();
-    let dark_area: f64 = (0..n_all)
-        .filter(|i| !live.contains(i))
-        .map(|i| areas[i])
-        .sum();
+    let (live, dark): (Vec<usize>, Vec<usize>) =
+        (0..n_all).partition(|&i| f.row(i).iter().any(|v| *v > 0.0));
+    let dark_area: f64 = dark.iter().map(|&i| areas[i]).sum();
     effects.insert(
         "dark_patches",
         Effect::new(
-            live.len() < n_all,
-            if live.len() < n_all {
+            !dark.is_empty(),
+            if !dark.is_empty() {
+                // An independent look at the decision: hemisphere rays from the dark patches.
+                let built;
+                let occ = match &occluders {
+                    Some(o) => o,
+                    None => {
+                        built = Occluders::new(scene);
+                        &built
+                    }
+                };
+                let check = check_dark(scene, &patches, occ, &dark, params.seed);
+                if check.seeing > 0 {
+                    patches.warnings.push(format!(
+                        "{} of {} dark patches send light to other patches by hemisphere rays (up to {:.3} of it, patch {}), though their form factors are zero: that light is lost",
+                        check.seeing,
+                        check.checked,
+                        check.largest_share,
+                        check.worst_patch.unwrap_or(0)
+                    ));
+                }
                 format!(
-                    "{} of {n_all} patches ({:.3} of the area) see nothing and are dropped from the matrix",
-                    n_all - live.len(),
-                    dark_area / areas.iter().sum::<f64>()
+                    "{} of {n_all} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{})",
+                    dark.len(),
+                    dark_area / areas.iter().sum::<f64>(),
+                    check.checked,
+                    check.largest_share,
+                    check.rays,
+                    if check.seeing > 0 {
+                        format!(", {} contradict it: see the warnings", check.seeing)
+                    } else {
+                        ": they face away from every surface".to_owned()
+                    }
                 )
             } else {
                 "every patch sees some other patch: none dropped".to_owned()

@@ -260,6 +260,71 @@ fn hemisphere(
     (f64::from(seen) / r, f64::from(back) / r)
 }
 
+/// Hemisphere rays per patch in [`check_dark`]: a patch that sends [`DARK_SHARE`] of its light
+/// to other patches shows it in 13 rays on average, and a patch that truly sees nothing in none.
+pub const DARK_CHECK_RAYS: u32 = 256;
+
+/// At most this many dark patches are checked (spread evenly over them): 131 k rays.
+pub const DARK_CHECK_MAX: usize = 512;
+
+/// A dark patch whose hemisphere rays land on patches at least this often contradicts its zero
+/// row of F: the bake warns.
+pub const DARK_SHARE: f64 = 0.05;
+
+/// What hemisphere rays say of the patches whose row of F is zero (which the bake drops).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct DarkCheck {
+    /// Patches checked: every dark patch, or [`DARK_CHECK_MAX`] of them spread evenly.
+    pub checked: usize,
+    /// Rays per patch.
+    pub rays: u32,
+    /// The largest share of rays that landed on a patch's front face.
+    pub largest_share: f64,
+    /// Patch of `largest_share` (`None` when nothing was checked).
+    pub worst_patch: Option<usize>,
+    /// Patches whose share reached [`DARK_SHARE`].
+    pub seeing: usize,
+}
+
+/// Casts [`DARK_CHECK_RAYS`] hemisphere rays from each of the `dark` patches (those whose row
+/// of F is zero) and reports how many of them land on patches. A patch facing out of a room,
+/// or lying flush against another surface, sends every ray into the void or through the
+/// surface it lies on, and confirms its zero row; a patch whose rays land on other patches
+/// lost its light to a fault in the form factors, and with it the light it would have passed
+/// on.
+pub fn check_dark(
+    scene: &Scene,
+    patches: &Patches,
+    occ: &Occluders,
+    dark: &[usize],
+    seed: u64,
+) -> DarkCheck {
+    let picked: Vec<usize> = if dark.len() > DARK_CHECK_MAX {
+        (0..DARK_CHECK_MAX)
+            .map(|k| dark[k * dark.len() / DARK_CHECK_MAX])
+            .collect()
+    } else {
+        dark.to_vec()
+    };
+    let owners = Owners::new(patches);
+    let shares: Vec<f64> = picked
+        .par_iter()
+        .map(|&i| hemisphere(scene, patches, &owners, occ, i, DARK_CHECK_RAYS, seed).0)
+        .collect();
+    let worst = shares
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(k, &s)| (picked[k], s));
+    DarkCheck {
+        checked: picked.len(),
+        rays: DARK_CHECK_RAYS,
+        largest_share: worst.map_or(0.0, |w| w.1),
+        worst_patch: worst.map(|w| w.0),
+        seeing: shares.iter().filter(|&&s| s >= DARK_SHARE).count(),
+    }
+}
+
 /// Compares `row_sums[k]` (`Σ_j F_ij` for patch `rows[k]`) with hemisphere rays from that
 /// patch against `occ` (built from `scene`, whose triangles the patches' pieces index).
 ///

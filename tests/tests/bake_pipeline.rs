@@ -1,11 +1,13 @@
 //! The whole bake on scenes with known physics: furnace, effect decisions that change the work
 //! done, and compression quality on the Cornell box.
 
+use radiosity_bake::bvh::Occluders;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
+use radiosity_bake::row_check::{DARK_SHARE, check_dark};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::transfer::BounceSpec;
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::voxel::{VoxelParams, simplify};
 use radiosity_core::{
     Bounces, DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
 };
@@ -152,10 +154,49 @@ fn effect_decisions_change_the_work_done() {
         dark.report.effects["dark_patches"]
     );
     assert!(!base.report.effects["dark_patches"].on);
+    // ... and hemisphere rays from it confirm that it sees nothing (no warning).
+    let why = &dark.report.effects["dark_patches"].why;
+    assert!(
+        why.contains("at most 0.000") && why.contains("face away"),
+        "{why}"
+    );
+    assert!(
+        !dark.report.warnings.iter().any(|w| w.contains("dark")),
+        "{:?}",
+        dark.report.warnings
+    );
     // A small scene: every pair piece by piece.
     assert!(!base.report.effects["clustered_pairs"].on);
     // Emission is reported.
     assert!(base.report.effects["emission"].on);
+}
+
+/// The check behind the dark-patch decision can say no: asked about a patch that does see
+/// the room, it reports the light landing on other patches.
+#[test]
+fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
+    let (_d, rug) = cube_with(false, false, true);
+    let scene = Scene::load_obj(&rug).unwrap();
+    let patches = simplify(&scene, &VoxelParams::with_patches(150)).unwrap();
+    let occ = Occluders::new(&scene);
+    let object = |name: &str| scene.objects.iter().position(|o| o == name).unwrap() as u32;
+    let of = |name: &str| {
+        let o = object(name);
+        (0..patches.len())
+            .filter(|&i| patches.patches[i].object == o)
+            .collect::<Vec<_>>()
+    };
+    let (rugs, floor) = (of("rug"), of("floor"));
+    assert!(!rugs.is_empty() && !floor.is_empty());
+    let dark = check_dark(&scene, &patches, &occ, &rugs, 1);
+    assert_eq!((dark.checked, dark.seeing), (rugs.len(), 0));
+    assert_eq!(dark.largest_share, 0.0, "the rug faces the void");
+    // Inside a closed box every ray from the floor lands on a wall, ceiling or the floor's
+    // other patches (share 1 exactly, whatever the rays).
+    let lit = check_dark(&scene, &patches, &occ, &floor, 1);
+    assert_eq!(lit.seeing, floor.len());
+    assert_eq!(lit.largest_share, 1.0);
+    assert!(lit.largest_share >= DARK_SHARE);
 }
 
 #[test]
