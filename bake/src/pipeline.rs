@@ -377,16 +377,20 @@ pub fn discretise(
                     ));
                 }
                 format!(
-                    "{} of {n_all} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{})",
+                    "{} of {n_all} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{}",
                     dark.len(),
                     dark_area / areas.iter().sum::<f64>(),
                     check.checked,
                     check.largest_share,
                     check.rays,
                     if check.seeing > 0 {
-                        format!(", {} contradict it: see the warnings", check.seeing)
+                        format!("; {} contradict it: see the warnings)", check.seeing)
                     } else {
-                        ": they face away from every surface".to_owned()
+                        format!(
+                            "): {} lie under or inside other objects (their rays meet back faces), {} face the void",
+                            check.covered,
+                            check.checked - check.covered
+                        )
                     }
                 )
             } else {

@@ -284,12 +284,15 @@ pub struct DarkCheck {
     pub worst_patch: Option<usize>,
     /// Patches whose share reached [`DARK_SHARE`].
     pub seeing: usize,
+    /// Patches whose rays mostly meet back faces first: covered by or inside other objects
+    /// (a floor under a block).
+    pub covered: usize,
 }
 
 /// Casts [`DARK_CHECK_RAYS`] hemisphere rays from each of the `dark` patches (those whose row
-/// of F is zero) and reports how many of them land on patches. A patch facing out of a room,
-/// or lying flush against another surface, sends every ray into the void or through the
-/// surface it lies on, and confirms its zero row; a patch whose rays land on other patches
+/// of F is zero) and reports how many of them land on patches. A patch facing out of a room
+/// sends every ray into the void, one covered by another object (a floor under a block) into
+/// that object's back faces, and both confirm their zero rows; a patch whose rays land on other patches
 /// lost its light to a fault in the form factors, and with it the light it would have passed
 /// on.
 pub fn check_dark(
@@ -307,10 +310,10 @@ pub fn check_dark(
         dark.to_vec()
     };
     let owners = Owners::new(patches);
-    let shares: Vec<f64> = picked
+    let (shares, back): (Vec<f64>, Vec<f64>) = picked
         .par_iter()
-        .map(|&i| hemisphere(scene, patches, &owners, occ, i, DARK_CHECK_RAYS, seed).0)
-        .collect();
+        .map(|&i| hemisphere(scene, patches, &owners, occ, i, DARK_CHECK_RAYS, seed))
+        .unzip();
     let worst = shares
         .iter()
         .enumerate()
@@ -322,6 +325,7 @@ pub fn check_dark(
         largest_share: worst.map_or(0.0, |w| w.1),
         worst_patch: worst.map(|w| w.0),
         seeing: shares.iter().filter(|&&s| s >= DARK_SHARE).count(),
+        covered: back.iter().filter(|&&b| b > 0.5).count(),
     }
 }
 

@@ -157,7 +157,10 @@ fn effect_decisions_change_the_work_done() {
     // ... and hemisphere rays from it confirm that it sees nothing (no warning).
     let why = &dark.report.effects["dark_patches"].why;
     assert!(
-        why.contains("at most 0.000") && why.contains("face away"),
+        why.contains("at most 0.000")
+            && why.contains("): 0 lie under")
+            && why.contains("face the void")
+            && !why.contains("contradict"),
         "{why}"
     );
     assert!(
@@ -191,12 +194,48 @@ fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
     let dark = check_dark(&scene, &patches, &occ, &rugs, 1);
     assert_eq!((dark.checked, dark.seeing), (rugs.len(), 0));
     assert_eq!(dark.largest_share, 0.0, "the rug faces the void");
+    assert_eq!(
+        dark.covered, 0,
+        "nothing is in front of the rug, not even a back face"
+    );
     // Inside a closed box every ray from the floor lands on a wall, ceiling or the floor's
     // other patches (share 1 exactly, whatever the rays).
     let lit = check_dark(&scene, &patches, &occ, &floor, 1);
     assert_eq!(lit.seeing, floor.len());
     assert_eq!(lit.largest_share, 1.0);
     assert!(lit.largest_share >= DARK_SHARE);
+
+    // A mat under a lid 0.01 above it, the lid's front facing up: the mat's rays meet the
+    // lid's back face, so it counts as covered (a floor under a block).
+    let dir = tempfile::tempdir().unwrap();
+    let mut quads = closed_box(2.0, 1, |_, _, _| "wall".into());
+    let flat = |y: f64, lo: f64, hi: f64| [[lo, y, lo], [hi, y, lo], [hi, y, hi], [lo, y, hi]];
+    quads.push(Quad::facing(
+        "mat",
+        "wall",
+        flat(0.01, 0.9, 1.1),
+        [1.0, 2.0, 1.0],
+    ));
+    quads.push(Quad::facing(
+        "lid",
+        "wall",
+        flat(0.02, 0.5, 1.5),
+        [1.0, 2.0, 1.0],
+    ));
+    let mats = [Material::new("wall", [0.5; 3], [0.0; 3])];
+    let scene = Scene::load_obj(&write_scene(dir.path(), "mat", &quads, &mats)).unwrap();
+    let patches = simplify(&scene, &VoxelParams::with_patches(150)).unwrap();
+    let occ = Occluders::new(&scene);
+    let o = scene.objects.iter().position(|o| o == "mat").unwrap() as u32;
+    let mat: Vec<usize> = (0..patches.len())
+        .filter(|&i| patches.patches[i].object == o)
+        .collect();
+    let covered = check_dark(&scene, &patches, &occ, &mat, 1);
+    assert_eq!(
+        (covered.covered, covered.seeing),
+        (mat.len(), 0),
+        "{covered:?}"
+    );
 }
 
 #[test]
