@@ -351,53 +351,21 @@ pub fn discretise(
     // Patches that see nothing (row of F zero) receive and give no indirect light: drop them.
     let (live, dark): (Vec<usize>, Vec<usize>) =
         (0..n_all).partition(|&i| f.row(i).iter().any(|v| *v > 0.0));
-    let dark_area: f64 = dark.iter().map(|&i| areas[i]).sum();
-    effects.insert(
-        "dark_patches",
-        Effect::new(
-            !dark.is_empty(),
-            if !dark.is_empty() {
-                // An independent look at the decision: hemisphere rays from the dark patches.
-                let built;
-                let occ = match &occluders {
-                    Some(o) => o,
-                    None => {
-                        built = Occluders::new(scene);
-                        &built
-                    }
-                };
-                let check = check_dark(scene, &patches, occ, &dark, params.seed);
-                if check.seeing > 0 {
-                    patches.warnings.push(format!(
-                        "{} of {} dark patches send light to other patches by hemisphere rays (up to {:.3} of it, patch {}), though their form factors are zero: that light is lost",
-                        check.seeing,
-                        check.checked,
-                        check.largest_share,
-                        check.worst_patch.unwrap_or(0)
-                    ));
-                }
-                format!(
-                    "{} of {n_all} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{}",
-                    dark.len(),
-                    dark_area / areas.iter().sum::<f64>(),
-                    check.checked,
-                    check.largest_share,
-                    check.rays,
-                    if check.seeing > 0 {
-                        format!("; {} contradict it: see the warnings)", check.seeing)
-                    } else {
-                        format!(
-                            "): {} lie under or inside other objects (their rays meet back faces), {} face the void",
-                            check.covered,
-                            check.checked - check.covered
-                        )
-                    }
-                )
-            } else {
-                "every patch sees some other patch: none dropped".to_owned()
-            },
-        ),
-    );
+    let dark_effect = if dark.is_empty() {
+        Effect::new(false, "every patch sees some other patch: none dropped")
+    } else {
+        // An independent look at the decision: hemisphere rays from the dark patches.
+        let built;
+        let occ = match &occluders {
+            Some(o) => o,
+            None => {
+                built = Occluders::new(scene);
+                &built
+            }
+        };
+        dark_patches(scene, &mut patches, occ, &dark, &areas, params.seed)
+    };
+    effects.insert("dark_patches", dark_effect);
     if live.is_empty() {
         return Err(BakeError::Unbakeable(
             "no patch sees any other patch, so no light can travel between surfaces (a single surface, or every surface facing away from the rest)".into(),
@@ -649,6 +617,48 @@ pub fn bake_discretised(
         report,
         patch_source,
     })
+}
+
+/// The `dark_patches` decision for a non-empty `dark` list, checked by hemisphere rays
+/// ([`check_dark`]); a dark patch whose rays land on patches also adds a warning to `patches`.
+fn dark_patches(
+    scene: &Scene,
+    patches: &mut Patches,
+    occ: &Occluders,
+    dark: &[usize],
+    areas: &[f64],
+    seed: u64,
+) -> Effect {
+    let check = check_dark(scene, patches, occ, dark, seed);
+    let verdict = if check.seeing > 0 {
+        patches.warnings.push(format!(
+            "{} of {} dark patches send light to other patches by hemisphere rays (up to {:.3} of it, patch {}), though their form factors are zero: that light is lost",
+            check.seeing,
+            check.checked,
+            check.largest_share,
+            check.worst_patch.unwrap_or(0)
+        ));
+        format!("; {} contradict it: see the warnings)", check.seeing)
+    } else {
+        format!(
+            "): {} lie under or inside other objects (their rays meet back faces), {} face the void",
+            check.covered,
+            check.checked - check.covered
+        )
+    };
+    let dark_area: f64 = dark.iter().map(|&i| areas[i]).sum();
+    Effect::new(
+        true,
+        format!(
+            "{} of {} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{verdict}",
+            dark.len(),
+            patches.len(),
+            dark_area / areas.iter().sum::<f64>(),
+            check.checked,
+            check.largest_share,
+            check.rays,
+        ),
+    )
 }
 
 fn encode_error(e: EncodeError) -> BakeError {
