@@ -292,9 +292,9 @@ pub struct DarkCheck {
 /// Casts [`DARK_CHECK_RAYS`] hemisphere rays from each of the `dark` patches (those whose row
 /// of F is zero) and reports how many of them land on patches. A patch facing out of a room
 /// sends every ray into the void, one covered by another object (a floor under a block) into
-/// that object's back faces, and both confirm their zero rows; a patch whose rays land on other patches
-/// lost its light to a fault in the form factors, and with it the light it would have passed
-/// on.
+/// that object's back faces, and both confirm their zero rows; a patch whose rays land on
+/// other patches lost its light to a fault in the form factors, and with it the light it would
+/// have passed on.
 pub fn check_dark(
     scene: &Scene,
     patches: &Patches,
