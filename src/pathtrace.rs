@@ -111,11 +111,11 @@ pub(crate) struct PathTracer {
     offset: f64,
 }
 
-/// An object's estimate: area-weighted means over its front surfaces.
+/// An object's estimate: area-weighted means over its exposed front surfaces.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct ObjectEstimate {
     pub(crate) name: String,
-    /// Total area of its triangles.
+    /// Area of its triangles not buried under other objects (estimated by the samples).
     pub(crate) area: f64,
     /// Mean irradiance H (W/m², RGB).
     pub(crate) irradiance: [f64; 3],
@@ -281,9 +281,10 @@ impl PathTracer {
             .collect()
     }
 
-    /// Area-weighted mean irradiance (W/m², RGB) over each object's front surfaces, with
-    /// standard errors: `samples_per_object` points uniform by area over the object, one path
-    /// each. Panics if `samples_per_object < 2` (a standard error needs two samples).
+    /// Area-weighted mean irradiance (W/m², RGB) over each object's exposed front surfaces,
+    /// with standard errors: `samples_per_object` points uniform by area over the object, one
+    /// path each from those not buried under another object ([`Occluders::buried`]), whose
+    /// share also scales the area. Panics if `samples_per_object < 2` (a standard error needs two samples).
     pub(crate) fn object_irradiance(
         &self,
         samples_per_object: usize,
@@ -310,15 +311,23 @@ impl PathTracer {
                         radiosity_stderr: [0.0; 3],
                     };
                 }
-                // Per chunk: sums and sums of squares of H and B, in sample order.
-                let chunks: Vec<[[f64; 3]; 4]> = (0..n.div_ceil(CHUNK))
+                // Per chunk: sums and sums of squares of H and B, in sample order, and the
+                // number of points not buried under another object (the others are not
+                // surface: no light reaches or leaves them, and they count in neither the
+                // means nor the area).
+                let chunks: Vec<([[f64; 3]; 4], usize)> = (0..n.div_ceil(CHUNK))
                     .into_par_iter()
                     .map(|k| {
                         let mut s = [[0.0; 3]; 4];
+                        let mut exposed = 0;
                         for i in k * CHUNK..((k + 1) * CHUNK).min(n) {
                             let mut rng = sample_rng(seed, o as u64, i as u64);
                             let t = &self.tris[list[pick(cdf, rng.next_f64())] as usize];
                             let x = t.sample(&mut rng);
+                            if self.occ.buried(x, t.normal) {
+                                continue;
+                            }
+                            exposed += 1;
                             let h = self.irradiance_at(x, t.normal, &mut rng);
                             for c in 0..3 {
                                 let b = t.emission[c] + t.rho[c] * h[c];
@@ -328,18 +337,31 @@ impl PathTracer {
                                 s[3][c] += b * b;
                             }
                         }
-                        s
+                        (s, exposed)
                     })
                     .collect();
                 let mut s = [[0.0; 3]; 4];
-                for chunk in &chunks {
+                let mut exposed = 0;
+                for (chunk, e) in &chunks {
+                    exposed += e;
                     for (acc, v) in s.iter_mut().zip(chunk) {
                         for c in 0..3 {
                             acc[c] += v[c];
                         }
                     }
                 }
-                let nf = n as f64;
+                let area = area * exposed as f64 / n as f64;
+                if exposed < 2 {
+                    return ObjectEstimate {
+                        name: name.clone(),
+                        area,
+                        irradiance: [0.0; 3],
+                        stderr: [0.0; 3],
+                        radiosity: [0.0; 3],
+                        radiosity_stderr: [0.0; 3],
+                    };
+                }
+                let nf = exposed as f64;
                 let mean = |sum: [f64; 3]| sum.map(|v| v / nf);
                 let stderr = |sum: [f64; 3], sq: [f64; 3]| {
                     let mut e = [0.0; 3];

@@ -71,6 +71,13 @@ fn to_local(p: DVec3, origin: DVec3, scale: f64) -> Vec3A {
     Vec3A::from(((p - origin) * scale).as_vec3())
 }
 
+/// A ray direction in f32 with every zero component `+0.0`: obvhs's CWBVH traversal misses
+/// every triangle when a component is `-0.0` (a ray straight up with normal `(-0, 1, 0)`,
+/// from a cross product or a negation, met nothing; the same ray with `+0` met the ceiling).
+fn ray_direction(d: DVec3) -> Vec3A {
+    Vec3A::from(d.as_vec3()) + Vec3A::ZERO
+}
+
 /// Relative (to the scene extent) tolerance of the plane tests in [`Occluders::may_block`]:
 /// above f64 rounding of any coordinate, far below any feature a form factor resolves.
 const PLANE_TOL: f64 = 1e-9;
@@ -259,7 +266,7 @@ impl Occluders {
         if len <= 2.0 * margin {
             return true;
         }
-        let dir = Vec3A::from((d / len).as_vec3());
+        let dir = ray_direction(d / len);
         let o = self.local(a);
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
         self.cw.ray_traverse_miss(ray, |r, id| {
@@ -311,7 +318,7 @@ impl Occluders {
         if self.rt.is_empty() || !(len > 0.0) || !len.is_finite() {
             return None;
         }
-        let dir = Vec3A::from((direction / len).as_vec3());
+        let dir = ray_direction(direction / len);
         let o = self.local(origin);
         let t_max = (t_max * self.scale).min(f64::from(f32::MAX));
         let ray = Ray::new(o, dir, (t_min * self.scale) as f32, t_max as f32);
@@ -368,7 +375,7 @@ impl Occluders {
         if self.rt.is_empty() || !(len > 0.0) || !len.is_finite() {
             return true;
         }
-        let dir = Vec3A::from((d / len).as_vec3());
+        let dir = ray_direction(d / len);
         let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + 1e-4)) as f32);
         let Some((id, t)) = self.first_hit(ray, &|t| self.holds(t, from)) else {
             return true;
@@ -390,6 +397,33 @@ impl Occluders {
         }
         let margin = 1e-6 * self.extent;
         !inside_by(self.given(target), to, margin)
+    }
+
+    /// Whether the point `x` of a surface with unit normal `normal` is *buried*: no light can
+    /// reach it or leave it because another object covers it. Either a triangle lies against
+    /// it face to face (its plane holds `x`, it covers `x` and it faces the other way: a
+    /// block's bottom on a floor, the floor under that bottom), or the ray along the normal
+    /// first meets a back face (the inside of a block that rests on the surface or stands
+    /// through it). A ray that meets nothing, as out of an open box, leaves `x` exposed.
+    pub fn buried(&self, x: DVec3, normal: DVec3) -> bool {
+        if self.rt.is_empty() || !normal.is_finite() {
+            return false;
+        }
+        let facing = |t: u32| {
+            let c = self.given(t);
+            (c[1] - c[0]).cross(c[2] - c[0]).dot(normal)
+        };
+        // Face to face: a ray crossing the plane at `x` from just in front of it, which stops
+        // only at a triangle of that plane facing against `normal`.
+        let lift = 1e-6 * LOCAL_EXTENT;
+        let o = self.local(x) + Vec3A::from(normal.as_vec3()) * lift as f32;
+        let ray = Ray::new(o, ray_direction(-normal), 0.0, 2.0 * lift as f32);
+        let against = |t: u32| !(self.holds(t, x) && facing(t) < 0.0);
+        if self.first_hit(ray, &against).is_some() {
+            return true;
+        }
+        self.closest_hit_from_surface(x, normal, 10.0 * self.extent)
+            .is_some_and(|h| facing(h.triangle) >= 0.0)
     }
 
     /// The corners of triangle `t` (its index in the list given).
@@ -529,5 +563,63 @@ mod tests {
             occ.closest_hit(dvec3(3.0, 0.0, 2.0), -DVec3::Z, 0.0, 10.0)
                 .is_none()
         );
+    }
+
+    /// The 12 triangles of the box `lo`–`hi`, facing out (or in, for a room).
+    fn boxed(lo: DVec3, hi: DVec3, out: bool) -> Vec<[DVec3; 3]> {
+        let mid = (lo + hi) * 0.5;
+        let mut tris = Vec::new();
+        for axis in 0..3 {
+            for side in [lo[axis], hi[axis]] {
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let corner = |a: f64, b: f64| {
+                    let mut p = DVec3::ZERO;
+                    p[axis] = side;
+                    p[u] = a;
+                    p[v] = b;
+                    p
+                };
+                let q = [
+                    corner(lo[u], lo[v]),
+                    corner(hi[u], lo[v]),
+                    corner(hi[u], hi[v]),
+                    corner(lo[u], hi[v]),
+                ];
+                let n = (q[1] - q[0]).cross(q[2] - q[0]);
+                let outward = n.dot(q[0] - mid) > 0.0;
+                let [a, b, c, d] = if outward == out {
+                    q
+                } else {
+                    [q[3], q[2], q[1], q[0]]
+                };
+                tris.push([a, b, c]);
+                tris.push([a, c, d]);
+            }
+        }
+        tris
+    }
+
+    #[test]
+    fn negative_zero_directions_meet_what_positive_zero_ones_do() {
+        // A room with a box standing on its floor. obvhs's traversal missed every triangle
+        // for a direction with a `-0.0` component: straight up from the floor under the box
+        // with (-0, 1, -0) met nothing, with (0, 1, 0) the box's top at 2.2.
+        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
+        tris.extend(boxed(dvec3(2.8, 0.0, 0.5), dvec3(3.6, 2.2, 1.2), true));
+        let occ = Occluders::from_triangles(&tris);
+        let x = dvec3(3.2, 0.0, 1.0);
+        for d in [dvec3(0.0, 1.0, 0.0), dvec3(-0.0, 1.0, -0.0)] {
+            let hit = occ.closest_hit_from_surface(x, d, 100.0);
+            let hit = hit.unwrap_or_else(|| panic!("{d:?} met nothing"));
+            assert!((hit.distance - 2.2).abs() < 1e-5, "{d:?}: {hit:?}");
+        }
+        // Buried: the floor under the box (its inside above), whichever sign its normal's
+        // zeros carry; the box's bottom (face to face with the floor). Exposed: the floor
+        // beside the box, and the box's top.
+        assert!(occ.buried(x, dvec3(0.0, 1.0, 0.0)));
+        assert!(occ.buried(x, dvec3(-0.0, 1.0, -0.0)));
+        assert!(occ.buried(x, dvec3(0.0, -1.0, 0.0)));
+        assert!(!occ.buried(dvec3(2.0, 0.0, 2.5), dvec3(-0.0, 1.0, 0.0)));
+        assert!(!occ.buried(dvec3(3.2, 2.2, 1.0), DVec3::Y));
     }
 }

@@ -14,8 +14,15 @@ use std::borrow::Cow;
 const SAME_SURFACE_COS: f64 = 0.8;
 
 /// Builds the runtime mesh. `file_index[k]` is the matrix (file) index of simplification patch
-/// `k`, or `None` for a patch left out of the matrix (one that sees nothing).
-pub fn runtime_mesh(scene: &Scene, patches: &Patches, file_index: &[Option<u32>]) -> Mesh<'static> {
+/// `k`, or `None` for a patch left out of the matrix (one that sees nothing); `buried_pieces`
+/// (per piece, may be empty) marks pieces whose centroid is buried under another object, which
+/// lend no direct-light sample.
+pub fn runtime_mesh(
+    scene: &Scene,
+    patches: &Patches,
+    file_index: &[Option<u32>],
+    buried_pieces: &[bool],
+) -> Mesh<'static> {
     let nt = scene.triangles.len();
     let bary = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let triangles: Vec<MeshTriangle> = scene
@@ -110,13 +117,14 @@ pub fn runtime_mesh(scene: &Scene, patches: &Patches, file_index: &[Option<u32>]
         }
     }
 
-    // Direct-light samples: the centroid of every piece, in matrix order.
+    // Direct-light samples: the centroid of every piece not buried under another object, in
+    // matrix order.
     let n = file_index.iter().flatten().count();
     let mut by_file: Vec<Vec<PatchSample>> = vec![Vec::new(); n];
     for (k, p) in patches.patches.iter().enumerate() {
         let Some(f) = file_index[k] else { continue };
-        for piece in &patches.pieces[p.pieces.clone()] {
-            if !(piece.area > 0.0) {
+        for (k, piece) in patches.pieces[p.pieces.clone()].iter().enumerate() {
+            if !(piece.area > 0.0) || buried_pieces.get(p.pieces.start + k) == Some(&true) {
                 continue;
             }
             let c = piece.polygon.centroid();

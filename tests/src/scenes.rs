@@ -242,10 +242,16 @@ pub fn icosphere(subdivisions: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
 /// The six outward-facing faces of the cube `[lo, hi]³`, object `object`, material `material`:
 /// a floating blocker inside a room.
 pub fn floating_cube(lo: f64, hi: f64, object: &str, material: &str) -> Vec<Quad> {
-    let mid = (lo + hi) / 2.0;
+    block([lo; 3], [hi; 3], object, material)
+}
+
+/// The six outward-facing faces of the box from `lo` to `hi` (one quad each): a block, which
+/// may rest on a floor (`lo[1] = 0` in [`closed_box`]) or stand against a wall.
+pub fn block(lo: [f64; 3], hi: [f64; 3], object: &str, material: &str) -> Vec<Quad> {
+    let mid: Vec<f64> = (0..3).map(|k| (lo[k] + hi[k]) / 2.0).collect();
     let mut quads = Vec::new();
     for axis in 0..3 {
-        for (value, out) in [(lo, -1.0), (hi, 1.0)] {
+        for (value, out) in [(lo[axis], -1.0), (hi[axis], 1.0)] {
             let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
             let corner = |a: f64, b: f64| {
                 let mut p = [0.0; 3];
@@ -254,16 +260,16 @@ pub fn floating_cube(lo: f64, hi: f64, object: &str, material: &str) -> Vec<Quad
                 p[v] = b;
                 p
             };
-            let mut towards = [mid; 3];
-            towards[axis] = value + out * (hi - lo);
+            let mut towards = [mid[0], mid[1], mid[2]];
+            towards[axis] = value + out * (hi[axis] - lo[axis]);
             quads.push(Quad::facing(
                 object,
                 material,
                 [
-                    corner(lo, lo),
-                    corner(hi, lo),
-                    corner(hi, hi),
-                    corner(lo, hi),
+                    corner(lo[u], lo[v]),
+                    corner(hi[u], lo[v]),
+                    corner(hi[u], hi[v]),
+                    corner(lo[u], hi[v]),
                 ],
                 towards,
             ));
