@@ -402,9 +402,10 @@ impl Occluders {
     /// Whether the point `x` of a surface with unit normal `normal` is *buried*: no light can
     /// reach it or leave it because another object covers it. Either a triangle lies against
     /// it face to face (its plane holds `x`, it covers `x` and it faces the other way: a
-    /// block's bottom on a floor, the floor under that bottom), or the ray along the normal
-    /// first meets a back face (the inside of a block that rests on the surface or stands
-    /// through it). A ray that meets nothing, as out of an open box, leaves `x` exposed.
+    /// block's bottom on a floor, the floor under that bottom), or rays along the normal and
+    /// 45° and 80° off it all first meet back faces (the inside of a block that rests on the surface
+    /// or stands through it). A ray that meets nothing, as out of an open box, or a front
+    /// face leaves `x` exposed.
     pub fn buried(&self, x: DVec3, normal: DVec3) -> bool {
         if self.rt.is_empty() || !normal.is_finite() {
             return false;
@@ -422,8 +423,22 @@ impl Occluders {
         if self.first_hit(ray, &against).is_some() {
             return true;
         }
-        self.closest_hit_from_surface(x, normal, 10.0 * self.extent)
-            .is_some_and(|h| facing(h.triangle) >= 0.0)
+        // Enclosed: the first hits along the normal and eight directions 45° and 80° off it
+        // are all back faces. One ray would call a table under a lampshade (its inside is its
+        // back faces) buried, and rays up to 45° the floor under a bucket hung just above it;
+        // the grazing rays leave through the gap. Rays from under a block that rests on the
+        // floor meet its inside whichever way they go.
+        let (t1, t2) = normal.any_orthonormal_pair();
+        let tilts = [DVec3::ZERO, t1, -t1, t2, -t2];
+        let grazing = [t1, -t1, t2, -t2].map(|t| t * 80f64.to_radians().tan());
+        tilts.iter().chain(&grazing).all(|&t| {
+            let d = normal + t;
+            self.closest_hit_from_surface(x, d, 10.0 * self.extent)
+                .is_some_and(|h| {
+                    let c = self.given(h.triangle);
+                    (c[1] - c[0]).cross(c[2] - c[0]).dot(d) >= 0.0
+                })
+        })
     }
 
     /// The corners of triangle `t` (its index in the list given).
@@ -621,5 +636,14 @@ mod tests {
         assert!(occ.buried(x, dvec3(0.0, -1.0, 0.0)));
         assert!(!occ.buried(dvec3(2.0, 0.0, 2.5), dvec3(-0.0, 1.0, 0.0)));
         assert!(!occ.buried(dvec3(3.2, 2.2, 1.0), DVec3::Y));
+        // Under an open-bottomed shade 2 wide hung 0.5 above the floor (its inside is its
+        // back faces): exposed, the grazing rays leave through the gap (they would need more
+        // than 87° under a gap of 0.05).
+        let mut shade = boxed(dvec3(0.5, 0.5, 2.0), dvec3(2.5, 1.5, 4.0), true);
+        shade.retain(|t| t.iter().any(|p| p.y > 0.5));
+        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
+        tris.extend(shade);
+        let occ = Occluders::from_triangles(&tris);
+        assert!(!occ.buried(dvec3(1.5, 0.0, 3.0), DVec3::Y));
     }
 }
