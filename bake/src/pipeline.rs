@@ -172,9 +172,10 @@ pub struct BakeReport {
 /// Closure measurements.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ClosureReport {
-    /// Smallest row sum of F over patches that see anything.
+    /// Smallest row sum of F over patches that see anything and are not partly buried (whose
+    /// rows mix two estimates, see `closure_effect`), before any correction.
     pub min_row_sum: f64,
-    /// Largest row sum.
+    /// Largest row sum, before any correction.
     pub max_row_sum: f64,
     /// Largest relative change of a row sum made by the closure correction (0 when open), apart
     /// from the rows of partly buried patches.
@@ -618,9 +619,10 @@ pub struct Exposure {
 /// part, so it is not surface. A patch with exposed share `e` keeps the area `e·A` and the row
 /// `F/e`, the mean over its exposed part; `A·F_ij` and the column are unchanged, so
 /// reciprocity holds. Without this a partly buried patch spreads its mean radiosity, dimmed by
-/// the dark part, over only the exposed part: energy lost at every bounce, which in a closed
-/// room at ρ = 0.999 left half the light. A wholly buried patch's row and column are zeroed
-/// (it is dropped as dark). Nothing is done where nothing occludes (`occ` is `None`).
+/// the dark part, over only the exposed part: energy lost at every bounce (ARCHITECTURE.md,
+/// "Buried surface": a closed room at ρ = 0.999 with 1% of its area buried gave a quarter of
+/// the furnace's light). A wholly buried patch's row and column are zeroed (it is dropped as
+/// dark). Nothing is done where nothing occludes (`occ` is `None`).
 fn expose(patches: &mut Patches, occ: Option<&Occluders>, f: &mut Dense, seed: u64) -> Exposure {
     let objects = patches
         .patches
@@ -713,6 +715,7 @@ fn closure_effect(
             .filter(|&i| partly(i))
             .map(|i| f.row(i).iter().sum::<f64>());
         let (lo, hi) = sums.fold((f64::INFINITY, 0f64), |(lo, hi), s| (lo.min(s), hi.max(s)));
+        report.max_row_sum = report.max_row_sum.max(hi);
         range += &format!(
             " ({} patches partly buried under other objects, {:.4} of the area, by {BURIED_POINTS} points each: their rows, over the exposed part, in [{lo:.3}, {hi:.3}])",
             exposure.partly,
