@@ -127,6 +127,20 @@ pub(crate) struct ObjectEstimate {
     pub(crate) radiosity_stderr: [f64; 3],
 }
 
+impl ObjectEstimate {
+    /// An object with no light to report (no triangles, or fewer than two exposed samples).
+    fn dark(name: &str, area: f64) -> Self {
+        Self {
+            name: name.to_owned(),
+            area,
+            irradiance: [0.0; 3],
+            stderr: [0.0; 3],
+            radiosity: [0.0; 3],
+            radiosity_stderr: [0.0; 3],
+        }
+    }
+}
+
 /// The SplitMix64 output function: a bijection of 64-bit words that spreads every input bit.
 fn mix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -302,14 +316,7 @@ impl PathTracer {
             .map(|(o, (name, (list, cdf)))| {
                 let area = cdf.last().copied().unwrap_or(0.0);
                 if list.is_empty() {
-                    return ObjectEstimate {
-                        name: name.clone(),
-                        area,
-                        irradiance: [0.0; 3],
-                        stderr: [0.0; 3],
-                        radiosity: [0.0; 3],
-                        radiosity_stderr: [0.0; 3],
-                    };
+                    return ObjectEstimate::dark(name, area);
                 }
                 // Per chunk: sums and sums of squares of H and B, in sample order, and the
                 // number of points not buried under another object (the others are not
@@ -352,14 +359,7 @@ impl PathTracer {
                 }
                 let area = area * exposed as f64 / n as f64;
                 if exposed < 2 {
-                    return ObjectEstimate {
-                        name: name.clone(),
-                        area,
-                        irradiance: [0.0; 3],
-                        stderr: [0.0; 3],
-                        radiosity: [0.0; 3],
-                        radiosity_stderr: [0.0; 3],
-                    };
+                    return ObjectEstimate::dark(name, area);
                 }
                 let nf = exposed as f64;
                 let mean = |sum: [f64; 3]| sum.map(|v| v / nf);

@@ -1,7 +1,7 @@
 //! Known physics through `radiosity solve --json` (issue #8): the white furnace and the thin
 //! wall, end to end with the default format and order, as a user (or a checker) runs them.
 
-use radiosity_tests::scenes::{Material, Quad, block, closed_box, write_scene};
+use radiosity_tests::scenes::{Material, Quad, closed_box, resting_blocks_room, write_scene};
 use serde_json::Value;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -76,10 +76,7 @@ fn furnace_with_blocks_resting_on_surfaces_through_solve_json() {
     // buried patch (hard_cases.rs has the derivation).
     let dir = tempfile::tempdir().unwrap();
     let rho = 0.999;
-    let mats = [Material::new("white", [rho; 3], [1.0 / PI; 3])];
-    let mut quads = closed_box(2.0, 2, |_, _, _| "white".into());
-    quads.extend(block([0.3, 0.0, 0.4], [0.9, 0.7, 1.0], "standing", "white"));
-    quads.extend(block([0.0, 0.8, 1.2], [0.5, 1.3, 1.7], "pressed", "white"));
+    let (quads, mats, exposed) = resting_blocks_room(rho);
     let path = write_scene(dir.path(), "resting", &quads, &mats);
     let v = solve_json(&path, &["--patches", "150"]);
     assert_eq!(
@@ -96,13 +93,8 @@ fn furnace_with_blocks_resting_on_surfaces_through_solve_json() {
             let rel = (got - want).abs() / want;
             assert!(rel < 5e-3, "{} {key} = {got} vs {want}", o["name"]);
         }
-        let exposed = match o["name"].as_str().unwrap() {
-            "floor" => 4.0 - 0.36,
-            "left" => 4.0 - 0.25,
-            "standing" => 4.0 * 0.42 + 0.36,
-            "pressed" => 5.0 * 0.25,
-            _ => 4.0,
-        };
+        let name = o["name"].as_str().unwrap();
+        let exposed = exposed.iter().find(|e| e.0 == name).unwrap().1;
         let area = o["area"].as_f64().unwrap();
         assert!(
             (area - exposed).abs() < 0.01 * exposed,

@@ -129,6 +129,34 @@ pub fn closed_box(
     quads
 }
 
+/// A furnace room with objects resting on its surfaces: the closed box `[0, 2]³` (split 2 × 2)
+/// with a block `standing` on its floor and a cube `pressed` against its left wall, everything
+/// one white material of reflectance `rho` emitting radiance `1/π` (exitance 1). Returns the
+/// quads, the material, and each object's exposed area (full area less the part in contact:
+/// the block's footprint 0.6 × 0.6 on the floor and its bottom, the cube's back 0.5 × 0.5 and
+/// the wall behind it).
+pub fn resting_blocks_room(rho: f64) -> (Vec<Quad>, Vec<Material>, Vec<(&'static str, f64)>) {
+    let mut quads = closed_box(2.0, 2, |_, _, _| "white".into());
+    quads.extend(block([0.3, 0.0, 0.4], [0.9, 0.7, 1.0], "standing", "white"));
+    quads.extend(block([0.0, 0.8, 1.2], [0.5, 1.3, 1.7], "pressed", "white"));
+    let mats = vec![Material::new(
+        "white",
+        [rho; 3],
+        [1.0 / std::f64::consts::PI; 3],
+    )];
+    let exposed = vec![
+        ("floor", 4.0 - 0.36),
+        ("left", 4.0 - 0.25),
+        ("ceiling", 4.0),
+        ("right", 4.0),
+        ("back", 4.0),
+        ("front", 4.0),
+        ("standing", 4.0 * 0.42 + 0.36),
+        ("pressed", 5.0 * 0.25),
+    ];
+    (quads, mats, exposed)
+}
+
 /// Writes `name.obj` and `name.mtl` into `dir`; returns the OBJ path.
 pub fn write_scene(dir: &Path, name: &str, quads: &[Quad], materials: &[Material]) -> PathBuf {
     let mut mtl = String::new();

@@ -29,7 +29,9 @@ use radiosity_bake::voxel::VoxelParams;
 use radiosity_core::{
     DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
 };
-use radiosity_tests::scenes::{Material, Quad, block, closed_box, floating_cube, write_scene};
+use radiosity_tests::scenes::{
+    Material, Quad, closed_box, floating_cube, resting_blocks_room, write_scene,
+};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -614,10 +616,7 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
     // at every bounce, and the rows short of 1 also hid the closure. Tolerance 0.5%, the issue's.
     let dir = tempfile::tempdir().unwrap();
     let rho = 0.999;
-    let mats = [Material::new("white", [rho; 3], [1.0 / PI; 3])];
-    let mut quads = closed_box(2.0, 2, |_, _, _| "white".into());
-    quads.extend(block([0.3, 0.0, 0.4], [0.9, 0.7, 1.0], "standing", "white"));
-    quads.extend(block([0.0, 0.8, 1.2], [0.5, 1.3, 1.7], "pressed", "white"));
+    let (quads, mats, exposed) = resting_blocks_room(rho);
     let path = write_scene(dir.path(), "resting", &quads, &mats);
     let out = bake_ok(&load(&path), &params(150));
     let closed = &out.report.effects["closed"];
@@ -632,26 +631,15 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
         }
     }
     assert_energy("blocks resting on surfaces", &out, true);
-    // Exposed areas, against the geometry: the floor loses the first block's footprint
-    // (0.6 × 0.6), the left wall the second block's back (0.5 × 0.5), each block its face in
-    // contact. Buried shares come from 512 points per partly buried patch (standard error at
-    // most 0.022 of a patch, about 0.1 here, for a handful of patches): 1% is ample.
-    let names: Vec<&str> = out.file.objects.iter().map(|o| o.as_ref()).collect();
-    let area = |name: &str| {
-        let o = names.iter().position(|n| *n == name).unwrap();
-        out.report.object_areas[o]
-    };
-    for (name, exposed) in [
-        ("floor", 4.0 - 0.36),
-        ("left", 4.0 - 0.25),
-        ("ceiling", 4.0),
-        ("standing", 2.0 * 0.42 + 2.0 * 0.42 + 0.36),
-        ("pressed", 5.0 * 0.25),
-    ] {
-        let got = area(name);
+    // Exposed areas, against the geometry. Buried shares come from 512 points per partly
+    // buried patch (standard error at most 0.022 of a patch, about 0.1 here, for a handful of
+    // patches): 1% is ample.
+    for (o, name) in out.file.objects.iter().enumerate() {
+        let want = exposed.iter().find(|e| e.0 == name.as_ref()).unwrap().1;
+        let got = out.report.object_areas[o];
         assert!(
-            (got - exposed).abs() < 0.01 * exposed,
-            "{name}: exposed area {got} vs {exposed}"
+            (got - want).abs() < 0.01 * want,
+            "{name}: exposed area {got} vs {want}"
         );
     }
 }
