@@ -15,7 +15,7 @@ use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::row_check::{BURIED_POINTS, buried_share, check_dark};
 use crate::scene::Scene;
 use crate::transfer::{
-    BounceSpec, Dense, TransferError, analyse_closure, cap_row_sums, enforce_closure,
+    BounceSpec, Dense, TransferError, cap_row_sums, closure_of_sums, enforce_closure,
     transfer_matrix,
 };
 use crate::voxel::{Patches, VoxelParams, simplify};
@@ -664,10 +664,9 @@ fn expose(patches: &mut Patches, occ: Option<&Occluders>, f: &mut Dense, seed: u
             *v /= e;
         }
         for k in p.pieces.clone() {
+            // The point the runtime samples direct light at (`mesh::runtime_mesh`).
             let q = &patches.pieces[k];
-            let v = q.polygon.vertices();
-            let c = v.iter().copied().sum::<glam::DVec3>() / v.len() as f64;
-            exposure.buried_pieces[k] = occ.buried(c, q.normal);
+            exposure.buried_pieces[k] = occ.buried(q.polygon.centroid(), q.normal);
         }
     }
     exposure
@@ -691,14 +690,12 @@ fn closure_effect(
     // patches). Those rows are rebalanced or capped with the rest, but only the others say
     // whether light escapes.
     let partly = |i: usize| exposure.share.get(i).is_some_and(|&b| b > 0.0 && b < 1.0);
-    let closure = if (0..f.n).any(|i| !partly(i) && f.row(i).iter().any(|v| *v > 0.0)) {
-        let mut rest = f.clone();
-        for i in (0..f.n).filter(|&i| partly(i)) {
-            rest.values[i * f.n..(i + 1) * f.n].fill(0.0);
-        }
-        analyse_closure(&rest, tol)
+    let sums: Vec<f64> = (0..f.n).map(|i| f.row(i).iter().sum()).collect();
+    let rest = (0..f.n).filter(|&i| !partly(i) && sums[i] > 0.0);
+    let closure = if rest.clone().next().is_some() {
+        closure_of_sums(rest.map(|i| sums[i]), tol)
     } else {
-        analyse_closure(f, tol)
+        closure_of_sums(sums.iter().copied(), tol)
     };
     let mut report = ClosureReport {
         min_row_sum: closure.min_row_sum,
@@ -711,10 +708,11 @@ fn closure_effect(
     );
     if exposure.partly > 0 {
         let buried: f64 = exposure.buried_area.iter().sum();
-        let sums = (0..f.n)
+        let (lo, hi) = (0..f.n)
             .filter(|&i| partly(i))
-            .map(|i| f.row(i).iter().sum::<f64>());
-        let (lo, hi) = sums.fold((f64::INFINITY, 0f64), |(lo, hi), s| (lo.min(s), hi.max(s)));
+            .fold((f64::INFINITY, 0f64), |(lo, hi), i| {
+                (lo.min(sums[i]), hi.max(sums[i]))
+            });
         report.max_row_sum = report.max_row_sum.max(hi);
         range += &format!(
             " ({} patches partly buried under other objects, {:.4} of the area, by {BURIED_POINTS} points each: their rows, over the exposed part, in [{lo:.3}, {hi:.3}])",
@@ -723,11 +721,10 @@ fn closure_effect(
         );
     }
     if closure.closed {
-        let before: Vec<f64> = (0..f.n).map(|i| f.row(i).iter().sum()).collect();
         enforce_closure(f, areas);
         // The largest relative change of a row sum, apart from and among the partly buried.
         let (mut rest, mut buried) = (0f64, 0f64);
-        for (i, b) in before.iter().enumerate().filter(|(_, b)| **b > 0.0) {
+        for (i, b) in sums.iter().enumerate().filter(|(_, b)| **b > 0.0) {
             let change = (f.row(i).iter().sum::<f64>() - b).abs() / b;
             let m = if partly(i) { &mut buried } else { &mut rest };
             *m = m.max(change);
@@ -748,10 +745,7 @@ fn closure_effect(
     // reciprocity. Excesses within the tolerance are quadrature error and stay (capping the
     // Cornell box's 1% near-field excess raised its BC1 lighting error from 3.8% to 5.1%),
     // unless some row's reflected light would then reach 1: the transfer could not converge.
-    let largest = (0..f.n)
-        .map(|i| f.row(i).iter().sum::<f64>())
-        .fold(0.0, f64::max);
-    if largest > 1.0 + tol || largest_gain(f, patches) >= 1.0 {
+    if report.max_row_sum > 1.0 + tol || largest_gain(f, patches) >= 1.0 {
         report.correction = cap_row_sums(f, areas);
     }
     let why = format!(

@@ -120,10 +120,16 @@ pub struct Closure {
 /// Measures the row sums of `f`; `closed` when every row that sees anything sums to
 /// `1 ± tolerance`. Rows that see nothing (sum 0) do not count: they are dropped, not open.
 pub fn analyse_closure(f: &Dense, tolerance: f64) -> Closure {
-    let sums: Vec<f64> = (0..f.n).map(|i| f.row(i).iter().sum()).collect();
-    let seeing = || sums.iter().copied().filter(|s| *s > 0.0);
-    let min_row_sum = seeing().fold(f64::INFINITY, f64::min);
-    let max_row_sum = seeing().fold(0.0, f64::max);
+    closure_of_sums((0..f.n).map(|i| f.row(i).iter().sum()), tolerance)
+}
+
+/// [`analyse_closure`] from the row sums themselves (those of the rows that should count).
+pub fn closure_of_sums(sums: impl Iterator<Item = f64>, tolerance: f64) -> Closure {
+    let (mut min_row_sum, mut max_row_sum) = (f64::INFINITY, 0f64);
+    for s in sums.filter(|s| *s > 0.0) {
+        min_row_sum = min_row_sum.min(s);
+        max_row_sum = max_row_sum.max(s);
+    }
     let closed = min_row_sum.is_finite()
         && (1.0 - min_row_sum) <= tolerance
         && (max_row_sum - 1.0) <= tolerance;
