@@ -400,12 +400,11 @@ impl Occluders {
     }
 
     /// Whether the point `x` of a surface with unit normal `normal` is *buried*: no light can
-    /// reach it or leave it because another object covers it. Either a triangle lies against
-    /// it face to face (its plane holds `x`, it covers `x` and it faces the other way: a
-    /// block's bottom on a floor, the floor under that bottom), or rays along the normal and
-    /// 45° and 80° off it all first meet back faces (the inside of a block that rests on the surface
-    /// or stands through it). A ray that meets nothing, as out of an open box, or a front
-    /// face leaves `x` exposed.
+    /// reach it or leave it because another object covers it. Rays along the normal and 45° and
+    /// 80° off it either all first meet back faces (the inside of a block that rests on the
+    /// surface or stands through it), or meet no front face while a triangle lies against `x`
+    /// face to face (a block's bottom on the floor of a closed room). A front face met by any
+    /// of the rays leaves `x` exposed (the sheets of a two-sided panel lie face to face).
     pub fn buried(&self, x: DVec3, normal: DVec3) -> bool {
         if self.rt.is_empty() || !normal.is_finite() {
             return false;
@@ -414,31 +413,46 @@ impl Occluders {
             let c = self.given(t);
             (c[1] - c[0]).cross(c[2] - c[0]).dot(normal)
         };
-        // Face to face: a ray crossing the plane at `x` from just in front of it, which stops
-        // only at a triangle of that plane facing against `normal`.
+        // What the surface looks out on: the first hits along the normal and eight directions
+        // 45° and 80° off it, each a back face (`Some(true)`), a front face (`Some(false)`) or
+        // nothing (`None`). A front face anywhere: exposed.
+        let (t1, t2) = normal.any_orthonormal_pair();
+        let tilts = [DVec3::ZERO, t1, -t1, t2, -t2];
+        let grazing = [t1, -t1, t2, -t2].map(|t| t * 80f64.to_radians().tan());
+        let mut back = true;
+        for &t in tilts.iter().chain(&grazing) {
+            let d = normal + t;
+            match self.closest_hit_from_surface(x, d, 10.0 * self.extent) {
+                Some(h) => {
+                    let c = self.given(h.triangle);
+                    if (c[1] - c[0]).cross(c[2] - c[0]).dot(d) < 0.0 {
+                        return false;
+                    }
+                }
+                None => back = false,
+            }
+        }
+        // Enclosed: every ray meets a back face. One ray would call a table under a lampshade
+        // (its inside is its back faces) buried, and rays up to 45° the floor under a bucket
+        // hung just above it; the grazing rays leave through the gap. Rays from under a block
+        // that rests on the floor meet its inside whichever way they go.
+        if back {
+            return true;
+        }
+        // Some rays leave the scene, none meets a front face: buried if a triangle lies against
+        // `x` face to face (its plane holds `x`, it covers `x`, it faces the other way), as a
+        // block's bottom on the floor of a closed room looks through the floor into the void.
+        // The sheet behind a two-sided panel lies face to face too, but the panel looks out on
+        // the room's front faces and was called exposed above.
+        let facing = |t: u32| {
+            let c = self.given(t);
+            (c[1] - c[0]).cross(c[2] - c[0]).dot(normal)
+        };
         let lift = 1e-6 * LOCAL_EXTENT;
         let o = self.local(x) + Vec3A::from(normal.as_vec3()) * lift as f32;
         let ray = Ray::new(o, ray_direction(-normal), 0.0, 2.0 * lift as f32);
         let against = |t: u32| !(self.holds(t, x) && facing(t) < 0.0);
-        if self.first_hit(ray, &against).is_some() {
-            return true;
-        }
-        // Enclosed: the first hits along the normal and eight directions 45° and 80° off it
-        // are all back faces. One ray would call a table under a lampshade (its inside is its
-        // back faces) buried, and rays up to 45° the floor under a bucket hung just above it;
-        // the grazing rays leave through the gap. Rays from under a block that rests on the
-        // floor meet its inside whichever way they go.
-        let (t1, t2) = normal.any_orthonormal_pair();
-        let tilts = [DVec3::ZERO, t1, -t1, t2, -t2];
-        let grazing = [t1, -t1, t2, -t2].map(|t| t * 80f64.to_radians().tan());
-        tilts.iter().chain(&grazing).all(|&t| {
-            let d = normal + t;
-            self.closest_hit_from_surface(x, d, 10.0 * self.extent)
-                .is_some_and(|h| {
-                    let c = self.given(h.triangle);
-                    (c[1] - c[0]).cross(c[2] - c[0]).dot(d) >= 0.0
-                })
-        })
+        self.first_hit(ray, &against).is_some()
     }
 
     /// The corners of triangle `t` (its index in the list given).
@@ -645,5 +659,14 @@ mod tests {
         tris.extend(shade);
         let occ = Occluders::from_triangles(&tris);
         assert!(!occ.buried(dvec3(1.5, 0.0, 3.0), DVec3::Y));
+        // A two-sided panel (two sheets face to face) in the middle of the room: both sides
+        // look out on the room's front faces, neither is buried.
+        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
+        let [a, b, c, d] =
+            [(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)].map(|(x, z)| dvec3(x, 1.5, z));
+        tris.extend([[a, b, c], [a, c, d], [a, c, b], [a, d, c]]);
+        let occ = Occluders::from_triangles(&tris);
+        assert!(!occ.buried(dvec3(2.0, 1.5, 2.0), DVec3::Y));
+        assert!(!occ.buried(dvec3(2.0, 1.5, 2.0), -DVec3::Y));
     }
 }
