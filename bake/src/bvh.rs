@@ -409,13 +409,8 @@ impl Occluders {
         if self.rt.is_empty() || !normal.is_finite() {
             return false;
         }
-        let facing = |t: u32| {
-            let c = self.given(t);
-            (c[1] - c[0]).cross(c[2] - c[0]).dot(normal)
-        };
         // What the surface looks out on: the first hits along the normal and eight directions
-        // 45° and 80° off it, each a back face (`Some(true)`), a front face (`Some(false)`) or
-        // nothing (`None`). A front face anywhere: exposed.
+        // 45° and 80° off it. A front face met by any of them: exposed.
         let (t1, t2) = normal.any_orthonormal_pair();
         let tilts = [DVec3::ZERO, t1, -t1, t2, -t2];
         let grazing = [t1, -t1, t2, -t2].map(|t| t * 80f64.to_radians().tan());
