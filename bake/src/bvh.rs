@@ -624,7 +624,7 @@ mod tests {
     }
 
     #[test]
-    fn negative_zero_directions_meet_what_positive_zero_ones_do() {
+    fn burial_and_negative_zero_directions() {
         // A room with a box standing on its floor. obvhs's traversal missed every triangle
         // for a direction with a `-0.0` component: straight up from the floor under the box
         // with (-0, 1, -0) met nothing, with (0, 1, 0) the box's top at 2.2.
