@@ -123,8 +123,8 @@ pub fn runtime_mesh(
     let mut by_file: Vec<Vec<PatchSample>> = vec![Vec::new(); n];
     for (k, p) in patches.patches.iter().enumerate() {
         let Some(f) = file_index[k] else { continue };
-        for (k, piece) in patches.pieces[p.pieces.clone()].iter().enumerate() {
-            if !(piece.area > 0.0) || buried_pieces.get(p.pieces.start + k) == Some(&true) {
+        for (j, piece) in patches.pieces[p.pieces.clone()].iter().enumerate() {
+            if !(piece.area > 0.0) || buried_pieces.get(p.pieces.start + j) == Some(&true) {
                 continue;
             }
             let c = piece.polygon.centroid();
