@@ -418,12 +418,8 @@ impl Occluders {
         for &t in tilts.iter().chain(&grazing) {
             let d = normal + t;
             match self.closest_hit_from_surface(x, d, 10.0 * self.extent) {
-                Some(h) => {
-                    let c = self.given(h.triangle);
-                    if (c[1] - c[0]).cross(c[2] - c[0]).dot(d) < 0.0 {
-                        return false;
-                    }
-                }
+                Some(h) if self.front(h.triangle).dot(d) < 0.0 => return false,
+                Some(_) => {}
                 None => back = false,
             }
         }
@@ -439,20 +435,22 @@ impl Occluders {
         // block's bottom on the floor of a closed room looks through the floor into the void.
         // The sheet behind a two-sided panel lies face to face too, but the panel looks out on
         // the room's front faces and was called exposed above.
-        let facing = |t: u32| {
-            let c = self.given(t);
-            (c[1] - c[0]).cross(c[2] - c[0]).dot(normal)
-        };
         let lift = 1e-6 * LOCAL_EXTENT;
         let o = self.local(x) + Vec3A::from(normal.as_vec3()) * lift as f32;
         let ray = Ray::new(o, ray_direction(-normal), 0.0, 2.0 * lift as f32);
-        let against = |t: u32| !(self.holds(t, x) && facing(t) < 0.0);
+        let against = |t: u32| !(self.holds(t, x) && self.front(t).dot(normal) < 0.0);
         self.first_hit(ray, &against).is_some()
     }
 
     /// The corners of triangle `t` (its index in the list given).
     fn given(&self, t: u32) -> &[DVec3; 3] {
         &self.corners[self.slot[t as usize] as usize]
+    }
+
+    /// The (unnormalised) front normal of triangle `t`: counter-clockwise winding.
+    fn front(&self, t: u32) -> DVec3 {
+        let c = self.given(t);
+        (c[1] - c[0]).cross(c[2] - c[0])
     }
 
     /// Whether any triangle could block some segment from a point of polygon `s` (unit normal
