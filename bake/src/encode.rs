@@ -40,7 +40,12 @@ pub struct EncodeParams {
     /// 1/18). [`SparseSelection::ErrorDriven`] keeps as many entries, chosen by error instead of
     /// size.
     pub sparse_fraction: f32,
-    /// texpresso's fit for BC1: cluster fit (default) or the slower iterative cluster fit.
+    /// Share of BC1 blocks, those of largest error from the range-fit start, that the
+    /// error-driven encode ([`SparseSelection::ErrorDriven`]) fits again from texpresso's
+    /// cluster fit, keeping whichever start refines to the lower error ([`BC1_RETRY`]).
+    pub bc1_retry: f32,
+    /// Whether that second start is texpresso's iterative cluster fit (slower) instead of
+    /// its cluster fit.
     pub bc1_iterative: bool,
 }
 
@@ -51,6 +56,7 @@ impl Default for EncodeParams {
             max_tile: DEFAULT_MAX_TILE,
             shift: DEFAULT_SHIFT,
             sparse_fraction: 0.004,
+            bc1_retry: BC1_RETRY,
             bc1_iterative: false,
         }
     }
@@ -66,11 +72,13 @@ impl EncodeParams {
         }
     }
 
-    /// Highest quality the encoder offers: iterative BC1 fit, 1% sparse.
+    /// Highest quality the encoder offers: every BC1 block also fitted from the iterative
+    /// cluster fit, 1% sparse.
     pub fn high_quality(format: Format) -> Self {
         Self {
             format,
             sparse_fraction: 0.01,
+            bc1_retry: 1.0,
             bc1_iterative: true,
             ..Self::default()
         }
@@ -252,34 +260,47 @@ pub fn encode_dense_with(
     let bb = params.format.block_bytes();
     let per_block = layout.planes() * bb;
     let mut encoded = vec![0u8; side * side * per_block];
-    let masks = if selecting {
+    let scoring = selection == SparseSelection::ErrorDriven;
+    let masks = if scoring {
         let mut scores = vec![[0f32; 16]; side * side];
         encoded
             .par_chunks_exact_mut(per_block)
             .zip(scores.par_iter_mut())
             .enumerate()
-            .for_each(|(b, (out, score))| source.encode(b, first[b], out, Some(score)));
-        let forced: Vec<u16> = (0..side * side)
-            .into_par_iter()
-            .map(|b| source.must_stay_sparse(b))
-            .collect();
+            .for_each(|(b, (out, score))| source.encode(b, first[b], out, Some(score), false));
+        // The blocks of largest error get a second BC1 start (cluster fit).
+        let thorough = retry_blocks(&scores, params);
+        encoded
+            .par_chunks_exact_mut(per_block)
+            .zip(scores.par_iter_mut())
+            .enumerate()
+            .filter(|(b, _)| thorough[*b])
+            .for_each(|(b, (out, score))| source.encode(b, first[b], out, Some(score), true));
         let mut masks = first;
-        for _ in 0..SELECT_ROUNDS {
-            let next = select::by_score(&scores, &forced, budget);
-            encoded
-                .par_chunks_exact_mut(per_block)
-                .zip(scores.par_iter_mut())
-                .enumerate()
-                .filter(|(b, _)| next[*b] != masks[*b])
-                .for_each(|(b, (out, score))| source.encode(b, next[b], out, Some(score)));
-            masks = next;
+        if selecting {
+            let forced: Vec<u16> = (0..side * side)
+                .into_par_iter()
+                .map(|b| source.must_stay_sparse(b))
+                .collect();
+            for _ in 0..SELECT_ROUNDS {
+                let next = select::by_score(&scores, &forced, budget);
+                encoded
+                    .par_chunks_exact_mut(per_block)
+                    .zip(scores.par_iter_mut())
+                    .enumerate()
+                    .filter(|(b, _)| next[*b] != masks[*b])
+                    .for_each(|(b, (out, score))| {
+                        source.encode(b, next[b], out, Some(score), thorough[b])
+                    });
+                masks = next;
+            }
         }
         masks
     } else {
         encoded
             .par_chunks_exact_mut(per_block)
             .enumerate()
-            .for_each(|(b, out)| source.encode(b, first[b], out, None));
+            .for_each(|(b, out)| source.encode(b, first[b], out, None, false));
         first
     };
 
@@ -316,6 +337,41 @@ pub fn encode_dense_with(
     matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
     Ok(matrix)
 }
+
+/// Which blocks get a second BC1 start: the `params.bc1_retry` share of blocks (rounded
+/// down) whose summed weighted error after the first start is largest, ties broken by block
+/// index so that the choice is the same on any thread count. None for other formats.
+fn retry_blocks(scores: &[[f32; 16]], params: &EncodeParams) -> Vec<bool> {
+    let mut chosen = vec![false; scores.len()];
+    if params.format != Format::Bc1 {
+        return chosen;
+    }
+    let count = (f64::from(params.bc1_retry) * scores.len() as f64) as usize;
+    let mut by_error: Vec<(f32, usize)> = scores
+        .iter()
+        .enumerate()
+        .map(|(b, s)| (s.iter().sum::<f32>(), b))
+        .filter(|(e, _)| *e > 0.0)
+        .collect();
+    let count = count.min(by_error.len());
+    if count == 0 {
+        return chosen;
+    }
+    let worst = |a: &(f32, usize), b: &(f32, usize)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+    by_error.select_nth_unstable_by(count - 1, worst);
+    for &(_, b) in &by_error[..count] {
+        chosen[b] = true;
+    }
+    chosen
+}
+
+/// Share of BC1 blocks the error-driven encode fits twice (default of
+/// [`EncodeParams::bc1_retry`]). Every block starts from texpresso's range fit, refined in
+/// value space; the blocks of largest error after that are fitted again from its cluster fit
+/// (≈ 19 µs a block against ≈ 1 µs) and keep the better of the two. The blocks of a transfer
+/// matrix in a good order hold their error in few blocks, so few retries recover most of what
+/// the cluster fit gives.
+pub const BC1_RETRY: f32 = 0.05;
 
 /// Share of the sparse budget the first pass of error-driven selection keeps by size
 /// ([`SparseRule`] at this share of the fraction); the scales come from what that leaves in the
@@ -491,7 +547,15 @@ impl Source<'_> {
     /// `sparse` left to the sparse list. With `score`, also writes each texel's weighted
     /// squared error as decoded (for sparse texels: what the block decodes there), 0 beyond
     /// the last patch.
-    fn encode(&self, b: usize, sparse: u16, out: &mut [u8], score: Option<&mut [f32; 16]>) {
+    /// `thorough`: a second BC1 start ([`EncodeParams::bc1_retry`]).
+    fn encode(
+        &self,
+        b: usize,
+        sparse: u16,
+        out: &mut [u8],
+        score: Option<&mut [f32; 16]>,
+        thorough: bool,
+    ) {
         let l = self.layout;
         let channels = l.channels();
         let bb = self.params.format.block_bytes();
@@ -499,7 +563,7 @@ impl Source<'_> {
         let mut decoded = [[0f32; 16]; 3];
         for plane in 0..l.planes() {
             let raw = &mut out[plane * bb..(plane + 1) * bb];
-            encode_target(self.params, plane, &target, raw);
+            encode_target(self.params, plane, &target, raw, thorough);
             if score.is_some() {
                 self.decoder.decode_plane(l, tile, plane, raw, &mut decoded);
             }
@@ -629,17 +693,38 @@ impl Source<'_> {
 
 /// Encodes one plane of a block from its target: BC1 and BC4 fitted in code space and refined
 /// in value space, u8 as codes (sparse texels too, so that their residual is small), f16/f32
-/// as values.
-fn encode_target(params: &EncodeParams, plane: usize, t: &BlockTarget<'_>, out: &mut [u8]) {
+/// as values. BC1 starts from texpresso's range fit; `thorough` adds its cluster fit as a
+/// second start and keeps the one that refines to the lower error.
+fn encode_target(
+    params: &EncodeParams,
+    plane: usize,
+    t: &BlockTarget<'_>,
+    out: &mut [u8],
+    thorough: bool,
+) {
     match params.format {
         Format::Bc1 => {
             let codes: [[u8; 3]; 16] =
                 core::array::from_fn(|i| [t.codes[0][i], t.codes[1][i], t.codes[2][i]]);
-            let start = encode_bc1_block(&codes, t.fit, params.bc1_iterative);
             let block = if codes.iter().all(|c| *c == [0; 3]) {
-                start
+                encode_bc1_block(&codes, t.fit, Bc1Fit::Range)
             } else {
-                refine::refine_bc1(start, t)
+                let range = refine::refine_bc1(encode_bc1_block(&codes, t.fit, Bc1Fit::Range), t);
+                if thorough {
+                    let fit = if params.bc1_iterative {
+                        Bc1Fit::IterativeCluster
+                    } else {
+                        Bc1Fit::Cluster
+                    };
+                    let cluster = refine::refine_bc1(encode_bc1_block(&codes, t.fit, fit), t);
+                    if cluster.1 < range.1 {
+                        cluster.0
+                    } else {
+                        range.0
+                    }
+                } else {
+                    range.0
+                }
             };
             out.copy_from_slice(&block.0);
         }
@@ -728,6 +813,9 @@ pub fn check_input(
     }
     if !(0.0..=1.0).contains(&params.sparse_fraction) {
         return Err(EncodeError::Params("sparse_fraction must be in [0, 1]"));
+    }
+    if !(0.0..=1.0).contains(&params.bc1_retry) {
+        return Err(EncodeError::Params("bc1_retry must be in [0, 1]"));
     }
     let n32 = u32::try_from(n).map_err(|_| EncodeError::Params("more than 2^32 patches"))?;
     let layout = MatrixLayout::new(n32, channels as u32, params.format, params.max_tile)?;
@@ -869,7 +957,7 @@ impl<'a> BlockEncoder<'a> {
                 }
             }
         }
-        encode_target(params, plane, &target, out);
+        encode_target(params, plane, &target, out, false);
     }
 }
 
@@ -1029,10 +1117,21 @@ fn build_sparse(
     }
 }
 
+/// Which of texpresso's BC1 fits [`encode_bc1_block`] runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bc1Fit {
+    /// Endpoints from the texels' principal axis and extent (≈ 1 µs a block).
+    Range,
+    /// Best ordered partition of the texels along that axis (≈ 19 µs a block).
+    Cluster,
+    /// Cluster fit repeated with the axis re-estimated from its result (slowest).
+    IterativeCluster,
+}
+
 /// Encodes 16 RGB code triples (row-major) as one BC1 block with texpresso, uniform channel
 /// weights (the channels are data, not perceived colour), then [`guard_bc1`]. Texels whose bit
 /// is clear in `mask` are don't-cares.
-pub fn encode_bc1_block(codes: &[[u8; 3]; 16], mask: u32, iterative: bool) -> Bc1Block {
+pub fn encode_bc1_block(codes: &[[u8; 3]; 16], mask: u32, fit: Bc1Fit) -> Bc1Block {
     if codes.iter().all(|c| *c == [0, 0, 0]) {
         // c0 = c1 = 0, all indices 0: exactly zero in every decoder.
         return Bc1Block([0; 8]);
@@ -1040,10 +1139,10 @@ pub fn encode_bc1_block(codes: &[[u8; 3]; 16], mask: u32, iterative: bool) -> Bc
     let rgba: [[u8; 4]; 16] =
         core::array::from_fn(|i| [codes[i][0], codes[i][1], codes[i][2], 255]);
     let params = texpresso::Params {
-        algorithm: if iterative {
-            texpresso::Algorithm::IterativeClusterFit
-        } else {
-            texpresso::Algorithm::ClusterFit
+        algorithm: match fit {
+            Bc1Fit::Range => texpresso::Algorithm::RangeFit,
+            Bc1Fit::Cluster => texpresso::Algorithm::ClusterFit,
+            Bc1Fit::IterativeCluster => texpresso::Algorithm::IterativeClusterFit,
         },
         weights: texpresso::COLOUR_WEIGHTS_UNIFORM,
         weigh_colour_by_alpha: false,
@@ -1182,6 +1281,37 @@ pub(crate) fn bc4_with_best_indices(r0: u8, r1: u8, codes: &[u8; 16], mask: u32)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The retried blocks are the given share of all blocks, rounded down, those of largest
+    /// summed score, never an all-zero block, and none for formats other than BC1.
+    #[test]
+    fn retry_picks_the_blocks_of_largest_error() {
+        let scores: Vec<[f32; 16]> = (0..40)
+            .map(|b| {
+                let mut s = [0f32; 16];
+                // Block b's error is (b · 7) mod 40; block 0 (error 0) must never be picked.
+                s[b % 16] = ((b * 7) % 40) as f32;
+                s
+            })
+            .collect();
+        let params = |format, bc1_retry| EncodeParams {
+            format,
+            bc1_retry,
+            ..EncodeParams::default()
+        };
+        let chosen = retry_blocks(&scores, &params(Format::Bc1, 0.1));
+        let picked: Vec<usize> = (0..40).filter(|&b| chosen[b]).collect();
+        let mut errors: Vec<usize> = picked.iter().map(|&b| (b * 7) % 40).collect();
+        errors.sort_unstable();
+        assert_eq!(errors, [36, 37, 38, 39]);
+        let all = retry_blocks(&scores, &params(Format::Bc1, 1.0));
+        assert_eq!(all.iter().filter(|c| **c).count(), 39, "every block but the zero one");
+        assert!(!all[0]);
+        assert!(retry_blocks(&scores, &params(Format::Bc1, 0.0)).iter().all(|c| !c));
+        assert!(retry_blocks(&scores, &params(Format::Bc4, 1.0)).iter().all(|c| !c));
+        let bad = params(Format::Bc1, f32::NAN);
+        assert!(encode_dense(1, 3, &[0.5; 3], &bad).is_err(), "NaN retry share accepted");
+    }
 
     #[test]
     fn guard_repairs_equal_endpoints() {

@@ -2,7 +2,9 @@
 //! Deterministic inputs (SplitMix64, fixed seeds); run with `cargo bench -p radiosity-benches --bench codec`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use radiosity_bake::encode::{EncodeParams, encode_bc1_block, encode_bc4_block, encode_dense};
+use radiosity_bake::encode::{
+    Bc1Fit, EncodeParams, encode_bc1_block, encode_bc4_block, encode_dense,
+};
 use radiosity_core::{
     DecodeMode, Format, Gather, ReferenceGather, Rgb, decode_bc1_block, decode_bc4_block,
 };
@@ -54,7 +56,15 @@ fn encode(c: &mut Criterion) {
         b.iter(|| {
             codes
                 .iter()
-                .map(|c| encode_bc1_block(black_box(c), 0xffff, false).0[0] as u32)
+                .map(|c| encode_bc1_block(black_box(c), 0xffff, Bc1Fit::Cluster).0[0] as u32)
+                .sum::<u32>()
+        })
+    });
+    g.bench_function("bc1_range_fit", |b| {
+        b.iter(|| {
+            codes
+                .iter()
+                .map(|c| encode_bc1_block(black_box(c), 0xffff, Bc1Fit::Range).0[0] as u32)
                 .sum::<u32>()
         })
     });

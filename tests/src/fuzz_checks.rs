@@ -257,6 +257,7 @@ impl EncodeCase {
             max_tile,
             shift,
             sparse_fraction,
+            bc1_retry: [0.0, 0.05, 0.5, 1.0][usize::from((b2 >> 3) & 3)],
             bc1_iterative: b2 & 4 != 0,
         };
         let narrow = b2 & 0x80 != 0;

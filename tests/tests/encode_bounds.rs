@@ -1,6 +1,8 @@
 //! Encode → decode error bounds, per format, each bound derived from the format's arithmetic.
 
-use radiosity_bake::encode::{EncodeParams, encode_bc1_block, encode_bc4_block, encode_dense};
+use radiosity_bake::encode::{
+    Bc1Fit, EncodeParams, encode_bc1_block, encode_bc4_block, encode_dense,
+};
 use radiosity_core::{Bc1Block, DecodeMode, Format, decode_bc4_block};
 use radiosity_tests::fixtures::{SplitMix64, transfer_like_matrix};
 
@@ -133,7 +135,7 @@ fn bc1_grey_block_rms_within_bound_and_never_black() {
                 .clamp(0, 255) as u8;
             [v, v, v]
         });
-        let block: Bc1Block = encode_bc1_block(&codes, 0xffff, false);
+        let block: Bc1Block = encode_bc1_block(&codes, 0xffff, Bc1Fit::Cluster);
         let decoded = block.decode(DecodeMode::D3d10);
         assert!(
             decoded.iter().all(|t| t[3] == 255),
@@ -168,7 +170,7 @@ fn bc1_coloured_blocks_are_never_transparent() {
             let b = rng.next_bytes();
             [b[0] | 1, b[1] | 1, b[2] | 1] // non-zero codes: no texel means "zero"
         });
-        let block = encode_bc1_block(&codes, 0xffff, false);
+        let block = encode_bc1_block(&codes, 0xffff, Bc1Fit::Cluster);
         assert!(
             block.decode(DecodeMode::D3d10).iter().all(|t| t[3] == 255),
             "{codes:?} → {block:?}"

@@ -127,7 +127,8 @@ fn pack_565(c: [i32; 3]) -> u16 {
 
 /// Refines a BC1 block (a code-space fit, already guarded) in value space; see the module
 /// doc. The result is in the same mode as `start` and never worse than it.
-pub(crate) fn refine_bc1(start: Bc1Block, t: &BlockTarget<'_>) -> Bc1Block {
+/// Returns the refined block and its weighted squared error over `fit`.
+pub(crate) fn refine_bc1(start: Bc1Block, t: &BlockTarget<'_>) -> (Bc1Block, f32) {
     let four = start.is_four_colour();
     let mut best = bc1_eval(start.c0(), start.c1(), t);
     let try_pair = |best: &mut Bc1State, a: u16, b: u16| -> bool {
@@ -171,7 +172,10 @@ pub(crate) fn refine_bc1(start: Bc1Block, t: &BlockTarget<'_>) -> Bc1Block {
     }
     let [a, b] = [best.c0.to_le_bytes(), best.c1.to_le_bytes()];
     let i = best.bits.to_le_bytes();
-    Bc1Block([a[0], a[1], b[0], b[1], i[0], i[1], i[2], i[3]])
+    (
+        Bc1Block([a[0], a[1], b[0], b[1], i[0], i[1], i[2], i[3]]),
+        best.err,
+    )
 }
 
 /// Weight of each endpoint in palette entry `k` (`(α, β)`: entry = α·e0 + β·e1) for BC1;
@@ -613,7 +617,7 @@ pub(crate) fn refine_bc4_coupled(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::encode::{bc4_candidates, encode_bc1_block};
+    use crate::encode::{Bc1Fit, bc4_candidates, encode_bc1_block};
     use crate::rng::SplitMix64;
     use radiosity_core::{LogScale, decode_bc4_block};
 
@@ -658,6 +662,48 @@ mod tests {
         e
     }
 
+    /// The bake's BC1 encode: a range-fit start, and on the blocks of largest error a second,
+    /// cluster-fit start, keeping the one that refines lower (`encode_target`). With both
+    /// starts a block is never worse than either start refined alone (the same f32 error
+    /// picks it; 1e-5 relative for the f64 re-summation here), and over many blocks it must
+    /// beat the range start alone, or the second start is doing nothing (ratio 1). Measured
+    /// on these blocks: 0.975 of the range start's refined error; bound 0.99.
+    #[test]
+    fn a_second_bc1_start_never_loses_to_either_start() {
+        let scale = LogScale::new(1.0, radiosity_core::DEFAULT_SHIFT);
+        let table = scale.table();
+        let mut rng = SplitMix64(29);
+        let params = crate::encode::EncodeParams::default();
+        let (mut range_sum, mut both_sum) = (0f64, 0f64);
+        for _ in 0..2000 {
+            let t = random_target(&mut rng, &table, scale);
+            let codes: [[u8; 3]; 16] =
+                core::array::from_fn(|i| [t.codes[0][i], t.codes[1][i], t.codes[2][i]]);
+            let error = |b: Bc1Block| {
+                let texels = b.decode(DecodeMode::D3d10);
+                let decoded = core::array::from_fn(|ch| {
+                    core::array::from_fn(|i| table[usize::from(texels[i][ch])])
+                });
+                value_error(decoded, &t, &[0, 1, 2])
+            };
+            let encode = |thorough: bool| {
+                let mut out = [0u8; 8];
+                crate::encode::encode_target(&params, 0, &t, &mut out, thorough);
+                error(Bc1Block(out))
+            };
+            let (range, both) = (encode(false), encode(true));
+            let cluster =
+                error(refine_bc1(encode_bc1_block(&codes, t.fit, Bc1Fit::Cluster), &t).0);
+            assert!(both <= range * (1.0 + 1e-5), "{range:e} → {both:e}");
+            assert!(both <= cluster * (1.0 + 1e-5), "{cluster:e} → {both:e}");
+            range_sum += range;
+            both_sum += both;
+        }
+        let ratio = both_sum / range_sum;
+        eprintln!("both starts / range start alone: {ratio:.3}");
+        assert!(ratio <= 0.99, "the cluster-fit start gained too little: {ratio:.3}");
+    }
+
     /// Refinement keeps a block only when its value-space error falls, so on every block it is
     /// no worse than the code-space fit it starts from (up to f32 summation, 1e-5 relative),
     /// and over many blocks it must be clearly better: measured 0.66 (BC1) and 0.54 (BC4) of
@@ -680,8 +726,8 @@ mod tests {
                     core::array::from_fn(|i| table[usize::from(texels[i][ch])])
                 })
             };
-            let start = encode_bc1_block(&codes, t.fit, false);
-            let refined = refine_bc1(start, &t);
+            let start = encode_bc1_block(&codes, t.fit, Bc1Fit::Cluster);
+            let refined = refine_bc1(start, &t).0;
             let (a, b) = (
                 value_error(bc1(start), &t, &[0, 1, 2]),
                 value_error(bc1(refined), &t, &[0, 1, 2]),
