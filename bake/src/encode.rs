@@ -1305,12 +1305,27 @@ mod tests {
         errors.sort_unstable();
         assert_eq!(errors, [36, 37, 38, 39]);
         let all = retry_blocks(&scores, &params(Format::Bc1, 1.0));
-        assert_eq!(all.iter().filter(|c| **c).count(), 39, "every block but the zero one");
+        assert_eq!(
+            all.iter().filter(|c| **c).count(),
+            39,
+            "every block but the zero one"
+        );
         assert!(!all[0]);
-        assert!(retry_blocks(&scores, &params(Format::Bc1, 0.0)).iter().all(|c| !c));
-        assert!(retry_blocks(&scores, &params(Format::Bc4, 1.0)).iter().all(|c| !c));
+        assert!(
+            retry_blocks(&scores, &params(Format::Bc1, 0.0))
+                .iter()
+                .all(|c| !c)
+        );
+        assert!(
+            retry_blocks(&scores, &params(Format::Bc4, 1.0))
+                .iter()
+                .all(|c| !c)
+        );
         let bad = params(Format::Bc1, f32::NAN);
-        assert!(encode_dense(1, 3, &[0.5; 3], &bad).is_err(), "NaN retry share accepted");
+        assert!(
+            encode_dense(1, 3, &[0.5; 3], &bad).is_err(),
+            "NaN retry share accepted"
+        );
     }
 
     #[test]

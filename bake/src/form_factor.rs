@@ -45,7 +45,7 @@ use crate::bvh::Occluders;
 use crate::kernel::point_to_polygon;
 use crate::polygon::point_polygon_distance;
 use crate::polygon::{MAX_VERTICES, Polygon};
-use crate::quadrature::{Adaptive, Rule, integrate};
+use crate::quadrature::{Adaptive, Rule, Sample, integrate};
 use crate::rng::SplitMix64;
 use crate::voxel::{Patches, Piece};
 use glam::DVec3;
@@ -455,9 +455,14 @@ fn exchange(
     tol: f64,
     rays: &mut u64,
     live: &mut Vec<(usize, bool)>,
-    samples: &mut Vec<(u32, DVec3, f64)>,
+    samples: &mut Vec<(u32, [DVec3; 3], f64)>,
     skip: &dyn Fn(u32) -> bool,
+    pair: u64,
 ) -> f64 {
+    // Where on its leaf each ray starts is drawn from a stream of its own per patch pair: the
+    // rays' numbers below repeat in every pair of one-piece patches, and rays from the same
+    // points to every target would make a row's visibility a handful of draws.
+    let leaf_stream = pair.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     let mut total = 0.0;
     for (si, s) in src.iter().enumerate() {
         let sv = s.polygon.vertices();
@@ -512,7 +517,7 @@ fn exchange(
                         continue;
                     }
                     if need_rays {
-                        samples.push((k as u32, q.x, q.w * f));
+                        samples.push((k as u32, q.leaf, q.w * f));
                     } else {
                         total += q.w * f;
                     }
@@ -537,18 +542,20 @@ fn exchange(
             let base = (si as u64) << 40 | u64::from(group[0].0) << 20;
             let sum: f64 = group.iter().map(|e| e.2).sum();
             let mut sampler = Systematic::new(sum, budget, base);
+            let scramble = Sample::leaf_scramble(base ^ leaf_stream);
             for (i, e) in group.iter().enumerate() {
-                sampler.feed(e.2, i + 1 == group.len(), |k| {
-                    let k = base + k;
+                sampler.feed(e.2, i + 1 == group.len(), |ray| {
+                    let k = base + ray;
                     if site {
                         let x = if s.triangle == SITE {
                             front_point(s, t, k + SITE_SOURCE_OFFSET)
                         } else {
-                            e.1
+                            Sample::leaf_point(&e.1, ray, scramble)
                         };
                         o.segment_visible_skipping(x, front_point(t, s, k), skip)
                     } else {
-                        o.reaches(e.1, ray_end(e.1, s, t, k), t.triangle)
+                        let x = Sample::leaf_point(&e.1, ray, scramble);
+                        in_front(x, t) && o.reaches(x, ray_end(x, s, t, k), t.triangle)
                     }
                 });
             }
@@ -663,6 +670,7 @@ impl<'a> Pairs<'a> {
             &mut scratch.live,
             &mut scratch.samples,
             &skip,
+            (a as u64) << 32 | b as u64,
         )
     }
 
@@ -695,13 +703,13 @@ impl<'a> Pairs<'a> {
         // The near contributions of source piece `s` and target piece `t`: each near target
         // gets its own adaptive quadrature of the source, so that a source piece that touches
         // one target is refined next to that one only.
-        let near_contributions = |s: &Piece, t: &Piece, out: &mut dyn FnMut(DVec3, f64)| {
+        let near_contributions = |s: &Piece, t: &Piece, out: &mut dyn FnMut([DVec3; 3], f64)| {
             let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
             for tri in fan(s.polygon.vertices()) {
                 integrate(tri, &self.params.quadrature, &dist, &mut |q| {
                     let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
                     if f > 0.0 {
-                        out(q.x, q.w * f);
+                        out(q.leaf, q.w * f);
                     }
                 });
             }
@@ -748,6 +756,7 @@ impl<'a> Pairs<'a> {
         };
         let budget = per_sample * share.max(if far { FAR_RAYS } else { NEAR_RAYS });
         let base = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 24;
+        let scramble = Sample::leaf_scramble(base);
         let visible = |e: &Entry, k: u64| {
             let (s, t) = (&src[e.s as usize], &dst[e.t as usize]);
             // Ray ends in front of the other piece (a piece seen edge-on has points behind the
@@ -757,7 +766,11 @@ impl<'a> Pairs<'a> {
             let x = if e.centre || s.triangle == SITE {
                 front_point(s, t, base + k + SITE_SOURCE_OFFSET)
             } else {
-                e.x
+                let x = Sample::leaf_point(&e.leaf, k, scramble);
+                if !in_front(x, t) {
+                    return false;
+                }
+                x
             };
             let y = if t.triangle == SITE {
                 front_point(t, s, base + k)
@@ -795,7 +808,7 @@ impl<'a> Pairs<'a> {
                     }
                     if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
                         let e = Entry {
-                            x: cs,
+                            leaf: [cs; 3],
                             s: si as u32,
                             t: ti as u32,
                             centre: true,
@@ -815,9 +828,9 @@ impl<'a> Pairs<'a> {
                     continue;
                 }
                 let k = blocks[b].1;
-                near_contributions(s, &dst[k as usize], &mut |x, g| {
+                near_contributions(s, &dst[k as usize], &mut |leaf, g| {
                     let e = Entry {
-                        x,
+                        leaf,
                         s: si as u32,
                         t: k,
                         centre: false,
@@ -931,6 +944,14 @@ fn ray_end(x: DVec3, s: &Piece, t: &Piece, k: u64) -> DVec3 {
     kernel_point(x, s.normal, &t.polygon, t.normal, seed).unwrap_or_else(|| front_point(t, s, k))
 }
 
+/// Whether `x` lies strictly in front of piece `t`'s plane, where `t` can be seen from. A
+/// visibility ray starts anywhere on its quadrature leaf (`Sample::leaf_point`), and the part
+/// of a leaf behind the target's plane (a floor leaf reaching under a block whose side is the
+/// target) sees the target from behind: its ray would meet the target first and count.
+fn in_front(x: DVec3, t: &Piece) -> bool {
+    t.normal.dot(x - t.polygon.vertices()[0]) > 0.0
+}
+
 /// Proposals [`ray_end`] tries before it falls back to a uniform point.
 const KERNEL_TRIES: u32 = 64;
 
@@ -1022,10 +1043,11 @@ fn front_point(p: &Piece, other: &Piece, k: u64) -> DVec3 {
 /// the lift they are 0.99575 and 0.99918, the sphere's kernel value.
 const LIFT: f64 = 1e-5;
 
-/// A contribution of a clustered pair that a ray is drawn for: source point `x` (the centre of
-/// source piece `s` for a centre-to-centre pair), target piece `t`.
+/// A contribution of a clustered pair that a ray is drawn for: the quadrature leaf of source
+/// piece `s` its ray starts from (unused for a centre-to-centre pair, whose ray starts anywhere
+/// on `s`), target piece `t`.
 struct Entry {
-    x: DVec3,
+    leaf: [DVec3; 3],
     s: u32,
     t: u32,
     centre: bool,
@@ -1037,8 +1059,8 @@ struct Scratch {
     /// Pairs that went through [`Pairs::clustered`] on this thread.
     clustered: u64,
     live: Vec<(usize, bool)>,
-    /// Exact pairs' contributions that need rays: (target piece, source point, weight).
-    samples: Vec<(u32, DVec3, f64)>,
+    /// Exact pairs' contributions that need rays: (target piece, source quadrature leaf, weight).
+    samples: Vec<(u32, [DVec3; 3], f64)>,
     targets: Vec<(DVec3, f64)>,
     /// Per source piece of a clustered pair: the running sum of the contributions before its
     /// own, and its first near target in `blocks`.

@@ -68,7 +68,33 @@ pub struct Sample {
     pub x: DVec3,
     /// Its weight: the leaf area times the rule weight.
     pub w: f64,
+    /// The leaf triangle the point belongs to: the region the point stands for, over which a
+    /// caller may sample what the rule cannot resolve (visibility, see `form_factor`).
+    pub leaf: [DVec3; 3],
 }
+
+impl Sample {
+    /// Point `k` of a leaf's stratified stream: [`crate::rng::sobol2`] under `scramble`, mapped
+    /// to the triangle keeping area. Consecutive `k` spread over the leaf, so the few rays a
+    /// leaf gets sample its visible share evenly; the same `k` and `scramble` give the same
+    /// barycentric point at any scale.
+    pub fn leaf_point(leaf: &[DVec3; 3], k: u64, scramble: [u32; 2]) -> DVec3 {
+        let [u, v] = crate::rng::sobol2(scramble, k as u32);
+        let r = u.sqrt();
+        leaf[0] * (1.0 - r) + (leaf[1] * (1.0 - v) + leaf[2] * v) * r
+    }
+
+    /// The digital shift of [`Self::leaf_point`] for the stream numbered `stream` (a piece
+    /// pair's, say).
+    pub fn leaf_scramble(stream: u64) -> [u32; 2] {
+        let z = crate::rng::SplitMix64(stream ^ LEAF_STREAM).next_u64();
+        [z as u32, (z >> 32) as u32]
+    }
+}
+
+/// Salt of [`Sample::leaf_scramble`]'s stream, so that it does not repeat the numbers other
+/// draws take from the same stream number.
+const LEAF_STREAM: u64 = 0x6c65_6166_5f70_7473;
 
 /// Relative slack of the refinement test (see [`integrate`]).
 const TIE_SLACK: f64 = 1e-9;
@@ -100,7 +126,11 @@ pub fn integrate(
         if depth >= params.max_depth || 2.0 * radius <= params.ratio * d * (1.0 + TIE_SLACK) {
             for &(b, w) in params.rule.points() {
                 let x = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
-                f(Sample { x, w: w * area });
+                f(Sample {
+                    x,
+                    w: w * area,
+                    leaf: t,
+                });
             }
         } else {
             let m01 = (t[0] + t[1]) * 0.5;

@@ -54,6 +54,31 @@ impl SplitMix64 {
     }
 }
 
+/// Point `k` of the first two dimensions of Sobol's sequence (van der Corput in base 2, and
+/// the dimension of polynomial `x + 1`), each XOR-scrambled by `scramble` (a random digital
+/// shift), in `[0, 1)²`. Every prefix of `2^m` points has exactly one point in each of the
+/// `2^m` equal slices of either axis: a region along an edge of the square wider than a slice
+/// cannot be missed, and its share is measured far more closely than by independent uniform
+/// points. Used for the buried share of a patch (`row_check::buried_share`) and for where
+/// shadow rays start on their quadrature leaf (`quadrature::Sample::leaf_point`). (Roberts'
+/// R2 sequence was tried first: its first 32 points leave a gap of 0.11 in the first
+/// coordinate, and missed a wall patch 8% buried in five of eight shifts.)
+pub fn sobol2(scramble: [u32; 2], k: u32) -> [f64; 2] {
+    let mut second = 0u32;
+    let mut direction = 1u32 << 31;
+    for bit in 0..32 {
+        if k >> bit & 1 == 1 {
+            second ^= direction;
+        }
+        direction ^= direction >> 1;
+    }
+    let unit = |x: u32| f64::from(x) / 4_294_967_296.0;
+    [
+        unit(k.reverse_bits() ^ scramble[0]),
+        unit(second ^ scramble[1]),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

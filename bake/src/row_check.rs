@@ -247,20 +247,64 @@ pub fn buried_share(patches: &Patches, occ: &Occluders, i: usize, seed: u64) -> 
         return 0.0;
     }
     let mut rng = patch_rng(seed, i);
-    let mut look = |points: u32| {
-        (0..points)
-            .filter(|_| {
-                let (x, n) = patch_point(pieces, total, &mut rng);
+    let scramble = [rng.next_u64() as u32, (rng.next_u64() >> 32) as u32];
+    let look = |points: core::ops::Range<u32>| {
+        points
+            .filter(|&k| {
+                let [u, v] = crate::rng::sobol2(scramble, k);
+                let (x, n) = patch_point_at(pieces, total, u, v);
                 occ.buried(x, n)
             })
             .count()
     };
-    let first = look(BURIED_FIRST);
+    let first = look(0..BURIED_FIRST);
     if first == 0 {
         return 0.0;
     }
-    let all = first + look(BURIED_POINTS - BURIED_FIRST);
+    let all = first + look(BURIED_FIRST..BURIED_POINTS);
     all as f64 / f64::from(BURIED_POINTS)
+}
+
+/// The point of a patch (its pieces, of total area `total`) at `(u, v)` of the unit square,
+/// by a map that keeps area: `u` picks the piece, then its fan triangle, by area (each time
+/// rescaled to what is left of it), and places the point along the triangle with `v`. Returns
+/// it with its piece's normal.
+fn patch_point_at(pieces: &[Piece], total: f64, u: f64, v: f64) -> (DVec3, DVec3) {
+    let mut pick = u * total;
+    let last = pieces.len() - 1;
+    let (piece, mut u) = pieces
+        .iter()
+        .enumerate()
+        .find_map(|(k, q)| {
+            if pick <= q.area || k == last {
+                Some((q, (pick / q.area).clamp(0.0, 1.0)))
+            } else {
+                pick -= q.area;
+                None
+            }
+        })
+        .expect("a patch has pieces");
+    let w = piece.polygon.vertices();
+    if w.len() < 3 {
+        return (piece.polygon.centroid(), piece.normal);
+    }
+    let fan = |k: usize| (w[k] - w[0]).cross(w[k + 1] - w[0]).length();
+    let fans = w.len() - 2;
+    let mut pick = u * (1..=fans).map(fan).sum::<f64>();
+    let mut k = 1;
+    while k < fans && pick > fan(k) {
+        pick -= fan(k);
+        k += 1;
+    }
+    let area = fan(k);
+    if area > 0.0 {
+        u = (pick / area).clamp(0.0, 1.0);
+    }
+    let r = u.sqrt();
+    (
+        w[0] * (1.0 - r) + (w[k] * (1.0 - v) + w[k + 1] * v) * r,
+        piece.normal,
+    )
 }
 
 /// Share of cosine-weighted rays from uniform points of patch `i` that first meet the front

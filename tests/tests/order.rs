@@ -244,11 +244,15 @@ fn sampled_estimate_is_unbiased_and_honest_about_its_spread() {
 /// the paper's own measure, the RMS error of the log texture in codes, the gain is larger (a
 /// code wrong on a tiny entry counts as much as on a large one, and `random` gets many
 /// wrong): measured 3.25× (BC1) and 3.48× (BC4) at n = 286, 8.8× for BC1 at n = 4106; guarded
-/// at 2.7× and 3.2×.
+/// at 2.7× and 3.2×. At this size BC4's code ratio moves with F's small entries: 3.31× before
+/// session 12 started each shadow ray at its own point of the quadrature leaf, 2.91× with
+/// uniform points there, 2.67× with the stratified points kept (BC1: 3.36×), while the
+/// Frobenius ratios stayed put (BC4 1.47–1.52) and at n = 4098 both formats' code ratios are
+/// 8.1×; BC4 is guarded at 2.4×.
 #[test]
 fn best_beats_random_and_never_loses_to_none() {
     let b = cornell();
-    for (encode, want_best, want_codes) in [(bc1(), 1.2, 2.7), (bc4(), 1.4, 3.2)] {
+    for (encode, want_best, want_codes) in [(bc1(), 1.2, 2.7), (bc4(), 1.4, 2.4)] {
         let c = exact_errors(b, encode);
         let best = &c[order::choose_best(&c)];
         let (random, none) = (

@@ -692,8 +692,7 @@ mod tests {
                 error(Bc1Block(out))
             };
             let (range, both) = (encode(false), encode(true));
-            let cluster =
-                error(refine_bc1(encode_bc1_block(&codes, t.fit, Bc1Fit::Cluster), &t).0);
+            let cluster = error(refine_bc1(encode_bc1_block(&codes, t.fit, Bc1Fit::Cluster), &t).0);
             assert!(both <= range * (1.0 + 1e-5), "{range:e} → {both:e}");
             assert!(both <= cluster * (1.0 + 1e-5), "{cluster:e} → {both:e}");
             range_sum += range;
@@ -701,7 +700,10 @@ mod tests {
         }
         let ratio = both_sum / range_sum;
         eprintln!("both starts / range start alone: {ratio:.3}");
-        assert!(ratio <= 0.99, "the cluster-fit start gained too little: {ratio:.3}");
+        assert!(
+            ratio <= 0.99,
+            "the cluster-fit start gained too little: {ratio:.3}"
+        );
     }
 
     /// Refinement keeps a block only when its value-space error falls, so on every block it is
