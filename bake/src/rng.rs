@@ -83,6 +83,30 @@ pub fn sobol2(scramble: [u32; 2], k: u32) -> [f64; 2] {
 mod tests {
     use super::*;
 
+    /// The property `sobol2` is used for: under any scramble, every prefix of 2^m points has
+    /// exactly one point in each 1/2^m slice of either axis (m up to 9, the buried share's 512).
+    #[test]
+    fn sobol_prefixes_are_stratified_on_both_axes() {
+        for scramble in [[0, 0], [0x9e37_79b9, 0x7f4a_7c15], [u32::MAX, 12345]] {
+            for m in 0..=9 {
+                let n = 1u32 << m;
+                for axis in 0..2 {
+                    let mut seen = vec![false; n as usize];
+                    for k in 0..n {
+                        let x = sobol2(scramble, k)[axis];
+                        assert!((0.0..1.0).contains(&x));
+                        let slice = (x * f64::from(n)) as usize;
+                        assert!(
+                            !seen[slice],
+                            "{scramble:?} m {m} axis {axis}: slice {slice} twice"
+                        );
+                        seen[slice] = true;
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn matches_the_reference_sequence() {
         // First outputs for seed 1234567 from the reference C implementation (Vigna's

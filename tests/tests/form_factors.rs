@@ -661,3 +661,82 @@ fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
         r.hemisphere
     );
 }
+
+/// The area of a convex polygon.
+fn polygon_area(v: &[glam::DVec3]) -> f64 {
+    (1..v.len().saturating_sub(1))
+        .map(|k| 0.5 * (v[k] - v[0]).cross(v[k + 1] - v[0]).length())
+        .sum()
+}
+
+#[test]
+fn partly_buried_rows_are_their_exposed_share() {
+    // A closed room with a block standing on its floor and a cube pressed against its left
+    // wall (`scenes::resting_blocks_room`). The exposed part of any patch sees only the room,
+    // so a row of F, the mean over the whole patch with buried points seeing nothing, is the
+    // patch's exposed share `e`, known exactly from the geometry (the footprint x ∈ [0.3, 0.9],
+    // z ∈ [0.4, 1.0] on the floor; the cube's back y ∈ [0.8, 1.3], z ∈ [1.2, 1.7] on the wall).
+    // Each ray used to start at its quadrature point, and a far pair is settled in one point
+    // per fan triangle, so a patch straddling the footprint's edge saw the room through two
+    // fixed points. Rays now start at stratified points of their quadrature leaf. Measured
+    // over the 30 straddling patches (1438 patches in all): RMS of row − e 0.0093, worst
+    // 0.0245; with rays from the quadrature points 0.0471 and 0.1019. Bounds 0.02 and 0.05.
+    use glam::DVec3;
+    use radiosity_tests::scenes::{resting_blocks_room, write_scene};
+    let dir = tempfile::tempdir().unwrap();
+    let (quads, mats, _) = resting_blocks_room(0.5);
+    let scene = Scene::load_obj(&write_scene(dir.path(), "resting", &quads, &mats)).unwrap();
+    let patches = simplify(&scene, &VoxelParams::with_patches(1500)).unwrap();
+    // Buried rectangle on each surface: (normal, axis pairs (axis, lo, hi) × 2).
+    let covers: [(DVec3, [(usize, f64, f64); 2]); 2] = [
+        (DVec3::Y, [(0, 0.3, 0.9), (2, 0.4, 1.0)]),
+        (DVec3::X, [(1, 0.8, 1.3), (2, 1.2, 1.7)]),
+    ];
+    let mut rows = Vec::new();
+    let mut shares = Vec::new();
+    for i in 0..patches.len() {
+        let p = &patches.patches[i];
+        let Some((_, rect)) = covers
+            .iter()
+            .find(|(n, _)| p.normal.dot(*n) > 0.999 && p.centre.dot(*n).abs() < 1e-9)
+        else {
+            continue;
+        };
+        let mut buried = 0.0;
+        for piece in patches.pieces_of(i) {
+            let mut poly = piece.polygon;
+            for &(axis, lo, hi) in rect {
+                let e = DVec3::AXES[axis];
+                poly = poly.clip(e, lo, 0.0).clip(-e, -hi, 0.0);
+            }
+            buried += polygon_area(poly.vertices());
+        }
+        let e = 1.0 - buried / p.area;
+        if e > 0.001 && e < 0.999 {
+            rows.push(i);
+            shares.push(e);
+        }
+    }
+    assert!(rows.len() > 20, "only {} straddling patches", rows.len());
+    let occ = Occluders::new(&scene);
+    let (f, _) = form_factor_rows(
+        &patches,
+        Some(&occ),
+        &FormFactorParams::default(),
+        &rows,
+        None,
+    );
+    let errors: Vec<f64> = f
+        .iter()
+        .zip(&shares)
+        .map(|(row, e)| row.iter().sum::<f64>() - e)
+        .collect();
+    let rms = (errors.iter().map(|d| d * d).sum::<f64>() / errors.len() as f64).sqrt();
+    let worst = errors.iter().fold(0f64, |m, d| m.max(d.abs()));
+    println!(
+        "{} straddling patches: RMS {rms:.4}, worst {worst:.4}",
+        rows.len()
+    );
+    assert!(rms < 0.02, "RMS of row − exposed share {rms}");
+    assert!(worst < 0.05, "worst row − exposed share {worst}");
+}

@@ -631,14 +631,14 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
         }
     }
     assert_energy("blocks resting on surfaces", &out, true);
-    // Exposed areas, against the geometry. Buried shares come from 512 points per partly
-    // buried patch (standard error at most 0.022 of a patch, about 0.1 here, for a handful of
-    // patches): 1% is ample.
+    // Exposed areas, against the geometry. Buried shares come from 512 stratified points per
+    // partly buried patch (Sobol'): measured at most 0.07% off here (floor, left wall). With
+    // 512 independent uniform points (session 11) the floor was 0.26% off; 0.2% catches that.
     for (o, name) in out.file.objects.iter().enumerate() {
         let want = exposed.iter().find(|e| e.0 == name.as_ref()).unwrap().1;
         let got = out.report.object_areas[o];
         assert!(
-            (got - want).abs() < 0.01 * want,
+            (got - want).abs() < 0.002 * want,
             "{name}: exposed area {got} vs {want}"
         );
     }
