@@ -229,16 +229,19 @@ fn patch_point(pieces: &[Piece], total: f64, rng: &mut SplitMix64) -> (DVec3, DV
     (uniform_point(piece.polygon.vertices(), rng), piece.normal)
 }
 
-/// Points in the first look at a patch in [`buried_share`]: a patch a tenth buried shows it
-/// in all but 3% of patches.
-pub const BURIED_FIRST: u32 = 32;
+/// Points in the first look at a patch in [`buried_share`] (stratified, see
+/// [`crate::rng::sobol2`]). At 32, slivers of about 3.5% along a patch's edge went unseen: on a
+/// room with a block resting on its floor at 4358 patches their rows stayed 0.955–0.968 (the
+/// exposed share alone), the lowest rows of the scene; at 64 its lowest is 0.992.
+pub const BURIED_FIRST: u32 = 64;
 
-/// Points in all for a patch the first look finds partly buried: the share's standard error
-/// is at most `0.5 / √512 = 0.022`.
+/// Points in all for a patch the first look finds partly buried. Independent uniform points
+/// would give the share a standard error of up to `0.5 / √512 = 0.022`; the stratified ones
+/// measured within ±0.003 of a 20 000-point estimate on strips along a patch's edge.
 pub const BURIED_POINTS: u32 = 512;
 
 /// The share of patch `i`'s area that is buried ([`Occluders::buried`]: covered by another
-/// object, so that no light reaches it or leaves it), from [`BURIED_FIRST`] uniform points,
+/// object, so that no light reaches it or leaves it), from [`BURIED_FIRST`] stratified points,
 /// and [`BURIED_POINTS`] in all when any of those is buried.
 pub fn buried_share(patches: &Patches, occ: &Occluders, i: usize, seed: u64) -> f64 {
     let pieces = patches.pieces_of(i);

@@ -687,8 +687,9 @@ fn partly_buried_rows_are_their_exposed_share() {
     let (quads, mats, _) = resting_blocks_room(0.5);
     let scene = Scene::load_obj(&write_scene(dir.path(), "resting", &quads, &mats)).unwrap();
     let patches = simplify(&scene, &VoxelParams::with_patches(1500)).unwrap();
-    // Buried rectangle on each surface: (normal, axis pairs (axis, lo, hi) × 2).
-    let covers: [(DVec3, [(usize, f64, f64); 2]); 2] = [
+    // The buried rectangle on each surface: its normal, and (axis, lo, hi) along two axes.
+    type Cover = (DVec3, [(usize, f64, f64); 2]);
+    let covers: [Cover; 2] = [
         (DVec3::Y, [(0, 0.3, 0.9), (2, 0.4, 1.0)]),
         (DVec3::X, [(1, 0.8, 1.3), (2, 1.2, 1.7)]),
     ];
