@@ -651,6 +651,12 @@ mod tests {
         t
     }
 
+    /// A BC1 block's decoded values per channel and texel (reference decoder, `table`).
+    fn bc1_values(b: Bc1Block, table: &[f32; 256]) -> [[f32; 16]; 3] {
+        let texels = b.decode(DecodeMode::D3d10);
+        core::array::from_fn(|ch| core::array::from_fn(|i| table[usize::from(texels[i][ch])]))
+    }
+
     fn value_error(decoded: [[f32; 16]; 3], t: &BlockTarget<'_>, chans: &[usize]) -> f64 {
         let mut e = 0f64;
         for i in (0..16).filter(|i| t.fit & (1 << i) != 0) {
@@ -679,13 +685,7 @@ mod tests {
             let t = random_target(&mut rng, &table, scale);
             let codes: [[u8; 3]; 16] =
                 core::array::from_fn(|i| [t.codes[0][i], t.codes[1][i], t.codes[2][i]]);
-            let error = |b: Bc1Block| {
-                let texels = b.decode(DecodeMode::D3d10);
-                let decoded = core::array::from_fn(|ch| {
-                    core::array::from_fn(|i| table[usize::from(texels[i][ch])])
-                });
-                value_error(decoded, &t, &[0, 1, 2])
-            };
+            let error = |b: Bc1Block| value_error(bc1_values(b, &table), &t, &[0, 1, 2]);
             let encode = |thorough: bool| {
                 let mut out = [0u8; 8];
                 crate::encode::encode_target(&params, 0, &t, &mut out, thorough);
@@ -722,12 +722,7 @@ mod tests {
             let t = random_target(&mut rng, &table, scale);
             let codes: [[u8; 3]; 16] =
                 core::array::from_fn(|i| [t.codes[0][i], t.codes[1][i], t.codes[2][i]]);
-            let bc1 = |b: Bc1Block| {
-                let texels = b.decode(DecodeMode::D3d10);
-                core::array::from_fn(|ch| {
-                    core::array::from_fn(|i| table[usize::from(texels[i][ch])])
-                })
-            };
+            let bc1 = |b: Bc1Block| bc1_values(b, &table);
             let start = encode_bc1_block(&codes, t.fit, Bc1Fit::Cluster);
             let refined = refine_bc1(start, &t).0;
             let (a, b) = (
