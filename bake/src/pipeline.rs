@@ -12,7 +12,9 @@ use crate::form_factor::{
     FAR_RAYS, FormFactorParams, MAX_EXACT_PIECES, NEAR_RAYS, Progress, Visibility, form_factors,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
-use crate::row_check::{BURIED_POINTS, buried_share, check_dark};
+use crate::row_check::{
+    BURIED_POINTS, ESCAPE_LIMIT, Escape, buried_share, check_dark, escape_check,
+};
 use crate::scene::Scene;
 use crate::transfer::{
     BounceSpec, Dense, TransferError, cap_row_sums, closure_of_sums, enforce_closure,
@@ -180,6 +182,10 @@ pub struct ClosureReport {
     /// Largest relative change of a row sum made by the closure correction (0 when open), apart
     /// from the rows of partly buried patches.
     pub correction: f64,
+    /// Share of hemisphere rays from the patches that left the scene
+    /// (`row_check::escape_check`), asked only when the row sums say closed; above
+    /// `row_check::ESCAPE_LIMIT` the scene is open after all.
+    pub escaped: Option<f64>,
 }
 
 /// A finished bake.
@@ -316,7 +322,18 @@ pub fn discretise(
     let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let exposure = expose(&mut patches, occluders.as_ref(), &mut f, params.seed);
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
-    let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params);
+    let escape = |live: &[bool]| {
+        let built;
+        let occ = match &occluders {
+            Some(o) => o,
+            None => {
+                built = Occluders::new(scene);
+                &built
+            }
+        };
+        escape_check(&patches, occ, live, params.seed)
+    };
+    let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
     effects.insert("closed", closed);
     lap("closure", &mut timings);
 
@@ -681,6 +698,7 @@ fn closure_effect(
     areas: &[f64],
     exposure: &Exposure,
     params: &BakeParams,
+    escape: &dyn Fn(&[bool]) -> Escape,
 ) -> (ClosureReport, Effect) {
     let tol = params.closure_tolerance;
     // A partly buried patch's row is F's mean over its whole area divided by the exposed
@@ -703,6 +721,7 @@ fn closure_effect(
         min_row_sum: closure.min_row_sum,
         max_row_sum: closure.max_row_sum,
         correction: 0.0,
+        escaped: None,
     };
     let mut range = format!(
         "row sums of F in [{:.5}, {:.5}]",
@@ -722,7 +741,26 @@ fn closure_effect(
             buried / (areas.iter().sum::<f64>() + buried)
         );
     }
-    if closure.closed {
+    // Rows within the tolerance can still hide an opening smaller than it: the geometry has
+    // the last word (`escape_check`).
+    let mut opening = String::new();
+    let closed = closure.closed
+        && {
+            let live: Vec<bool> = sums.iter().map(|s| *s > 0.0).collect();
+            let e = escape(&live);
+            report.escaped = Some(e.share());
+            range += &format!(
+                "; {} of {} hemisphere rays from the patches leave the scene",
+                e.escaped, e.rays
+            );
+            if e.share() > ESCAPE_LIMIT {
+                opening = format!(
+                    " through an opening (more than {ESCAPE_LIMIT:.0e} of the rays), though every row is within {tol} of 1"
+                );
+            }
+            e.share() <= ESCAPE_LIMIT
+        };
+    if closed {
         enforce_closure(f, areas);
         // The largest relative change of a row sum, apart from and among the partly buried.
         let (mut rest, mut buried) = (0f64, 0f64);
@@ -751,7 +789,7 @@ fn closure_effect(
         report.correction = cap_row_sums(f, areas);
     }
     let why = format!(
-        "{range}: light escapes; {}",
+        "{range}: light escapes{opening}; {}",
         if report.correction > 0.0 {
             format!(
                 "rows above 1 scaled down to 1 keeping reciprocity (largest correction {:.2e})",

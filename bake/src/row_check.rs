@@ -351,6 +351,97 @@ fn hemisphere(
     (f64::from(seen) / r, f64::from(back) / r)
 }
 
+/// Cosine-weighted hemisphere rays in all for [`escape_check`], spread over the patches in
+/// proportion to their area: an opening of 0.1% of the area lets about 16 of them out.
+pub const ESCAPE_RAYS: u64 = 16_384;
+
+/// Largest share of [`escape_check`]'s rays that may leave the scene for it to count as closed.
+/// A watertight enclosure lets none out; the allowance is for rays that slip through where two
+/// triangles meet. Above it the scene has an opening of about that share of its area, and
+/// calling it closed would trap light that leaves: at ρ = 0.999 an opening of 0.1% of the area
+/// halves the furnace's radiosity.
+pub const ESCAPE_LIMIT: f64 = 1e-3;
+
+/// What [`escape_check`] found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Escape {
+    /// Rays cast.
+    pub rays: u64,
+    /// Rays that met no triangle.
+    pub escaped: u64,
+}
+
+impl Escape {
+    /// Share of the rays that left the scene: about the openings' share of the area.
+    pub fn share(&self) -> f64 {
+        if self.rays == 0 {
+            0.0
+        } else {
+            self.escaped as f64 / self.rays as f64
+        }
+    }
+}
+
+/// Whether light leaves the scene, asked of the geometry rather than of F's row sums: about
+/// [`ESCAPE_RAYS`] cosine-weighted hemisphere rays from stratified points of the patches for
+/// which `live` is true (those that see anything; a wall's outer face sees nothing and is
+/// dropped), in proportion to area, counting those that meet no triangle at all. By
+/// reciprocity the area-weighted share that escapes is the openings' share of the area, so
+/// a small opening that F's rows hide within their tolerance still shows.
+pub fn escape_check(patches: &Patches, occ: &Occluders, live: &[bool], seed: u64) -> Escape {
+    let area = |i: usize| {
+        if live[i] {
+            patches.patches[i].area
+        } else {
+            0.0
+        }
+    };
+    let total: f64 = (0..patches.len()).map(area).sum();
+    if !(total > 0.0) {
+        return Escape::default();
+    }
+    // Rays per patch by systematic rounding of the cumulative area, so they sum to the budget.
+    let mut before = 0.0;
+    let counts: Vec<u64> = (0..patches.len())
+        .map(|i| {
+            let start = (ESCAPE_RAYS as f64 * before / total).floor() as u64;
+            before += area(i);
+            (ESCAPE_RAYS as f64 * before / total).floor() as u64 - start
+        })
+        .collect();
+    let far = 10.0 * occ.extent();
+    let escaped: u64 = (0..patches.len())
+        .into_par_iter()
+        .filter(|&i| counts[i] > 0)
+        .map(|i| {
+            let pieces = patches.pieces_of(i);
+            let piece_area: f64 = pieces.iter().map(|q| q.area).sum();
+            if pieces.is_empty() || !(piece_area > 0.0) {
+                return 0;
+            }
+            let mut rng = patch_rng(seed ^ ESCAPE_STREAM, i);
+            let scramble = [rng.next_u64() as u32, (rng.next_u64() >> 32) as u32];
+            (0..counts[i])
+                .filter(|&k| {
+                    let [u, v] = crate::rng::sobol2(scramble, k as u32);
+                    let (x, n) = patch_point_at(pieces, piece_area, u, v);
+                    let (t1, t2) = n.any_orthonormal_pair();
+                    let (r, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
+                    let d = (t1 * phi.cos() + t2 * phi.sin()) * r.sqrt() + n * (1.0 - r).sqrt();
+                    occ.closest_hit_from_surface(x, d, far).is_none()
+                })
+                .count() as u64
+        })
+        .sum();
+    Escape {
+        rays: counts.iter().sum(),
+        escaped,
+    }
+}
+
+/// Salt of [`escape_check`]'s streams, apart from the other checks' rays of the same patch.
+const ESCAPE_STREAM: u64 = 0x6573_6361_7065;
+
 /// Hemisphere rays per patch in [`check_dark`]: a patch that sends [`DARK_SHARE`] of its light
 /// to other patches shows it in 13 rays on average, and a patch that truly sees nothing in none.
 pub const DARK_CHECK_RAYS: u32 = 256;
