@@ -322,17 +322,15 @@ pub fn discretise(
     let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let exposure = expose(&mut patches, occluders.as_ref(), &mut f, params.seed);
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
-    let escape = |live: &[bool]| {
-        let built;
-        let occ = match &occluders {
-            Some(o) => o,
-            None => {
-                built = Occluders::new(scene);
-                &built
-            }
-        };
-        escape_check(&patches, occ, live, params.seed)
+    // The checks below cast rays even where nothing occludes (no BVH was built for F): then
+    // one is built, once, when a check first needs it.
+    let built = std::cell::OnceCell::new();
+    let checks_occ = || {
+        occluders
+            .as_ref()
+            .unwrap_or_else(|| built.get_or_init(|| Occluders::new(scene)))
     };
+    let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
     let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
     effects.insert("closed", closed);
     lap("closure", &mut timings);
@@ -344,15 +342,14 @@ pub fn discretise(
         Effect::new(false, "every patch sees some other patch: none dropped")
     } else {
         // An independent look at the decision: hemisphere rays from the dark patches.
-        let built;
-        let occ = match &occluders {
-            Some(o) => o,
-            None => {
-                built = Occluders::new(scene);
-                &built
-            }
-        };
-        dark_patches(scene, &mut patches, occ, &dark, &full_areas, params.seed)
+        dark_patches(
+            scene,
+            &mut patches,
+            checks_occ(),
+            &dark,
+            &full_areas,
+            params.seed,
+        )
     };
     effects.insert("dark_patches", dark_effect);
     if live.is_empty() {
