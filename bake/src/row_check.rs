@@ -210,6 +210,13 @@ fn uniform_point(v: &[DVec3], rng: &mut SplitMix64) -> DVec3 {
     v[0] + (v[k] - v[0]) * a + (v[k + 1] - v[0]) * b
 }
 
+/// A cosine-weighted direction about the unit normal `n` (two draws from `rng`).
+fn cosine_direction(n: DVec3, rng: &mut SplitMix64) -> DVec3 {
+    let (t1, t2) = n.any_orthonormal_pair();
+    let (r, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
+    (t1 * phi.cos() + t2 * phi.sin()) * r.sqrt() + n * (1.0 - r).sqrt()
+}
+
 /// The random stream of patch `i`'s rays.
 fn patch_rng(seed: u64, i: usize) -> SplitMix64 {
     SplitMix64(seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15))
@@ -331,9 +338,7 @@ fn hemisphere(
     let (mut seen, mut back) = (0u32, 0u32);
     for _ in 0..rays {
         let (x, n) = patch_point(pieces, total, &mut rng);
-        let (t1, t2) = n.any_orthonormal_pair();
-        let (r, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
-        let d = (t1 * phi.cos() + t2 * phi.sin()) * r.sqrt() + n * (1.0 - r).sqrt();
+        let d = cosine_direction(n, &mut rng);
         let hit = occ.closest_hit_from_surface(x, d, far);
         let Some(h) = hit else {
             continue;
@@ -425,9 +430,7 @@ pub fn escape_check(patches: &Patches, occ: &Occluders, live: &[bool], seed: u64
                 .filter(|&k| {
                     let [u, v] = crate::rng::sobol2(scramble, k as u32);
                     let (x, n) = patch_point_at(pieces, piece_area, u, v);
-                    let (t1, t2) = n.any_orthonormal_pair();
-                    let (r, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
-                    let d = (t1 * phi.cos() + t2 * phi.sin()) * r.sqrt() + n * (1.0 - r).sqrt();
+                    let d = cosine_direction(n, &mut rng);
                     occ.closest_hit_from_surface(x, d, far).is_none()
                 })
                 .count() as u64
