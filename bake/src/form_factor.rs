@@ -60,7 +60,7 @@ pub enum Visibility {
     Off,
     /// Shadow rays against the full-detail triangles.
     Rays {
-        /// Rays per quadrature point and target piece (and at least `MIN_PIECE_RAYS` times
+        /// Rays per quadrature leaf and target piece (and at least `MIN_PIECE_RAYS` times
         /// this per piece pair), each to its own kernel-distributed point of the piece. More:
         /// smoother penumbrae, proportionally slower.
         per_sample: u32,
@@ -87,8 +87,12 @@ pub struct FormFactorParams {
 impl Default for FormFactorParams {
     fn default() -> Self {
         Self {
+            // Degree 2, not the centroid: the centroid rule over-reads the kernel next to a
+            // shared edge, and a closed box's rows of F came out 4.4e-4 high on average
+            // (ARCHITECTURE.md, "The quadrature rule"); three points a leaf take them within
+            // 1e-5 of 1. Rays are counted per leaf, not per point (`exchange`).
             quadrature: Adaptive {
-                rule: Rule::Centroid,
+                rule: Rule::Degree2,
                 ratio: 0.5,
                 max_depth: 5,
             },
@@ -535,8 +539,10 @@ fn exchange(
             // spread over both polygons, SITE_RAYS per point, not sent from the point.
             let site = s.triangle == SITE || t.triangle == SITE;
             let per_point = per_sample * if site { SITE_RAYS } else { 1 };
-            let budget =
-                (group.len() * per_point as usize).max(MIN_PIECE_RAYS * per_sample as usize);
+            // Rays start anywhere on their leaf, so a leaf's points share its rays: the budget
+            // counts leaves, and a finer rule costs kernel evaluations, not rays.
+            let leaves = group.len().div_ceil(params.quadrature.rule.points().len());
+            let budget = (leaves * per_point as usize).max(MIN_PIECE_RAYS * per_sample as usize);
             // Each piece pair numbers its own rays: a quadrature that differs in one pair (by
             // rounding) must not renumber the rays of the others.
             let base = (si as u64) << 40 | u64::from(group[0].0) << 20;

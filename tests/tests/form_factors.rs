@@ -103,20 +103,23 @@ fn closed_box_rows_sum_to_one() {
         .iter()
         .map(|s| (s - 1.0).abs())
         .fold(0.0, f64::max);
-    println!(
-        "closed box, {} patches: worst |row sum - 1| = {worst:.2e}",
-        p.len()
-    );
-    // Each row is an adaptive centroid-rule quadrature of an analytic kernel; next to the box's
-    // edges it leaves about 3e-3 (measured 2.7e-3); 5e-3 per patch row. The area-weighted
-    // mean below is tighter.
-    assert!(worst < 5e-3, "worst row-sum error {worst}");
     let total: f64 = (0..p.len())
         .map(|i| p.patches[i].area * ff.row_sums[i])
         .sum::<f64>()
         / p.patches.iter().map(|q| q.area).sum::<f64>();
+    println!(
+        "closed box, {} patches: worst |row sum - 1| = {worst:.2e}, area-weighted mean - 1 = {:.2e}",
+        p.len(),
+        total - 1.0
+    );
+    // Each row is an adaptive degree-2 quadrature of an analytic kernel, refined to depth 5
+    // next to the box's edges, where the distance to the target goes to zero. Measured: worst
+    // row 2.1e-4 from 1, mean -1.6e-6. The centroid rule, the default until session 13, left
+    // 2.7e-3 and a mean of +8.2e-4 here, a bias that a near-closed scene at ρ = 0.999 multiplies
+    // by hundreds (ARCHITECTURE.md, "The quadrature rule"); both bounds fail with it.
+    assert!(worst < 1e-3, "worst row-sum error {worst}");
     assert!(
-        (total - 1.0).abs() < 1e-3,
+        (total - 1.0).abs() < 1e-4,
         "area-weighted mean row sum {total}"
     );
 }
