@@ -2,6 +2,7 @@
 
 use anyhow::bail;
 use clap::Args;
+use radiosity_bake::form_factor::FormFactorParams;
 use radiosity_bake::transfer::BounceSpec;
 
 /// How to bake (`bake`, and `solve` on an OBJ).
@@ -29,10 +30,28 @@ pub(crate) struct BakeArgs {
     /// channel
     #[arg(long)]
     pub(crate) tile: Option<u32>,
+    /// Form factors: `draft` (centroid rule, coarse leaves: previews), `default` (degree-2 rule),
+    /// `fine` (finer leaves next to edges, four shadow rays per leaf: final bakes)
+    #[arg(
+        long = "form-factors",
+        value_name = "QUALITY",
+        default_value = "default"
+    )]
+    pub(crate) form_factors: String,
     /// Lower MTL reflectances (Kd) at or above R, in (0, 1), to R with a warning instead of
     /// refusing the scene (many exporters write Kd 1 1 1 for white)
     #[arg(long, value_name = "R")]
     pub(crate) max_reflectance: Option<f64>,
+}
+
+/// The form-factor settings named by `--form-factors` (`FormFactorParams`'s presets).
+pub(crate) fn form_factor_params(name: &str) -> anyhow::Result<FormFactorParams> {
+    Ok(match name {
+        "draft" => FormFactorParams::fast(),
+        "default" => FormFactorParams::default(),
+        "fine" => FormFactorParams::high_quality(),
+        other => bail!("unknown --form-factors {other:?} (draft, default, fine)"),
+    })
 }
 
 pub(crate) fn parse_bounces(s: &str) -> anyhow::Result<BounceSpec> {

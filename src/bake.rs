@@ -1,6 +1,6 @@
 //! `radiosity bake SCENE.obj -o OUT.rad`: the whole bake, a progress bar, an atomic write.
 
-use crate::args::{BakeArgs, parse_bounces};
+use crate::args::{BakeArgs, form_factor_params, parse_bounces};
 use anyhow::{Context, bail};
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
@@ -18,6 +18,7 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
         p.voxel = v;
     }
     p.bounces = parse_bounces(&args.bounces)?;
+    p.form_factors = form_factor_params(&args.form_factors)?;
     p.format = match args.format.as_str() {
         "auto" => FormatChoice::Auto,
         name => FormatChoice::Fixed(Format::from_name(name).with_context(|| {
@@ -169,6 +170,11 @@ pub(crate) fn run(
         match r.lighting_error {
             Some(e) => outln!("  lighting error from compression: {:.3}%", e * 100.0),
             None => outln!("  lighting error: not measured (no emitters)"),
+        }
+        if let Some(d) =
+            crate::inspect::describe_form_factors(&serde_json::to_value(r.form_factors)?)
+        {
+            outln!("  form factors: {d}");
         }
         for (name, e) in &r.effects {
             outln!(

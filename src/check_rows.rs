@@ -3,7 +3,6 @@
 
 use anyhow::{Context, bail};
 use clap::Args;
-use radiosity_bake::form_factor::FormFactorParams;
 use radiosity_bake::row_check::{RowCheckParams, RowGroup, SceneCheck, check_scene};
 use radiosity_bake::scene::{LoadOptions, Scene};
 use radiosity_bake::voxel::VoxelParams;
@@ -25,6 +24,13 @@ pub(crate) struct CheckRowsArgs {
     /// Hemisphere rays per row (the estimate's standard error is at most 0.5/√rays).
     #[arg(long, default_value_t = 4000)]
     rays: u32,
+    /// Form factors, as `bake --form-factors`: draft, default, fine.
+    #[arg(
+        long = "form-factors",
+        value_name = "QUALITY",
+        default_value = "default"
+    )]
+    form_factors: String,
     /// Seed of the row sample and the rays.
     #[arg(long, default_value_t = 11)]
     seed: u64,
@@ -44,6 +50,7 @@ pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
     if args.rays == 0 {
         bail!("--rays must be at least 1");
     }
+    let form_factors = crate::args::form_factor_params(&args.form_factors)?;
     // Geometry only: the check needs the patches, not valid reflectances.
     let scene = Scene::load_obj_with(&args.scene, &LoadOptions::geometry_only())
         .context("cannot load the scene")?;
@@ -61,7 +68,7 @@ pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
     let out = check_scene(
         &scene,
         &voxel,
-        &FormFactorParams::default(),
+        &form_factors,
         args.rows,
         &params,
         Some(&progress),

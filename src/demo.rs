@@ -30,6 +30,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         order: "best".into(),
         sparse: None,
         tile: None,
+        form_factors: "default".into(),
         max_reflectance: None,
     };
     let params = crate::bake::params(&args)?;

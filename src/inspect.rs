@@ -115,6 +115,9 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
     if let Some(v) = file.lighting_error {
         outln!("  lighting     relative L2 error {v:.4} (scene's own emitters)");
     }
+    if let Some(d) = describe_form_factors(&s["form_factors"]) {
+        outln!("  form factors {d}");
+    }
     if let Some(effects) = s.get("effects").and_then(Value::as_object) {
         outln!("  effects");
         for (name, e) in effects {
@@ -126,4 +129,21 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
             outln!("    {name:<12} {on} {}", e["why"].as_str().unwrap_or(""));
         }
     }
+}
+
+/// One line for a bake report's `form_factors` object (`FormFactorSummary`): shared by `bake`
+/// and `inspect`, which reads it back from the file's report. `None` for a file without one.
+pub(crate) fn describe_form_factors(v: &Value) -> Option<String> {
+    let rule = v["rule"].as_str()?;
+    let rays = match v["rays_per_leaf"].as_u64()? {
+        0 => "no shadow rays".to_owned(),
+        1 => "1 shadow ray per leaf".to_owned(),
+        k => format!("{k} shadow rays per leaf"),
+    };
+    Some(format!(
+        "{rule} rule on leaves at most {} × their distance, depth ≤ {}, {rays} (clustered pairs: {})",
+        v["leaf_ratio"].as_f64()?,
+        v["max_depth"].as_u64()?,
+        v["clustered_rule"].as_str()?
+    ))
 }

@@ -142,6 +142,20 @@ impl FormFactorParams {
         }
     }
 
+    /// What these parameters ask for, as the bake report states it.
+    pub fn summary(&self) -> FormFactorSummary {
+        FormFactorSummary {
+            rule: self.quadrature.rule.name(),
+            leaf_ratio: self.quadrature.ratio,
+            max_depth: self.quadrature.max_depth,
+            rays_per_leaf: match self.visibility {
+                Visibility::Off => 0,
+                Visibility::Rays { per_sample, .. } => per_sample.max(1),
+            },
+            clustered_rule: self.clustered_rule.name(),
+        }
+    }
+
     /// The default with visibility rays switched off.
     pub fn unoccluded() -> Self {
         Self {
@@ -149,6 +163,22 @@ impl FormFactorParams {
             ..Self::default()
         }
     }
+}
+
+/// The form-factor settings a bake used ([`FormFactorParams::summary`]), in its report.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct FormFactorSummary {
+    /// The quadrature rule on each leaf of the source: `centroid`, `degree 2` or `degree 5`.
+    pub rule: &'static str,
+    /// A leaf is at most this many times as wide as its distance to the target.
+    pub leaf_ratio: f64,
+    /// Most halvings of a source triangle.
+    pub max_depth: u32,
+    /// Shadow rays per leaf and target piece asked for (0: none; the occlusion effect also
+    /// switches them off where nothing can occlude).
+    pub rays_per_leaf: u32,
+    /// The rule of clustered pairs' quadratures (scenes above `exact_pieces` pieces).
+    pub clustered_rule: &'static str,
 }
 
 /// The computed matrix and its diagnostics.

@@ -9,7 +9,8 @@ use crate::encode::{
     EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
-    FAR_RAYS, FormFactorParams, MAX_EXACT_PIECES, NEAR_RAYS, Progress, Visibility, form_factors,
+    FAR_RAYS, FormFactorParams, FormFactorSummary, MAX_EXACT_PIECES, NEAR_RAYS, Progress,
+    Visibility, form_factors,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::row_check::{
@@ -144,6 +145,8 @@ pub struct BakeReport {
     pub bytes: Bytes,
     /// Shadow rays cast for form factors.
     pub rays_cast: u64,
+    /// The form-factor quadrature and rays asked for (`FormFactorParams::summary`).
+    pub form_factors: FormFactorSummary,
     /// Relative Frobenius error of the decoded matrix, per order measured (the chosen one
     /// exactly, the others estimated on sampled blocks of the encoder's first pass, which the
     /// bake's own encode improves on: see `order::ErrorMeter`).
@@ -226,6 +229,8 @@ pub struct Discretised {
     pub exposure: Exposure,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
+    /// The form-factor settings used.
+    pub form_factors: FormFactorSummary,
     /// Largest reciprocity error of F.
     pub reciprocity_error: f64,
     /// Milliseconds of `simplify`, `plan`, `form_factors` and `closure` (burial and closure).
@@ -312,7 +317,7 @@ pub fn discretise(
         )
     } else {
         format!(
-            "{pieces} pieces in all (at most {budget}): every pair integrated piece by piece, one shadow ray per sample and piece"
+            "{pieces} pieces in all (at most {budget}): every pair integrated piece by piece, one shadow ray per quadrature leaf and piece"
         )
     };
     effects.insert("clustered_pairs", Effect::new(ff.clustered_pairs > 0, why));
@@ -380,6 +385,7 @@ pub fn discretise(
         closure,
         exposure,
         rays_cast: ff.rays_cast,
+        form_factors: params.form_factors.summary(),
         reciprocity_error: ff.reciprocity_error,
         timings_ms: timings,
     })
@@ -569,6 +575,7 @@ pub fn bake_discretised(
             sparse,
         },
         rays_cast: system.rays_cast,
+        form_factors: system.form_factors,
         compression_rmse,
         compression_code_rmse,
         lighting_error,

@@ -37,6 +37,15 @@ const DEGREE5: [([f64; 3], f64); 7] = [
 ];
 
 impl Rule {
+    /// Its name in reports: `centroid`, `degree 2` or `degree 5`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Rule::Centroid => "centroid",
+            Rule::Degree2 => "degree 2",
+            Rule::Degree5 => "degree 5",
+        }
+    }
+
     /// Points (barycentric) and weights (summing to 1).
     pub fn points(self) -> &'static [([f64; 3], f64)] {
         match self {
