@@ -113,7 +113,11 @@ impl Default for FormFactorParams {
 }
 
 impl FormFactorParams {
-    /// Coarser quadrature: previews.
+    /// Coarser quadrature (`--form-factors draft`): the centroid rule on leaves up to their
+    /// distance, depth 3. On the Cornell box at 4096 patches it saves a tenth of the form
+    /// factors' time (most rays are each piece pair's minimum), and its rows read about 8e-4
+    /// high, which a nearly closed room at ρ = 0.999 turns into +29% (README, "What
+    /// form-factor accuracy costs"). Fewer patches are the better preview.
     pub fn fast() -> Self {
         Self {
             quadrature: Adaptive {
@@ -125,7 +129,9 @@ impl FormFactorParams {
         }
     }
 
-    /// Finer quadrature and four rays per sample: final bakes.
+    /// Finer quadrature and four rays per leaf (`--form-factors fine`): leaves to depth 6,
+    /// degree 2 in clustered pairs too. About 4× the rays and 3× the form factors' time of the
+    /// default for rows that the default already has within a hemisphere check's noise.
     pub fn high_quality() -> Self {
         Self {
             quadrature: Adaptive {
