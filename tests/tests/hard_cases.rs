@@ -666,6 +666,25 @@ fn box_with_opening(split: usize, patches: usize) -> (BakeOutput, f64) {
     (out, side * side / (24.0 - side * side))
 }
 
+/// The area-weighted mean, least and largest irradiance (first channel) of a bake's patches,
+/// lit by its own emitters, and the uniform-enclosure estimate `H = s / (1 − ρ s)` of a box at
+/// ρ = 0.999 and E = 1 that keeps `s = 1 − opening` of the light per bounce.
+fn irradiance_against_enclosure(out: &BakeOutput, opening: f64) -> ([f64; 3], f64) {
+    let (h, _) = frame(out);
+    let areas: Vec<f64> = out.file.patches.iter().map(|p| f64::from(p.area)).collect();
+    let mean = h
+        .iter()
+        .zip(&areas)
+        .map(|(v, a)| f64::from(v.r) * a)
+        .sum::<f64>()
+        / areas.iter().sum::<f64>();
+    let (lo, hi) = h.iter().fold((f64::MAX, f64::MIN), |(lo, hi), v| {
+        (lo.min(f64::from(v.r)), hi.max(f64::from(v.r)))
+    });
+    let s = 1.0 - opening;
+    ([mean, lo, hi], s / (1.0 - 0.999 * s))
+}
+
 #[test]
 fn a_small_opening_is_open_though_the_rows_are_within_tolerance() {
     // The furnace box [0, 2]³ (split 4 × 4) with one ceiling quad of 0.5 × 0.5 taken out: an
@@ -673,10 +692,12 @@ fn a_small_opening_is_open_though_the_rows_are_within_tolerance() {
     // tolerance of 1 (measured [0.955, 1.003]), so row sums alone called it closed, rebalanced
     // it, and the furnace gave B = 1000 at ρ = 0.999: the light that leaves through the
     // opening was kept. Hemisphere rays from the patches find it (`row_check::escape_check`):
-    // measured 1.02% of them leave. Open, the uniform-enclosure estimate is
-    // B ≈ E / (1 − ρ(1 − 0.0105)) = 87 (measured 90–92 per object with the real F); asserted
-    // below 200, against the 1000 of the closed answer. The share is asserted within a factor
-    // 1.5 of the opening's area share (16 384 rays: ±5% noise).
+    // measured 1.02% of them leave. The share is asserted within a factor 1.5 of the opening's
+    // area share (16 384 rays: ±5% noise). Open, the irradiance is near the uniform-enclosure
+    // estimate H = s / (1 − ρ s) = 85.9, s = 1 − 0.0105 (the path tracer: 85.2–87.8 ± 0.6 per
+    // object; the closed answer would be 1000). Measured: mean 86.4, patches in [83.6, 88.3];
+    // with the centroid quadrature rule (before session 13) the mean was 93.4 (+8.7%) and this
+    // fails. Bounds: the mean within 2.5% of the estimate, each patch within 5%.
     let (out, opening) = box_with_opening(4, 150);
     let closed = &out.report.effects["closed"];
     assert!(!closed.on, "{}", closed.why);
@@ -689,10 +710,13 @@ fn a_small_opening_is_open_though_the_rows_are_within_tolerance() {
         share > opening / 1.5 && share < opening * 1.5,
         "escaped {share} vs {opening}"
     );
-    let (h, _) = frame(&out);
-    for (i, v) in h.iter().enumerate() {
-        assert!(v.r > 10.0 && v.r < 200.0, "patch {i}: H = {}", v.r);
-    }
+    let ([mean, lo, hi], want) = irradiance_against_enclosure(&out, opening);
+    println!("opening {opening:.5}: H mean {mean:.2} in [{lo:.2}, {hi:.2}], estimate {want:.2}");
+    assert!((mean / want - 1.0).abs() < 0.025, "mean H {mean} vs {want}");
+    assert!(
+        lo > want * 0.95 && hi < want * 1.05,
+        "H in [{lo}, {hi}] vs {want}"
+    );
 }
 
 #[test]
@@ -710,19 +734,7 @@ fn a_near_closed_box_at_high_reflectance_keeps_the_right_share() {
     let (out, opening) = box_with_opening(8, 150);
     let closed = &out.report.effects["closed"];
     assert!(!closed.on, "{}", closed.why);
-    let s = 1.0 - opening;
-    let want = s / (1.0 - 0.999 * s);
-    let (h, _) = frame(&out);
-    let areas: Vec<f64> = out.file.patches.iter().map(|p| f64::from(p.area)).collect();
-    let mean = h
-        .iter()
-        .zip(&areas)
-        .map(|(v, a)| f64::from(v.r) * a)
-        .sum::<f64>()
-        / areas.iter().sum::<f64>();
-    let (lo, hi) = h.iter().fold((f64::MAX, f64::MIN), |(lo, hi), v| {
-        (lo.min(f64::from(v.r)), hi.max(f64::from(v.r)))
-    });
+    let ([mean, lo, hi], want) = irradiance_against_enclosure(&out, opening);
     println!("opening {opening:.5}: H mean {mean:.2} in [{lo:.2}, {hi:.2}], estimate {want:.2}");
     assert!((mean / want - 1.0).abs() < 0.01, "mean H {mean} vs {want}");
     assert!(
