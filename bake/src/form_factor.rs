@@ -303,7 +303,7 @@ pub const MAX_PAIR_RAYS: usize = 4096;
 /// sensitive to the shape, and a flattened stand-in there cost a closed box's rows up to 2%.
 const FAR_RATIO: f64 = 1.0;
 
-/// Rays per quadrature point and `per_sample` between a site and its far partner: a partly
+/// Rays per quadrature leaf and `per_sample` between a site and its far partner: a partly
 /// hidden pair gets a visible fraction in steps of 1/16 instead of all or nothing (on a box of
 /// tessellated walls around a floating cube, one ray per pair left rows of F off by 2%).
 const SITE_RAYS: u32 = 16;
