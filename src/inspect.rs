@@ -140,8 +140,13 @@ pub(crate) fn describe_form_factors(v: &Value) -> Option<String> {
         1 => "1 shadow ray per leaf".to_owned(),
         k => format!("{k} shadow rays per leaf"),
     };
+    // Files baked before session 14 have no `far_pieces`: every piece pair was exact.
+    let far = match v["far_pieces"].as_f64() {
+        Some(k) => format!("; piece pairs beyond {k} × their radii by the rule on both sides"),
+        None => String::new(),
+    };
     Some(format!(
-        "{rule} rule on leaves at most {} × their distance, depth ≤ {}, {rays} (clustered pairs: {})",
+        "{rule} rule on leaves at most {} × their distance, depth ≤ {}, {rays} (clustered pairs: {}){far}",
         v["leaf_ratio"].as_f64()?,
         v["max_depth"].as_u64()?,
         v["clustered_rule"].as_str()?

@@ -57,43 +57,51 @@ pub fn plan_colour(patches: &Patches) -> Effect {
 
 /// Whether anything can occlude anything: `false` when the scene is the inside of a convex
 /// polyhedron (every vertex on or in front of every triangle's plane), where every pair of
-/// front faces sees each other unobstructed. Planes are de-duplicated first, so a finely meshed
-/// box costs six plane tests per vertex.
+/// front faces sees each other unobstructed. Planes are de-duplicated first (a finely meshed
+/// box costs six plane tests per vertex), and the planes are tested in parallel, each until a
+/// vertex lies behind it: a tessellated sphere of 5120 facets (5120 planes, 2562 vertices) is
+/// 13 M tests, milliseconds, where its visibility rays and their pair tests took minutes.
 pub fn plan_occlusion(scene: &Scene) -> Effect {
+    use rayon::prelude::*;
     let (lo, hi) = scene.bounds();
     let tol = 1e-9 * (hi - lo).length().max(f64::MIN_POSITIVE);
+    // Exact duplicates by a rounded key; planes that differ by rounding and land in two cells
+    // are both kept, which only costs their tests.
+    let mut seen = std::collections::HashSet::new();
     let mut planes: Vec<(DVec3, f64)> = Vec::new();
     for t in 0..scene.triangles.len() {
         let n = scene.triangle_normal(t);
         let d = n.dot(scene.corners(t)[0]);
-        if !planes
-            .iter()
-            .any(|(m, e)| (*m - n).length() < 1e-9 && (e - d).abs() < tol)
-        {
+        let key = [n.x * 1e9, n.y * 1e9, n.z * 1e9, d / tol].map(|v| v.round() as i64);
+        if seen.insert(key) {
             planes.push((n, d));
-            if planes.len() > 4096 {
-                return Effect::new(
-                    true,
-                    "more than 4096 distinct planes: not a convex enclosure, visibility rays cast",
-                );
-            }
         }
     }
-    let used: Vec<DVec3> = scene
-        .triangles
-        .iter()
-        .flat_map(|t| t.vertices.map(|v| scene.positions[v as usize]))
-        .collect();
-    for (n, d) in &planes {
-        if let Some(p) = used.iter().find(|p| n.dot(**p) - d < -tol) {
-            return Effect::new(
-                true,
-                format!(
-                    "not a convex enclosure (vertex ({:.3}, {:.3}, {:.3}) lies behind a face): visibility rays cast",
-                    p.x, p.y, p.z
-                ),
-            );
-        }
+    let mut used: Vec<u32> = scene.triangles.iter().flat_map(|t| t.vertices).collect();
+    used.sort_unstable();
+    used.dedup();
+    let used: Vec<DVec3> = used.iter().map(|&v| scene.positions[v as usize]).collect();
+    if (planes.len() as f64) * (used.len() as f64) > MAX_CONVEXITY_TESTS {
+        return Effect::new(
+            true,
+            format!(
+                "{} distinct planes and {} vertices: too many to prove the scene a convex enclosure, visibility rays cast",
+                planes.len(),
+                used.len()
+            ),
+        );
+    }
+    let behind = planes
+        .par_iter()
+        .find_map_first(|(n, d)| used.iter().find(|p| n.dot(**p) - d < -tol).copied());
+    if let Some(p) = behind {
+        return Effect::new(
+            true,
+            format!(
+                "not a convex enclosure (vertex ({:.3}, {:.3}, {:.3}) lies behind a face): visibility rays cast",
+                p.x, p.y, p.z
+            ),
+        );
     }
     Effect::new(
         false,
@@ -103,6 +111,10 @@ pub fn plan_occlusion(scene: &Scene) -> Effect {
         ),
     )
 }
+
+/// Most vertex-plane tests [`plan_occlusion`] makes to prove a scene convex (about a second
+/// on 2 cores): a convex enclosure of 65 536 facets has about 2 × 10⁹.
+const MAX_CONVEXITY_TESTS: f64 = 4e9;
 
 /// Whether the scene emits light itself.
 pub fn plan_emission(patches: &Patches) -> Effect {

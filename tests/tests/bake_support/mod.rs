@@ -216,3 +216,19 @@ pub(crate) fn assert_rel(what: &str, got: f64, want: f64, tol: f64) {
         "{what}: got {got}, want {want}, relative error {rel:.3e} > tolerance {tol:.1e}"
     );
 }
+
+/// The inside of an icosphere of `20 · 4^subdivisions` facets
+/// ([`radiosity_tests::scenes::icosphere`]), radius `r` about the origin, every facet facing
+/// the centre: a convex enclosure, one object.
+pub(crate) fn inward_icosphere(subdivisions: usize, r: f64) -> Obj {
+    let (v, f) = radiosity_tests::scenes::icosphere(subdivisions);
+    let polygons = f
+        .iter()
+        .map(|t| {
+            let tri: Vec<DVec3> = t.iter().map(|&i| DVec3::from_array(v[i]) * r).collect();
+            let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+            facing(tri, -centre)
+        })
+        .collect();
+    Obj::new("sphere", polygons)
+}
