@@ -259,3 +259,59 @@ fn concentric_spheres_through_solve_json() {
         }
     }
 }
+
+#[test]
+fn inside_a_sphere_through_solve_json() {
+    // ../shared/reference/multibounce.md §3c: on the inside of a sphere F_ij = A_j / A for any
+    // two areas, so with reflectance ρ everywhere B_i = E_i + ρ B̄, B̄ = Σ A_j E_j / (A (1 − ρ)).
+    // An icosphere of 1280 facets, split at y = 0 into an emitting top (E = 1) and a dark
+    // bottom, solved at the default settings but 400 patches (394). Its facets are flat, so
+    // the closed form holds only nearly: measured top −0.018% / bottom +0.063% at ρ = 0.5 and
+    // +0.017% / +0.018% at ρ = 0.999. Tolerance 0.5%, the issue's; the default BC1 stays in,
+    // since its error on this smooth matrix is far below that.
+    let dir = tempfile::tempdir().unwrap();
+    let (v, f) = radiosity_tests::scenes::icosphere(3);
+    for rho in [0.5, 0.999] {
+        let mut obj = format!("mtllib in{rho}.mtl\n");
+        for p in &v {
+            obj += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+        }
+        for (name, top) in [("top", true), ("bottom", false)] {
+            obj += &format!("o {name}\nusemtl {name}\n");
+            for [a, b, c] in &f {
+                if (v[*a][1] + v[*b][1] + v[*c][1] > 0.0) == top {
+                    // Counter-clockwise from outside: reversed, the facet faces the centre.
+                    obj += &format!("f {} {} {}\n", a + 1, c + 1, b + 1);
+                }
+            }
+        }
+        let mtl = format!(
+            "newmtl top\nKd {rho} {rho} {rho}\nKe {e} {e} {e}\nnewmtl bottom\nKd {rho} {rho} {rho}\n",
+            e = 1.0 / PI
+        );
+        std::fs::write(dir.path().join(format!("in{rho}.mtl")), mtl).unwrap();
+        let path = dir.path().join(format!("in{rho}.obj"));
+        std::fs::write(&path, obj).unwrap();
+        let out = solve_json(&path, &["--patches", "400"]);
+        let objects = out["objects"].as_array().unwrap();
+        let find = |name: &str| {
+            objects
+                .iter()
+                .find(|o| o["name"] == name)
+                .unwrap_or_else(|| panic!("{name} in {out}"))
+        };
+        let (top, bottom) = (find("top"), find("bottom"));
+        let area = |o: &Value| o["area"].as_f64().unwrap();
+        let mean = area(top) / ((area(top) + area(bottom)) * (1.0 - rho));
+        for (o, want) in [(top, 1.0 + rho * mean), (bottom, rho * mean)] {
+            let got = channel(o, "radiosity", 0);
+            let rel = (got - want).abs() / want;
+            assert!(
+                rel < 5e-3,
+                "ρ = {rho}: {} B = {got} vs {want} ({:.3}%)",
+                o["name"],
+                rel * 100.0
+            );
+        }
+    }
+}
