@@ -5,8 +5,8 @@
 //!   neighbours that share an edge or nearly touch are as accurate as distant ones;
 //! - the outer integral is an adaptive quadrature ([`crate::quadrature`]) that subdivides the
 //!   source where it is large compared with its distance to the target, each target piece on
-//!   its own (refined against the nearest of them all, a piece of a curved patch read every
-//!   other target on the leaves its neighbour needed: twice the time on an icosphere);
+//!   its own (until session 14 a source piece was refined against the nearest of its targets
+//!   and read every other one on those leaves: twice the time on an icosphere);
 //! - piece pairs far apart compared with their sizes ([`FormFactorParams::far_pieces`]) take
 //!   the rule's points on both sides with the point kernel `cos cos / (π r²)`, three points
 //!   each for degree 2, instead of Lambert's formula, whose `atan2` per edge was two thirds of
@@ -557,10 +557,7 @@ fn exchange(
         targets.push(centre_radius(t));
         let start = points.len() as u32;
         for tri in fan(t.polygon.vertices()) {
-            let area = 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
-            for &(b, w) in rule.points() {
-                points.push((tri[0] * b[0] + tri[1] * b[1] + tri[2] * b[2], w * area));
-            }
+            points.extend(rule_points(tri, rule));
         }
         spans.push((start, points.len() as u32));
     }
@@ -619,9 +616,7 @@ fn exchange(
         // `far_pieces` ≥ 5 the distance rule would not split it) against the target's.
         if !far.is_empty() {
             for tri in fan(sv) {
-                let area = 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
-                for &(b, w) in rule.points() {
-                    let x = tri[0] * b[0] + tri[1] * b[1] + tri[2] * b[2];
+                for (x, wx) in rule_points(tri, rule) {
                     for &(k, need_rays) in far.iter() {
                         let (lo, hi) = spans[k];
                         let nt = dst[k].normal;
@@ -633,9 +628,9 @@ fn exchange(
                             continue;
                         }
                         if need_rays {
-                            samples.push((k as u32, tri, w * area * g));
+                            samples.push((k as u32, tri, wx * g));
                         } else {
-                            total += w * area * g;
+                            total += wx * g;
                         }
                     }
                 }
@@ -1172,6 +1167,14 @@ fn pair_depth(depth: u32, ns: DVec3, nt: DVec3) -> u32 {
         32
     };
     depth.saturating_sub(cut).max(MIN_PAIR_DEPTH.min(depth))
+}
+
+/// The points of `rule` on triangle `tri`, each with its weight (the rule's times the area).
+fn rule_points(tri: [DVec3; 3], rule: Rule) -> impl Iterator<Item = (DVec3, f64)> {
+    let area = 0.5 * (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
+    rule.points()
+        .iter()
+        .map(move |&(b, w)| (tri[0] * b[0] + tri[1] * b[1] + tri[2] * b[2], w * area))
 }
 
 /// The point-to-point kernel `cos⁺θ_x cos⁺θ_y / (π r²)` between `x` (normal `nx`) and `y`
