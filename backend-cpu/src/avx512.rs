@@ -12,7 +12,7 @@
 //! the crate docs). Every function is compiled with `avx512f` (plus the AVX2 set, which every
 //! AVX-512 CPU has) and only entered after runtime detection.
 
-use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette};
+use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
 use crate::kernel::{Ctx, X4, finish_rows};
 use radiosity_core::{Format, Rgb};
 use std::arch::x86_64::*;
@@ -190,25 +190,6 @@ fn log16(codes: &[u8; 16], factors: (__m512, __m512)) -> __m512 {
     // SAFETY: the load reads the 16 bytes of `codes`.
     let q = _mm512_cvtepu8_epi32(unsafe { _mm_loadu_si128(codes.as_ptr().cast()) });
     log_values(q, factors)
-}
-
-/// The per-channel palette keys of a BC1 block: (four-colour flag, endpoint 0, endpoint 1),
-/// as [`Bc1Palettes`] indexes them.
-#[inline(always)]
-fn bc1_keys(raw: &[u8; 8]) -> [usize; 3] {
-    let c0 = usize::from(u16::from_le_bytes([raw[0], raw[1]]));
-    let c1 = usize::from(u16::from_le_bytes([raw[2], raw[3]]));
-    let four = usize::from(c0 > c1);
-    [
-        (four << 10) | ((c0 >> 11) << 5) | (c1 >> 11),
-        (four << 12) | (((c0 >> 5) & 0x3f) << 6) | ((c1 >> 5) & 0x3f),
-        (four << 10) | ((c0 & 0x1f) << 5) | (c1 & 0x1f),
-    ]
-}
-
-#[inline(always)]
-fn index_bits(raw: &[u8; 8]) -> i32 {
-    i32::from_le_bytes([raw[4], raw[5], raw[6], raw[7]])
 }
 
 /// One block: expand each channel's palette through the 2-bit indices, multiply-add against

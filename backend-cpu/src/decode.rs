@@ -271,20 +271,33 @@ impl Bc1Palettes {
     }
 }
 
+/// The per-channel palette keys of a BC1 block: (four-colour flag, endpoint 0, endpoint 1),
+/// as [`Bc1Palettes`] indexes them.
+#[inline(always)]
+pub(crate) fn bc1_keys(raw: &[u8; 8]) -> [usize; 3] {
+    let c0 = usize::from(u16::from_le_bytes([raw[0], raw[1]]));
+    let c1 = usize::from(u16::from_le_bytes([raw[2], raw[3]]));
+    let four = usize::from(c0 > c1);
+    [
+        (four << 10) | ((c0 >> 11) << 5) | (c1 >> 11),
+        (four << 12) | (((c0 >> 5) & 0x3f) << 6) | ((c1 >> 5) & 0x3f),
+        (four << 10) | ((c0 & 0x1f) << 5) | (c1 & 0x1f),
+    ]
+}
+
+/// The block's 2-bit indices, texel `i` at bit `2i`.
+#[inline(always)]
+pub(crate) fn index_bits(raw: &[u8; 8]) -> i32 {
+    i32::from_le_bytes([raw[4], raw[5], raw[6], raw[7]])
+}
+
 impl Kernel for Bc1 {
     const BLOCK_BYTES: usize = 8;
     #[inline(always)]
     fn decode<I: Isa>(raw: &[u8], t: &TileTables<'_>, _plane: usize, out: &mut [[f32x8; 2]; 3]) {
         let raw: &[u8; 8] = raw.try_into().expect("8-byte block");
-        let c0 = usize::from(u16::from_le_bytes([raw[0], raw[1]]));
-        let c1 = usize::from(u16::from_le_bytes([raw[2], raw[3]]));
-        let four = usize::from(c0 > c1);
-        let bits = u32::from_le_bytes([raw[4], raw[5], raw[6], raw[7]]);
-        let keys = [
-            (four << 10) | ((c0 >> 11) << 5) | (c1 >> 11),
-            (four << 12) | (((c0 >> 5) & 0x3f) << 6) | ((c1 >> 5) & 0x3f),
-            (four << 10) | ((c0 & 0x1f) << 5) | (c1 & 0x1f),
-        ];
+        let keys = bc1_keys(raw);
+        let bits = index_bits(raw) as u32;
         match t.bc1 {
             Some(pal) => {
                 for ch in 0..3 {

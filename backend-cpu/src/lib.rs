@@ -89,6 +89,8 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
+#[cfg(target_arch = "x86_64")]
+mod bc1_avx2;
 mod decode;
 mod kernel;
 
@@ -184,8 +186,8 @@ pub struct CpuGather<'m> {
     /// Exitance re-laid out per gather: `[column block][channel]`, each the block's four
     /// columns twice (two block rows per register).
     xs: Vec<f32x8>,
-    /// The same for the `zmm` bodies (each column block's four values once); empty unless one
-    /// runs.
+    /// The same for the `zmm` bodies and the AVX2 BC1 body (each column block's four values
+    /// once); empty unless one of them runs.
     x4: Vec<kernel::X4>,
     simd: SimdPath,
     parallel: bool,
@@ -248,7 +250,7 @@ impl<'m> CpuGather<'m> {
         } else {
             Vec::new()
         };
-        let x4 = if uses_zmm(l.format(), simd) {
+        let x4 = if uses_x4(l.format(), simd) {
             vec![kernel::X4::ZERO; l.padded() / 4 * 3]
         } else {
             Vec::new()
@@ -357,6 +359,16 @@ impl Gather for CpuGather<'_> {
             });
             return Ok(());
         }
+        #[cfg(target_arch = "x86_64")]
+        if format == Format::Bc1 && simd == SimdPath::Avx2Fma {
+            // SAFETY: `CpuGather` holds `SimdPath::Avx2Fma` only after `is_available` saw
+            // AVX2, FMA and F16C.
+            let x4 = &self.x4[..];
+            run(parallel, irradiance, |r, out| unsafe {
+                bc1_avx2::bc1_block_row(&ctx, x4, r, out)
+            });
+            return Ok(());
+        }
         match format {
             Format::Bc1 => run(parallel, irradiance, |r, out| {
                 kernel::block_row_dispatch::<decode::Bc1>(&ctx, simd, r, out)
@@ -386,7 +398,13 @@ fn zmm_body(format: Format, simd: SimdPath) -> Option<avx512::RowBody> {
         .flatten()
 }
 
-/// Whether `format` runs a `zmm` body on `simd` (and so reads the exitance as [`kernel::X4`]).
+/// Whether `format` reads the exitance as [`kernel::X4`] on `simd`: the `zmm` bodies and the
+/// AVX2 BC1 body (`bc1_avx2`).
+fn uses_x4(format: Format, simd: SimdPath) -> bool {
+    uses_zmm(format, simd) || (format == Format::Bc1 && simd == SimdPath::Avx2Fma)
+}
+
+/// Whether `format` runs a `zmm` body on `simd`.
 fn uses_zmm(format: Format, simd: SimdPath) -> bool {
     #[cfg(target_arch = "x86_64")]
     return zmm_body(format, simd).is_some();

@@ -123,7 +123,8 @@ fn larger_matrix_several_tiles() {
 /// per-block palettes. n = 1030: one 1032² tile, partial last block row and column (258 block
 /// columns: on the AVX-512 path two runs of 128 blocks and a run of 2, which has no full
 /// group of 16); n = 1097: 275 block columns, a last run of 19 (one group of 16 keyed in
-/// vector registers, 3 keyed one by one, an odd block after the pairs).
+/// vector registers, 3 keyed one by one, an odd block after the pairs; on the AVX2 path two
+/// groups of 8 and 3 one by one).
 ///
 /// With `max_tile` 1024, n = 1030 has a 1024² tile with tables beside 6-wide tiles without:
 /// both kinds in one block row.
