@@ -89,10 +89,10 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
-#[cfg(target_arch = "x86_64")]
-mod bc1_avx2;
 mod decode;
 mod kernel;
+#[cfg(target_arch = "x86_64")]
+mod ymm;
 
 use radiosity_core::{Format, Gather, GatherError, Rgb, Tile, TransferMatrix, check_gather_args};
 use rayon::prelude::*;
@@ -175,7 +175,8 @@ pub struct CpuGather<'m> {
     matrix: TransferMatrix<'m>,
     /// One 256-entry decode table per tile and channel (empty for f16/f32).
     tables: Vec<[f32; 256]>,
-    /// The tables' two 16-entry factors (`LogScale::factors`), for the `zmm` log bodies only.
+    /// The tables' two 16-entry factors (`LogScale::factors`), for the `zmm` and `ymm` log
+    /// bodies only.
     factors: Vec<([f32; 16], [f32; 16])>,
     /// BC1 only: each large tile's palettes decoded to values (`decode::Bc1Palettes`).
     bc1: Vec<Option<decode::Bc1Palettes>>,
@@ -227,7 +228,7 @@ impl<'m> CpuGather<'m> {
         );
         assert_eq!(matrix.scales.len(), l.scale_count(), "scale count");
         let tables: Vec<[f32; 256]> = matrix.scales.iter().map(|s| s.table()).collect();
-        let factors = if uses_zmm(l.format(), simd) {
+        let factors = if uses_x4(l.format(), simd) {
             matrix.scales.iter().map(|s| s.factors()).collect()
         } else {
             Vec::new()
@@ -360,12 +361,12 @@ impl Gather for CpuGather<'_> {
             return Ok(());
         }
         #[cfg(target_arch = "x86_64")]
-        if format == Format::Bc1 && simd == SimdPath::Avx2Fma {
-            // SAFETY: `CpuGather` holds `SimdPath::Avx2Fma` only after `is_available` saw
-            // AVX2, FMA and F16C.
+        if let Some(body) = ymm_body(format, simd) {
             let x4 = &self.x4[..];
+            // SAFETY: `ymm_body` gives a body only on `SimdPath::Avx2Fma`, which `CpuGather`
+            // holds only after `is_available` saw AVX2, FMA and F16C.
             run(parallel, irradiance, |r, out| unsafe {
-                bc1_avx2::bc1_block_row(&ctx, x4, r, out)
+                body(&ctx, x4, r, out)
             });
             return Ok(());
         }
@@ -398,10 +399,24 @@ fn zmm_body(format: Format, simd: SimdPath) -> Option<avx512::RowBody> {
         .flatten()
 }
 
-/// Whether `format` reads the exitance as [`kernel::X4`] on `simd`: the `zmm` bodies and the
-/// AVX2 BC1 body (`bc1_avx2`).
+/// The AVX2 block-row body of `format` on `simd`, if it has one (`ymm::body`).
+#[cfg(target_arch = "x86_64")]
+fn ymm_body(format: Format, simd: SimdPath) -> Option<ymm::RowBody> {
+    (simd == SimdPath::Avx2Fma)
+        .then(|| ymm::body(format))
+        .flatten()
+}
+
+/// Whether `format` reads the exitance as [`kernel::X4`] and the tables' factors on `simd`:
+/// the `zmm` bodies and the AVX2 BC1 and BC4 bodies (`ymm.rs`).
 fn uses_x4(format: Format, simd: SimdPath) -> bool {
-    uses_zmm(format, simd) || (format == Format::Bc1 && simd == SimdPath::Avx2Fma)
+    #[cfg(target_arch = "x86_64")]
+    return zmm_body(format, simd).is_some() || ymm_body(format, simd).is_some();
+    #[cfg(not(target_arch = "x86_64"))]
+    return {
+        let _ = (format, simd);
+        false
+    };
 }
 
 /// Whether `format` runs a `zmm` body on `simd`.
