@@ -225,7 +225,7 @@ fn bc4_16(raw: &[u8; 8], f: &Factors) -> [__m256; 2] {
 }
 
 /// One block: each channel's palette expanded through the 2-bit indices, multiplied into the
-/// accumulators against the column block's exitance (its four columns twice).
+/// accumulators against the column block's exitance (its four columns in both halves).
 #[inline]
 #[target_feature(enable = "avx2,fma,f16c")]
 fn block(pal: &[&[f32; 4]; 3], bits: i32, x: &[X4], acc: &mut Acc) {
@@ -233,11 +233,13 @@ fn block(pal: &[&[f32; 4]; 3], bits: i32, x: &[X4], acc: &mut Acc) {
     let lo = _mm256_srlv_epi32(b, _mm256_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14));
     let hi = _mm256_srlv_epi32(b, _mm256_setr_epi32(16, 18, 20, 22, 24, 26, 28, 30));
     for ch in 0..3 {
-        // SAFETY: the loads read exactly the 16 bytes of `pal[ch]` and of `x[ch]`; the
-        // caller's target features cover these instructions.
+        // SAFETY: the loads read exactly the 16 bytes of `pal[ch]` (unaligned: a palette is
+        // only 4-byte aligned; it folds into one `vbroadcastf128`) and of `x[ch]` (an `X4`,
+        // 16-byte aligned); the caller's target features cover these instructions.
         let (p, x) = unsafe {
+            let q = _mm_loadu_ps(pal[ch].as_ptr());
             (
-                _mm256_broadcast_ps(&*pal[ch].as_ptr().cast::<__m128>()),
+                _mm256_set_m128(q, q),
                 _mm256_broadcast_ps(&*x[ch].0.as_ptr().cast::<__m128>()),
             )
         };
