@@ -792,10 +792,38 @@ impl<'a> Pairs<'a> {
             scratch.clustered += 1;
             return self.clustered(src, dst, far, seed, rays, scratch, &skip);
         }
+        // Many triangles and no per-triangle-pair cache: one proof for the whole patch pair
+        // first, so that an unblocked pair walks the occluders once instead of once per piece
+        // pair (nested spheres: the inner sphere lies in the box of most pairs on the outer
+        // one). Without a candidate no piece pair needs rays, and the sum is the same.
+        let occ = match (self.occ, self.cache, self.params.visibility) {
+            (
+                Some(o),
+                None,
+                Visibility::Rays {
+                    skip_unblockable: true,
+                    ..
+                },
+            ) => {
+                let (hs, ht) = &mut scratch.hull;
+                hs.clear();
+                ht.clear();
+                hs.extend(
+                    src.iter()
+                        .flat_map(|p| p.polygon.vertices().iter().copied()),
+                );
+                ht.extend(
+                    dst.iter()
+                        .flat_map(|p| p.polygon.vertices().iter().copied()),
+                );
+                o.may_block_hull(hs, ht).then_some(o)
+            }
+            (o, ..) => o,
+        };
         exchange(
             src,
             dst,
-            self.occ,
+            occ,
             self.cache,
             self.params,
             self.tol,
@@ -1251,6 +1279,8 @@ struct Scratch {
     /// Per near piece pair of a clustered pair: the running sum before its quadrature, and the
     /// target piece.
     blocks: Vec<(f64, u32)>,
+    /// The corners of a pair's two patches, for [`Occluders::may_block_hull`].
+    hull: (Vec<DVec3>, Vec<DVec3>),
 }
 
 /// A piece's area-weighted centre and the largest distance from it to a corner.
