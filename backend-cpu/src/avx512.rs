@@ -218,7 +218,7 @@ fn bc1_block(pal: &[&[f32; 4]; 3], bits: i32, x: &[X4], acc: &mut [__m512; 3]) {
 /// Blocks whose keys are computed before any of them is multiplied: the key stores then
 /// reach the cache long before the block loop loads them (a load right behind a wider vector
 /// store to the same place waits for the store instead of forwarding from it).
-const RUN: usize = 8 * GROUP;
+const RUN: usize = crate::decode::KEY_RUN;
 
 /// A run of BC1 blocks of one tile with palette tables: the keys of up to [`RUN`] blocks
 /// first, 16 at a time in vector registers, then each block through [`bc1_block`].
@@ -338,47 +338,15 @@ mod tests {
         keys
     }
 
-    /// The vector key arithmetic gives the scalar keys (plus each channel's offset) for every
-    /// block of a group, including equal endpoints (three-colour mode) and c0 < c1, and
-    /// writes nothing outside its group.
+    /// The vector key arithmetic gives the scalar keys (`decode::check_group_keys`).
     #[test]
     fn group_keys_match_the_scalar_keys() {
         if !crate::SimdPath::Avx512.is_available() {
             return;
         }
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        for round in 0..2000 {
-            let chunk: [u8; 8 * GROUP] = core::array::from_fn(|i| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                // Every third group copies c0 into c1 for some blocks.
-                if round % 3 == 0 && i % 8 >= 2 && i % 8 < 4 && i % 16 < 8 {
-                    0
-                } else {
-                    s as u8
-                }
-            });
-            let mut chunk = chunk;
-            if round % 3 == 0 {
-                for b in (0..GROUP).step_by(2) {
-                    chunk[8 * b + 2] = chunk[8 * b];
-                    chunk[8 * b + 3] = chunk[8 * b + 1];
-                }
-            }
-            // SAFETY: AVX-512F, AVX2, FMA and F16C were detected above.
-            let keys = unsafe { keys_of(&chunk) };
-            for b in 0..GROUP {
-                let want = bc1_keys(chunk[8 * b..8 * b + 8].try_into().unwrap());
-                for ch in 0..3 {
-                    assert_eq!(
-                        keys[ch][RUN - GROUP + b] as usize,
-                        BC1_KEY_OFFSET[ch] + want[ch],
-                        "block {b} channel {ch} of {chunk:?}"
-                    );
-                    assert!(keys[ch][..RUN - GROUP].iter().all(|k| *k == u32::MAX));
-                }
-            }
-        }
+        crate::decode::check_group_keys(GROUP, |chunk| {
+            // SAFETY: the features were detected above.
+            unsafe { keys_of(chunk.try_into().expect("one group")) }
+        });
     }
 }

@@ -417,6 +417,49 @@ pub(crate) fn f16_table() -> Vec<f32> {
         .collect()
 }
 
+/// Blocks whose keys a vector body computes before multiplying any of them (`avx512.rs` and
+/// `ymm.rs`: 8 groups of 16 and 16 groups of 8).
+#[cfg(target_arch = "x86_64")]
+pub(crate) const KEY_RUN: usize = 128;
+
+/// Checks a vector body's key arithmetic for one group of `group` blocks: `keys_of(chunk)`
+/// keys the group's 8·`group` bytes into the last `group` slots of a run filled with
+/// `u32::MAX`. Every key must be the scalar [`bc1_keys`] plus its channel's
+/// [`BC1_KEY_OFFSET`], including equal endpoints (three-colour mode) and c0 < c1, and nothing
+/// outside the group may be written.
+#[cfg(all(test, target_arch = "x86_64"))]
+pub(crate) fn check_group_keys(group: usize, keys_of: impl Fn(&[u8]) -> [[u32; KEY_RUN]; 3]) {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    for round in 0..4000 {
+        let mut chunk: Vec<u8> = (0..8 * group)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                s as u8
+            })
+            .collect();
+        if round % 3 == 0 {
+            for b in (0..group).step_by(2) {
+                chunk[8 * b + 2] = chunk[8 * b];
+                chunk[8 * b + 3] = chunk[8 * b + 1];
+            }
+        }
+        let keys = keys_of(&chunk);
+        for b in 0..group {
+            let want = bc1_keys(chunk[8 * b..8 * b + 8].try_into().unwrap());
+            for ch in 0..3 {
+                assert_eq!(
+                    keys[ch][KEY_RUN - group + b] as usize,
+                    BC1_KEY_OFFSET[ch] + want[ch],
+                    "block {b} channel {ch} of {chunk:?}"
+                );
+                assert!(keys[ch][..KEY_RUN - group].iter().all(|k| *k == u32::MAX));
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -34,7 +34,7 @@ const GROUP: usize = 8;
 
 /// Blocks keyed before any of them is multiplied (see `avx512::RUN`: a scalar key load right
 /// behind the wider vector store that wrote it waits for the store).
-const RUN: usize = 16 * GROUP;
+const RUN: usize = crate::decode::KEY_RUN;
 
 /// Two block rows of one channel: lanes 0–3 row 0 (or 2), lanes 4–7 row 1 (or 3).
 type Acc = [[__m256; 2]; 3];
@@ -380,41 +380,15 @@ mod tests {
         keys
     }
 
-    /// The vector key arithmetic gives the scalar keys (plus each channel's offset) for every
-    /// block of a group, including equal endpoints (three-colour mode) and c0 < c1, and
-    /// writes nothing outside its group.
+    /// The vector key arithmetic gives the scalar keys (`decode::check_group_keys`).
     #[test]
     fn group_keys_match_the_scalar_keys() {
         if !crate::SimdPath::Avx2Fma.is_available() {
             return;
         }
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        for round in 0..4000 {
-            let mut chunk: [u8; 8 * GROUP] = core::array::from_fn(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                s as u8
-            });
-            if round % 3 == 0 {
-                for b in (0..GROUP).step_by(2) {
-                    chunk[8 * b + 2] = chunk[8 * b];
-                    chunk[8 * b + 3] = chunk[8 * b + 1];
-                }
-            }
-            // SAFETY: AVX2, FMA and F16C were detected above.
-            let keys = unsafe { keys_of(&chunk) };
-            for b in 0..GROUP {
-                let want = bc1_keys(chunk[8 * b..8 * b + 8].try_into().unwrap());
-                for ch in 0..3 {
-                    assert_eq!(
-                        keys[ch][RUN - GROUP + b] as usize,
-                        BC1_KEY_OFFSET[ch] + want[ch],
-                        "block {b} channel {ch} of {chunk:?}"
-                    );
-                    assert!(keys[ch][..RUN - GROUP].iter().all(|k| *k == u32::MAX));
-                }
-            }
-        }
+        crate::decode::check_group_keys(GROUP, |chunk| {
+            // SAFETY: the features were detected above.
+            unsafe { keys_of(chunk.try_into().expect("one group")) }
+        });
     }
 }
