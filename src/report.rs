@@ -30,7 +30,7 @@ use radiosity_bake::scene::Scene;
 use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
 use radiosity_bake::voxel::VoxelParams;
 use radiosity_benches::peers::{FaerDense, JacobiBounces, LuSolve};
-use radiosity_benches::timing::{median, ms, runs_for};
+use radiosity_benches::timing::{interleaved_medians, median, ms, runs_for};
 use radiosity_core::{DecodeMode, Format, Gather, Rgb};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -211,78 +211,96 @@ pub(crate) fn run(quick: bool, out: &Path) -> anyhow::Result<()> {
             exact,
             reference: &reference,
         };
-        let mut keep: Vec<(Sample, BakeOutput)> = Vec::new();
+        let mut keep: Option<(usize, BakeOutput)> = None;
+        let mut timers: Vec<(usize, Timer)> = Vec::new();
+        let mut by_format = Vec::new();
         for format in Format::ALL {
             say(format!("n = {target}: {} bake and gather", format.name()));
             let p = BakeParams {
                 format: FormatChoice::Fixed(format),
                 ..params.clone()
             };
-            let (s, o) = sample(&level, "n", &p, &plan, &mut gpu)?;
+            let (s, o, timer) = sample(&level, "n", &p, &plan, &mut gpu)?;
             if target == n_max {
-                speeds.push((format!("gather {}", format.name()), s.cpu_ms, 0));
                 sizes.push((format!("{} file", format.name()), s.file_bytes as f64, 0));
             }
-            samples.push(s.clone());
+            by_format.push((format, samples.len()));
+            timers.push((samples.len(), timer));
             if target == plan.middle && format == Format::Bc1 {
-                keep.push((s, o));
+                keep = Some((samples.len(), o));
+            }
+            samples.push(s);
+        }
+        let mut by_order = Vec::new();
+        if target == plan.middle {
+            for &k in &plan.bounces {
+                say(format!("n = {target}: K = {k}"));
+                let p = BakeParams {
+                    format: FormatChoice::Fixed(Format::Bc1),
+                    bounces: BounceSpec::Fixed(k),
+                    ..params.clone()
+                };
+                let (s, _, timer) = sample(&level, "bounces", &p, &plan, &mut gpu)?;
+                timers.push((samples.len(), timer));
+                samples.push(s);
+            }
+            for format in [Format::Bc1, Format::Bc4] {
+                for kind in [
+                    OrderKind::None,
+                    OrderKind::Random,
+                    OrderKind::Paper,
+                    OrderKind::Spatial,
+                ] {
+                    say(format!(
+                        "n = {target}: order {} {}",
+                        kind.name(),
+                        format.name()
+                    ));
+                    let p = BakeParams {
+                        format: FormatChoice::Fixed(format),
+                        order: kind,
+                        ..params.clone()
+                    };
+                    let (s, o, timer) = sample(&level, "order", &p, &plan, &mut gpu)?;
+                    timers.push((samples.len(), timer));
+                    samples.push(s);
+                    if format == Format::Bc1 {
+                        by_order.push((kind, o));
+                    }
+                }
+            }
+            for &f in &plan.sparse {
+                say(format!("n = {target}: sparse fraction {f}"));
+                let p = BakeParams {
+                    format: FormatChoice::Fixed(Format::Bc1),
+                    sparse_fraction: Some(f),
+                    ..params.clone()
+                };
+                let (s, _, timer) = sample(&level, "sparse", &p, &plan, &mut gpu)?;
+                timers.push((samples.len(), timer));
+                samples.push(s);
             }
         }
+        say(format!(
+            "n = {target}: timing {} CPU gathers in turns",
+            timers.len()
+        ));
+        time_in_turns(&mut timers, &mut samples);
         if target == n_max {
+            for &(format, at) in &by_format {
+                speeds.push((format!("gather {}", format.name()), samples[at].cpu_ms, 0));
+            }
             say(format!("n = {target}: peers"));
             peer_rows(&level, &plan, &mut speeds, &mut sizes)?;
         }
         if target != plan.middle {
             continue;
         }
-        for &k in &plan.bounces {
-            say(format!("n = {target}: K = {k}"));
-            let p = BakeParams {
-                format: FormatChoice::Fixed(Format::Bc1),
-                bounces: BounceSpec::Fixed(k),
-                ..params.clone()
-            };
-            samples.push(sample(&level, "bounces", &p, &plan, &mut gpu)?.0);
-        }
-        let mut by_order = Vec::new();
-        for format in [Format::Bc1, Format::Bc4] {
-            for kind in [
-                OrderKind::None,
-                OrderKind::Random,
-                OrderKind::Paper,
-                OrderKind::Spatial,
-            ] {
-                say(format!(
-                    "n = {target}: order {} {}",
-                    kind.name(),
-                    format.name()
-                ));
-                let p = BakeParams {
-                    format: FormatChoice::Fixed(format),
-                    order: kind,
-                    ..params.clone()
-                };
-                let (s, o) = sample(&level, "order", &p, &plan, &mut gpu)?;
-                samples.push(s);
-                if format == Format::Bc1 {
-                    by_order.push((kind, o));
-                }
-            }
-        }
-        for &f in &plan.sparse {
-            say(format!("n = {target}: sparse fraction {f}"));
-            let p = BakeParams {
-                format: FormatChoice::Fixed(Format::Bc1),
-                sparse_fraction: Some(f),
-                ..params.clone()
-            };
-            samples.push(sample(&level, "sparse", &p, &plan, &mut gpu)?.0);
-        }
         say(format!("n = {target}: the paper's figures"));
         figures = paper_figures(out, &level, &by_order)?;
         say("rendering beside the path tracer".into());
-        let (best_sample, best_out) = keep.pop().context("the BC1 bake of the middle size")?;
-        figures.extend(renders(out, &pt, best_out, &best_sample, &plan)?);
+        let (at, best_out) = keep.take().context("the BC1 bake of the middle size")?;
+        figures.extend(renders(out, &pt, best_out, &samples[at], &plan)?);
     }
     bar.finish_and_clear();
 
@@ -330,7 +348,7 @@ fn sample(
     params: &BakeParams,
     plan: &Plan,
     gpu: &mut Gpu,
-) -> anyhow::Result<(Sample, BakeOutput)> {
+) -> anyhow::Result<(Sample, BakeOutput, Timer)> {
     let t = Instant::now();
     let out = bake_discretised(level.scene, &level.sys, params, Hooks::default())
         .context("bake failed")?;
@@ -339,13 +357,10 @@ fn sample(
     let n = file.n();
     let x: Vec<Rgb> = file.patches.iter().map(|p| p.emission).collect();
     let mut y = vec![Rgb::ZERO; n];
-    let mut cpu = CpuGather::new(file.matrix.clone());
+    let mut cpu = CpuGather::new(file.matrix.clone().into_owned());
     let t = Instant::now();
     cpu.gather(&x, &mut y)?;
     let runs = runs_for(t.elapsed(), plan.gather_budget, 5, 101);
-    let cpu_ms = ms(median(runs, || {
-        cpu.gather(&x, &mut y).expect("checked above");
-    }));
     let err_exact = relative_l2(&y, |i| level.exact[file.order[i] as usize]);
     let err_pt = object_error(&out, &y, level.reference);
     // `auto` takes a hardware GPU only (a software rasteriser such as llvmpipe would time the
@@ -392,13 +407,49 @@ fn sample(
         })),
         bake_ms,
         file_bytes: r.bytes.total,
-        cpu_ms,
+        // Timed with the rest of its level, in turns (`time_in_turns`).
+        cpu_ms: f64::NAN,
         gpu_ms,
         compression_rmse: r.compression_rmse.get(r.order).copied().unwrap_or(f64::NAN),
         err_exact,
         err_pt,
     };
-    Ok((s, out))
+    let timer = Timer {
+        gather: cpu,
+        x,
+        y,
+        runs,
+    };
+    Ok((s, out, timer))
+}
+
+/// A configuration's CPU gather, kept until its whole level is timed.
+struct Timer {
+    gather: CpuGather<'static>,
+    x: Vec<Rgb>,
+    y: Vec<Rgb>,
+    runs: usize,
+}
+
+/// Rounds of [`interleaved_medians`] per level.
+const TIMING_ROUNDS: usize = 10;
+
+/// Times every gather of a level in turns (`TIMING_ROUNDS` rounds, each a share of every
+/// configuration's runs), so that outside load on a shared machine slows them alike and the
+/// comparison between configurations holds, and writes each median into its sample
+/// (`timers` hold indices into `samples`). Timed one by one, right after each bake, one
+/// configuration moved by up to ±40% between the report's sweeps.
+fn time_in_turns(timers: &mut Vec<(usize, Timer)>, samples: &mut [Sample]) {
+    let runs: Vec<usize> = timers.iter().map(|(_, t)| t.runs).collect();
+    let times = interleaved_medians(&runs, TIMING_ROUNDS, |i| {
+        let t = &mut timers[i].1;
+        t.gather
+            .gather(&t.x, &mut t.y)
+            .expect("gathered once already");
+    });
+    for ((at, _), t) in timers.drain(..).zip(times) {
+        samples[at].cpu_ms = ms(t);
+    }
 }
 
 /// Area-weighted relative L2 error of the per-object mean irradiance against the path tracer:
@@ -832,7 +883,7 @@ fn markdown(samples: &[Sample], plan: &Plan, quick: bool, notes: &Notes) -> Stri
     );
     let _ = writeln!(
         md,
-        "- **error vs exact**: relative L2 error of the irradiance from the scene's light against the exact f64 solution of the same patches (LU of I − F^C): what compression and truncated bounces cost.\n- **error vs path tracer**: area-weighted relative L2 error of the per-object mean irradiance against the reference path tracer ({} samples per object, {:.1} s; its own noise in this norm is {:.2e}): what the discretisation costs as well.\n- Gather times are medians of repeated calls; bake time includes the shared discretisation (simplification and form factors). GPU: {}.\n",
+        "- **error vs exact**: relative L2 error of the irradiance from the scene's light against the exact f64 solution of the same patches (LU of I − F^C): what compression and truncated bounces cost.\n- **error vs path tracer**: area-weighted relative L2 error of the per-object mean irradiance against the reference path tracer ({} samples per object, {:.1} s; its own noise in this norm is {:.2e}): what the discretisation costs as well.\n- Gather times are medians of repeated calls, every configuration of one patch count timed in turns (ten rounds, so that outside load slows them alike); bake time includes the shared discretisation (simplification and form factors). GPU: {}.\n",
         plan.pt_samples,
         notes.pt_ms / 1e3,
         notes.pt_noise,

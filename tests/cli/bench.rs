@@ -141,3 +141,53 @@ fn bench_refuses_bad_patch_counts() {
     assert_one_line_error(&radiosity(&["bench", "--patches", "1000000"]), "--patches");
     assert_one_line_error(&radiosity(&["bench", "--runs", "0"]), "--runs");
 }
+
+/// `radiosity report --quick`: every sweep in the CSV with a measured time and finite errors
+/// (the CPU times are filled in after each patch count's gathers are timed in turns: a row left
+/// unfilled is NaN), the Pareto front in REPORT.md, and the plots written.
+#[test]
+fn report_quick_writes_every_sweep_timed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    radiosity_ok(&["report", "--quick", "-o", out.to_str().unwrap()]);
+    let csv = std::fs::read_to_string(out.join("report.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (sweep, cpu, exact, pt) = (
+        col("sweep"),
+        col("cpu_gather_ms"),
+        col("error_vs_exact"),
+        col("error_vs_pathtracer"),
+    );
+    let mut per_sweep = std::collections::BTreeMap::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        *per_sweep.entry(f[sweep].to_string()).or_insert(0) += 1;
+        let num = |i: usize| f[i].parse::<f64>().unwrap_or(f64::NAN);
+        assert!(num(cpu) > 0.0 && num(cpu) < 1e4, "cpu time in {line}");
+        assert!(
+            num(exact).is_finite() && num(pt).is_finite(),
+            "errors in {line}"
+        );
+    }
+    // The quick plan: 3 sizes × 5 formats, K ∈ {1, 2, 4, 8}, 2 formats × 4 orders, 4 sparse
+    // fractions.
+    let want: std::collections::BTreeMap<String, usize> =
+        [("n", 15), ("bounces", 4), ("order", 8), ("sparse", 4)]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect();
+    assert_eq!(per_sweep, want);
+    let md = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(md.contains("Pareto front"), "{md}");
+    assert!(md.contains("timed in turns"), "{md}");
+    for png in [
+        "error_vs_time.png",
+        "error_vs_memory.png",
+        "gather_time_vs_n.png",
+    ] {
+        let bytes = std::fs::read(out.join(png)).unwrap();
+        assert!(bytes.starts_with(b"\x89PNG"), "{png}");
+    }
+}
