@@ -13,13 +13,9 @@
 //! AVX-512 CPU has) and only entered after runtime detection.
 
 use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
-use crate::kernel::{Ctx, X4, finish_rows};
+use crate::kernel::{Ctx, RowBody, X4, finish_rows};
 use radiosity_core::{Format, Rgb};
 use std::arch::x86_64::*;
-
-/// A block-row body: output rows `4r..4r + out.len()` from the exitance in [`X4`] layout.
-/// Unsafe to call: the CPU must support AVX-512F, AVX2, FMA and F16C.
-pub(crate) type RowBody = unsafe fn(&Ctx<'_, '_>, &[X4], usize, &mut [Rgb]);
 
 /// The `zmm` body of `format`: BC1, BC4 and u8 have one; f16 and f32 run the AVX2 body.
 pub(crate) fn body(format: Format) -> Option<RowBody> {

@@ -18,6 +18,11 @@ impl X4 {
     pub(crate) const ZERO: X4 = X4([0.0; 4]);
 }
 
+/// A block-row body of its own (`avx512.rs`, `ymm.rs`): output rows `4r..4r + out.len()` from
+/// the exitance in [`X4`] layout. Unsafe to call: the CPU must have the features its path needs.
+#[cfg(target_arch = "x86_64")]
+pub(crate) type RowBody = unsafe fn(&Ctx<'_, '_>, &[X4], usize, &mut [Rgb]);
+
 /// What every block row reads.
 pub(crate) struct Ctx<'a, 'm> {
     pub(crate) matrix: &'a TransferMatrix<'m>,

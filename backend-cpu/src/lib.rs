@@ -363,20 +363,11 @@ impl Gather for CpuGather<'_> {
         let (simd, parallel) = (self.simd, self.parallel);
         let format = self.matrix.layout.format();
         #[cfg(target_arch = "x86_64")]
-        if let Some(body) = zmm_body(format, simd) {
+        if let Some(body) = x4_body(format, simd) {
             let x4 = &self.x4[..];
-            // SAFETY: `zmm_body` gives a body only on `SimdPath::Avx512`, which `CpuGather`
-            // holds only after `is_available` saw AVX-512F, AVX2, FMA and F16C.
-            run(parallel, irradiance, |r, out| unsafe {
-                body(&ctx, x4, r, out)
-            });
-            return Ok(());
-        }
-        #[cfg(target_arch = "x86_64")]
-        if let Some(body) = ymm_body(format, simd) {
-            let x4 = &self.x4[..];
-            // SAFETY: `ymm_body` gives a body only on `SimdPath::Avx2Fma`, which `CpuGather`
-            // holds only after `is_available` saw AVX2, FMA and F16C.
+            // SAFETY: `x4_body` gives a `zmm` body only on `SimdPath::Avx512` and a `ymm` one
+            // only on `SimdPath::Avx2Fma`, which `CpuGather` holds only after `is_available`
+            // saw AVX-512F, AVX2, FMA and F16C, or AVX2, FMA and F16C.
             run(parallel, irradiance, |r, out| unsafe {
                 body(&ctx, x4, r, out)
             });
@@ -403,27 +394,23 @@ impl Gather for CpuGather<'_> {
     }
 }
 
-/// The `zmm` block-row body of `format` on `simd`, if it has one (`avx512::body`).
+/// The block-row body of its own that `format` runs on `simd`, if there is one: a `zmm` body
+/// on the AVX-512 path (`avx512::body`), a `ymm` body on the AVX2 path (`ymm::body`). Both read
+/// the exitance as [`kernel::X4`].
 #[cfg(target_arch = "x86_64")]
-fn zmm_body(format: Format, simd: SimdPath) -> Option<avx512::RowBody> {
-    (simd == SimdPath::Avx512)
-        .then(|| avx512::body(format))
-        .flatten()
+fn x4_body(format: Format, simd: SimdPath) -> Option<kernel::RowBody> {
+    match simd {
+        SimdPath::Avx512 => avx512::body(format),
+        SimdPath::Avx2Fma => ymm::body(format),
+        SimdPath::Baseline => None,
+    }
 }
 
-/// The AVX2 block-row body of `format` on `simd`, if it has one (`ymm::body`).
-#[cfg(target_arch = "x86_64")]
-fn ymm_body(format: Format, simd: SimdPath) -> Option<ymm::RowBody> {
-    (simd == SimdPath::Avx2Fma)
-        .then(|| ymm::body(format))
-        .flatten()
-}
-
-/// Whether `format` reads the exitance as [`kernel::X4`] and the tables' factors on `simd`:
-/// the `zmm` bodies and the AVX2 BC1 and BC4 bodies (`ymm.rs`).
+/// Whether `format` reads the exitance as [`kernel::X4`] and the tables' factors on `simd`
+/// ([`x4_body`]).
 fn uses_x4(format: Format, simd: SimdPath) -> bool {
     #[cfg(target_arch = "x86_64")]
-    return zmm_body(format, simd).is_some() || ymm_body(format, simd).is_some();
+    return x4_body(format, simd).is_some();
     #[cfg(not(target_arch = "x86_64"))]
     return {
         let _ = (format, simd);
@@ -434,7 +421,7 @@ fn uses_x4(format: Format, simd: SimdPath) -> bool {
 /// Whether `format` runs a `zmm` body on `simd`.
 fn uses_zmm(format: Format, simd: SimdPath) -> bool {
     #[cfg(target_arch = "x86_64")]
-    return zmm_body(format, simd).is_some();
+    return simd == SimdPath::Avx512 && avx512::body(format).is_some();
     #[cfg(not(target_arch = "x86_64"))]
     return {
         let _ = (format, simd);

@@ -24,7 +24,7 @@
 //! runtime detection ([`crate::SimdPath::Avx2Fma`]).
 
 use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
-use crate::kernel::{Ctx, X4, finish_rows};
+use crate::kernel::{Ctx, RowBody, X4, finish_rows};
 use radiosity_core::bytemuck::cast;
 use radiosity_core::{Format, Rgb};
 use std::arch::x86_64::*;
@@ -99,10 +99,6 @@ pub(crate) fn body(format: Format) -> Option<RowBody> {
         Format::U8 | Format::F16 | Format::F32 => None,
     }
 }
-
-/// A block-row body: output rows `4r..4r + out.len()` from the exitance in [`X4`] layout.
-/// Unsafe to call: the CPU must support AVX2, FMA and F16C.
-pub(crate) type RowBody = unsafe fn(&Ctx<'_, '_>, &[X4], usize, &mut [Rgb]);
 
 /// A tile's `LogScale::factors` for one plane in registers: high 0–7, high 8–15, low 0–7,
 /// low 8–15.
