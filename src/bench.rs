@@ -6,11 +6,12 @@
 //! sort), and encode M in every format as the bake does (`encode_dense_with`: errors weighed for
 //! the box's light and runtime light alike). Then each method is a row: a [`Gather`] with the
 //! numbering its vectors are in and its cost per call. Times are medians of repeated calls after
-//! a warm-up, the methods timed in turns (ten rounds, each method's calls spread over all of
-//! them: on a shared machine outside load then slows every method alike, and the ratios hold;
-//! timed one after the other, four runs of the same build gave BC1 5.2×, 3.7×, 2.3× and 4.8×
-//! faer on a 2-vCPU cloud machine, in turns 3.4× and 3.3×); errors are relative L2 norms of the irradiance against the exact f64 solution of
-//! the same patches (an LU solve), for the scene's own light and for a seeded random exitance.
+//! a warm-up, the methods timed in turns: ten rounds, each method's calls spread over all of
+//! them, so that on a shared machine outside load slows every method alike and the ratios hold
+//! (timed one after the other, four runs of one build gave BC1 5.2×, 3.7×, 2.3× and 4.8× faer
+//! on a 2-vCPU cloud machine; in turns 3.4×, 3.3× and 3.8×). Errors are relative L2 norms of
+//! the irradiance against the exact f64 solution of the same patches (an LU solve), for the
+//! scene's own light and for a seeded random exitance.
 //! A roofline measured on this machine (streaming-read bandwidth, 256-bit FMA rate) bounds each
 //! row from below.
 //!
@@ -49,6 +50,15 @@ const MIN_RUNS: usize = 7;
 const MAX_RUNS: usize = 201;
 /// Rounds of [`interleaved_medians`]: every method is timed in each.
 const TIMING_ROUNDS: usize = 10;
+
+/// A row's errors and what its timed calls use: how many, the exitance and the output.
+struct Measured {
+    rel_error: Option<f64>,
+    rel_error_random: f64,
+    runs: usize,
+    x: Vec<Rgb>,
+    y: Vec<Rgb>,
+}
 
 /// One method measured: a gather, which numbering its vectors use, and its cost per call.
 pub(crate) struct Row {
@@ -341,7 +351,13 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             .gather(&x_random, &mut y)
             .with_context(|| format!("{} failed", row.method))?;
         let runs = runs.unwrap_or_else(|| runs_for(t.elapsed(), TIME_BUDGET, MIN_RUNS, MAX_RUNS));
-        measured.push((rel_error, rel_error_random, runs, x_random, y));
+        measured.push(Measured {
+            rel_error,
+            rel_error_random,
+            runs,
+            x: x_random,
+            y,
+        });
     }
 
     // Time every row in turns (`TIMING_ROUNDS` rounds), so that outside load on a shared
@@ -349,11 +365,11 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     // (The bar is not moved inside the timed calls.)
     stage("time every method in turns");
     bar.set_position(rows.len() as u64);
-    let run_counts: Vec<usize> = measured.iter().map(|m| m.2).collect();
+    let run_counts: Vec<usize> = measured.iter().map(|m| m.runs).collect();
     let mut failed = None;
     let times = interleaved_medians(&run_counts, TIMING_ROUNDS, |i| {
         let (row, m) = (&mut rows[i], &mut measured[i]);
-        if let Err(e) = row.gather.gather(&m.3, &mut m.4) {
+        if let Err(e) = row.gather.gather(&m.x, &mut m.y) {
             failed.get_or_insert_with(|| format!("{} failed: {e}", row.method));
         }
     });
@@ -361,9 +377,13 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         bail!("{e}");
     }
     let mut out_rows = Vec::new();
-    for ((row, (rel_error, rel_error_random, runs, _, _)), t) in
-        rows.iter().zip(measured).zip(times)
-    {
+    for ((row, m), t) in rows.iter().zip(measured).zip(times) {
+        let Measured {
+            rel_error,
+            rel_error_random,
+            runs,
+            ..
+        } = m;
         let bound = roof.bound(row.cost);
         let bound_ms = bound.seconds * 1e3;
         out_rows.push(RowOut {
