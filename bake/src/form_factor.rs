@@ -17,7 +17,8 @@
 //!   against the full-detail triangles ([`Visibility`]); each ray ends at a point of `t` drawn
 //!   in proportion to the kernel from its source point (`ray_end`), and each piece pair gets
 //!   at least `MIN_PIECE_RAYS`, drawn systematically in proportion to the quadrature's
-//!   contributions.
+//!   contributions; a patch pair of more than 256 piece pairs instead gets one budget for the
+//!   whole pair ([`EXACT_PAIR_RAYS`]).
 //!
 //! Each unordered pair is integrated once, over the patch of smaller area (the better
 //! conditioned direction), giving the exchange `G = A_i F_ij = A_j F_ji`; reciprocity therefore
@@ -565,7 +566,10 @@ fn exchange(
     // rays' numbers below repeat in every pair of one-piece patches, and rays from the same
     // points to every target would make a row's visibility a handful of draws.
     let leaf_stream = pair.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    // Sampled as a whole (`EXACT_PAIR_RAYS`): the minimum per piece pair would cost more.
+    let whole = src.len() * dst.len() * MIN_PIECE_RAYS > EXACT_PAIR_RAYS;
     let mut total = 0.0;
+    samples.clear();
     for (si, s) in src.iter().enumerate() {
         let sv = s.polygon.vertices();
         let (cs, rs) = centre_radius(s);
@@ -588,6 +592,10 @@ fn exchange(
                             Some(c) if s.triangle != SITE && t.triangle != SITE => {
                                 c.may_block(s.triangle, t.triangle)
                             }
+                            // A pair sampled as a whole draws its rays over all its
+                            // contributions: one walk of the occluders per piece pair to
+                            // prove some of them unblocked would cost more than the rays.
+                            _ if whole => true,
                             _ => o.may_block(sv, s.normal, t.polygon.vertices(), t.normal),
                         }
                 }
@@ -602,16 +610,12 @@ fn exchange(
         if live.is_empty() && far.is_empty() {
             continue;
         }
-        let per_sample = match params.visibility {
-            Visibility::Rays { per_sample, .. } => per_sample.max(1),
-            Visibility::Off => 0,
-        };
-        // Contributions that need rays are kept, per target piece, and their visibility is
+        // Contributions that need rays are kept, per piece pair, and their visibility is
         // sampled afterwards: at least MIN_PIECE_RAYS rays per piece pair, drawn in proportion
-        // to the contributions. One ray per quadrature point left a pair that the adaptive
+        // to the contributions (or EXACT_PAIR_RAYS for the whole patch pair). One ray per quadrature point left a pair that the adaptive
         // quadrature settles in two points all or nothing (the Cornell box at 256 patches: a
         // face of the tall box saw two back-wall patches through the short box, row 1.04).
-        samples.clear();
+        let si = si as u32;
         // Far targets: the rule's points of each source leaf (the whole fan triangle: at
         // `far_pieces` ≥ 5 the distance rule would not split it) against the target's.
         if !far.is_empty() {
@@ -628,7 +632,7 @@ fn exchange(
                             continue;
                         }
                         if need_rays {
-                            samples.push((k as u32, tri, wx * g));
+                            samples.push((si, k as u32, tri, wx * g));
                         } else {
                             total += wx * g;
                         }
@@ -648,53 +652,78 @@ fn exchange(
                 integrate(tri, &quadrature, &dist, &mut |q| {
                     let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
                     if f > 0.0 && need_rays {
-                        samples.push((k as u32, q.leaf, q.w * f));
+                        samples.push((si, k as u32, q.leaf, q.w * f));
                     } else if f > 0.0 {
                         total += q.w * f;
                     }
                 });
             }
         }
-        if samples.is_empty() {
-            continue;
+    }
+    if samples.is_empty() {
+        return total;
+    }
+    let o = occ.expect("rays need occluders");
+    let per_sample = match params.visibility {
+        Visibility::Rays { per_sample, .. } => per_sample.max(1),
+        Visibility::Off => 0,
+    };
+    // Stable: within a piece pair the contributions keep their order.
+    samples.sort_by_key(|e| (e.0, e.1));
+    // One shadow ray from source point `x` (drawn with `ray` on leaf `leaf`) of `s` to `t`.
+    let visible = |s: &Piece, t: &Piece, leaf: &[DVec3; 3], ray: u64, k: u64, scramble| {
+        // A site stands for a whole patch, usually at one quadrature point: its rays are
+        // spread over both polygons, not sent from the point.
+        if s.triangle == SITE || t.triangle == SITE {
+            let x = if s.triangle == SITE {
+                front_point(s, t, k + SITE_SOURCE_OFFSET)
+            } else {
+                Sample::leaf_point(leaf, ray, scramble)
+            };
+            o.segment_visible_skipping(x, front_point(t, s, k), skip)
+        } else {
+            let x = Sample::leaf_point(leaf, ray, scramble);
+            in_front(x, t) && o.reaches(x, ray_end(x, s, t, k), t.triangle)
         }
-        let o = occ.expect("rays need occluders");
-        samples.sort_by_key(|e| e.0);
-        for group in samples.chunk_by(|a, b| a.0 == b.0) {
-            let t = &dst[group[0].0 as usize];
-            // A site stands for a whole patch, usually at one quadrature point: its rays are
-            // spread over both polygons, SITE_RAYS per point, not sent from the point.
-            let site = s.triangle == SITE || t.triangle == SITE;
-            let per_point = per_sample * if site { SITE_RAYS } else { 1 };
-            // Rays start anywhere on their leaf, so a leaf's points share its rays: the budget
-            // counts leaves, and a finer rule costs kernel evaluations, not rays.
-            let leaves = group.len().div_ceil(params.quadrature.rule.points().len());
-            let budget = (leaves * per_point as usize).max(MIN_PIECE_RAYS * per_sample as usize);
-            // Each piece pair numbers its own rays: a quadrature that differs in one pair (by
-            // rounding) must not renumber the rays of the others.
-            let base = (si as u64) << 40 | u64::from(group[0].0) << 20;
-            let sum: f64 = group.iter().map(|e| e.2).sum();
-            let mut sampler = Systematic::new(sum, budget, base);
-            let scramble = Sample::leaf_scramble(base ^ leaf_stream);
-            for (i, e) in group.iter().enumerate() {
-                sampler.feed(e.2, i + 1 == group.len(), |ray| {
-                    let k = base + ray;
-                    if site {
-                        let x = if s.triangle == SITE {
-                            front_point(s, t, k + SITE_SOURCE_OFFSET)
-                        } else {
-                            Sample::leaf_point(&e.1, ray, scramble)
-                        };
-                        o.segment_visible_skipping(x, front_point(t, s, k), skip)
-                    } else {
-                        let x = Sample::leaf_point(&e.1, ray, scramble);
-                        in_front(x, t) && o.reaches(x, ray_end(x, s, t, k), t.triangle)
-                    }
-                });
-            }
-            *rays += sampler.drawn;
-            total += sampler.estimate(sum);
+    };
+    let same_pieces = |a: &Contribution, b: &Contribution| (a.0, a.1) == (b.0, b.1);
+    if whole {
+        let sum: f64 = samples.iter().map(|e| e.3).sum();
+        let area: f64 = src.iter().map(|p| p.area).sum();
+        let pair_budget = exact_pair_rays(sum, area) * per_sample as usize;
+        let base = leaf_stream >> 24;
+        let scramble = Sample::leaf_scramble(base);
+        let mut sampler = Systematic::new(sum, pair_budget, base);
+        for (i, e) in samples.iter().enumerate() {
+            let (s, t) = (&src[e.0 as usize], &dst[e.1 as usize]);
+            sampler.feed(e.3, i + 1 == samples.len(), |ray| {
+                visible(s, t, &e.2, ray, base + ray, scramble)
+            });
         }
+        *rays += sampler.drawn;
+        return total + sampler.estimate(sum);
+    }
+    for group in samples.chunk_by(same_pieces) {
+        let (s, t) = (&src[group[0].0 as usize], &dst[group[0].1 as usize]);
+        let site = s.triangle == SITE || t.triangle == SITE;
+        let per_point = per_sample * if site { SITE_RAYS } else { 1 };
+        // Rays start anywhere on their leaf, so a leaf's points share its rays: the budget
+        // counts leaves, and a finer rule costs kernel evaluations, not rays.
+        let leaves = group.len().div_ceil(params.quadrature.rule.points().len());
+        let budget = (leaves * per_point as usize).max(MIN_PIECE_RAYS * per_sample as usize);
+        // Each piece pair numbers its own rays: a quadrature that differs in one pair (by
+        // rounding) must not renumber the rays of the others.
+        let base = u64::from(group[0].0) << 40 | u64::from(group[0].1) << 20;
+        let sum: f64 = group.iter().map(|e| e.3).sum();
+        let mut sampler = Systematic::new(sum, budget, base);
+        let scramble = Sample::leaf_scramble(base ^ leaf_stream);
+        for (i, e) in group.iter().enumerate() {
+            sampler.feed(e.3, i + 1 == group.len(), |ray| {
+                visible(s, t, &e.2, ray, base + ray, scramble)
+            });
+        }
+        *rays += sampler.drawn;
+        total += sampler.estimate(sum);
     }
     total
 }
@@ -1088,6 +1117,31 @@ impl Systematic {
 /// at RMS 0.0143 → 0.0144 there: neutral on the Cornell box.
 const MIN_PIECE_RAYS: usize = 4;
 
+/// An exact pair's contribution that needs a shadow ray: source piece, target piece, source
+/// quadrature leaf, weight.
+type Contribution = (u32, u32, [DVec3; 3], f64);
+
+/// Shadow rays for an exact patch pair sampled as a whole (times `per_sample`): when its piece
+/// pairs' [`MIN_PIECE_RAYS`] alone would exceed this, it gets this many, drawn systematically
+/// in proportion to the contributions of all its piece pairs, like a clustered pair. The minimum
+/// per piece pair is there for pairs of one or a few pieces, which the quadrature may settle in
+/// two points; a coarse patch on a finely tessellated surface has hundreds of pieces, and four
+/// rays for each of their pairs cost rays in the square of the pieces a patch has, not in its
+/// form factor (an icosphere of 5120 facets around one of 80, at 64 patches: 45 M rays, 61 s).
+pub const EXACT_PAIR_RAYS: usize = 1024;
+
+/// [`EXACT_PAIR_RAYS`], or more for a pair whose unoccluded exchange `sum` from a source of
+/// `area` is a large form factor: as for clustered pairs, [`PAIR_RAYS_PER_FORM_FACTOR`] times
+/// it, at most [`MAX_PAIR_RAYS`].
+fn exact_pair_rays(sum: f64, area: f64) -> usize {
+    let share = if area > 0.0 {
+        (PAIR_RAYS_PER_FORM_FACTOR * sum / area).min(MAX_PAIR_RAYS as f64) as usize
+    } else {
+        0
+    };
+    share.max(EXACT_PAIR_RAYS)
+}
+
 /// Where a shadow ray from `x` (a point of source piece `s`) to target piece `t` ends: a point
 /// of `t` drawn in proportion to the exchange kernel from `x`, `cos θ_x cos θ_t / (π r²) dA`,
 /// which is the cosine-weighted direction from `x` restricted to the solid angle of `t`. So
@@ -1271,7 +1325,7 @@ struct Scratch {
     points: Vec<(DVec3, f64)>,
     spans: Vec<(u32, u32)>,
     /// Exact pairs' contributions that need rays: (target piece, source quadrature leaf, weight).
-    samples: Vec<(u32, [DVec3; 3], f64)>,
+    samples: Vec<Contribution>,
     targets: Vec<(DVec3, f64)>,
     /// Per source piece of a clustered pair: the running sum of the contributions before its
     /// own, and its first near target in `blocks`.
