@@ -745,6 +745,14 @@ fn partly_buried_rows_are_their_exposed_share() {
     assert!(worst < 0.05, "worst row − exposed share {worst}");
 }
 
+/// How far the row sum farthest from 1 is from it.
+fn row_sum_off(ff: &FormFactors) -> f64 {
+    ff.row_sums
+        .iter()
+        .map(|r| (r - 1.0).abs())
+        .fold(0.0, f64::max)
+}
+
 /// Largest and area-weighted mean L1 distance between the rows of two form-factor matrices.
 fn row_distance(p: &Patches, a: &FormFactors, b: &FormFactors) -> (f64, f64) {
     let n = p.len();
@@ -795,14 +803,26 @@ fn far_piece_pairs_agree_with_the_exact_kernel() {
         assert!(worst < 1e-4 && mean < 2e-5, "{name}: {worst} {mean}");
         // Both are closed: rows of 1 (the sphere's measured within 6e-6).
         for ff in [&fast, &exact] {
-            let off = ff
-                .row_sums
-                .iter()
-                .map(|r| (r - 1.0).abs())
-                .fold(0.0, f64::max);
+            let off = row_sum_off(ff);
             assert!(off < 1e-3, "{name}: a row sum is {off} from 1");
         }
     }
+}
+
+/// An icosphere of `outer` splits facing in (radius 1) around one of `inner` splits facing
+/// out (radius 0.5, object "inner"), in general position: a curved enclosure that occludes.
+fn nested_spheres(dir: &std::path::Path, outer: usize, inner: usize) -> Scene {
+    let mut small = inward_icosphere(inner, 0.5);
+    small.name = "inner".into();
+    for p in &mut small.polygons {
+        p.reverse();
+    }
+    load(
+        dir,
+        "nested",
+        &[inward_icosphere(outer, 1.0), small],
+        Placement::general(1.0),
+    )
 }
 
 #[test]
@@ -823,17 +843,7 @@ fn a_finely_tessellated_sphere_is_a_convex_enclosure() {
     let plan = radiosity_bake::effects::plan_occlusion(&sphere);
     assert!(!plan.on, "{}", plan.why);
     assert!(plan.why.contains("5120 face planes"), "{}", plan.why);
-    let mut inner = inward_icosphere(2, 0.5);
-    inner.name = "inner".into();
-    for p in &mut inner.polygons {
-        p.reverse();
-    }
-    let nested = load(
-        dir.path(),
-        "nested",
-        &[inward_icosphere(4, 1.0), inner],
-        Placement::general(1.0),
-    );
+    let nested = nested_spheres(dir.path(), 4, 2);
     let plan = radiosity_bake::effects::plan_occlusion(&nested);
     assert!(plan.on, "{}", plan.why);
     assert!(plan.why.contains("behind a face"), "{}", plan.why);
@@ -849,17 +859,7 @@ fn coarse_patches_on_a_fine_sphere_sample_each_pair_as_a_whole() {
     // old per-piece minimum cast 45 M rays in 61 s where `radiosity bake` now casts 1.1 M in
     // 7 s (5120 facets around 80, 61 patches).
     let dir = tempfile::tempdir().unwrap();
-    let mut inner = inward_icosphere(1, 0.5);
-    inner.name = "inner".into();
-    for p in &mut inner.polygons {
-        p.reverse();
-    }
-    let s = load(
-        dir.path(),
-        "nested",
-        &[inward_icosphere(3, 1.0), inner],
-        Placement::general(1.0),
-    );
+    let s = nested_spheres(dir.path(), 3, 1);
     let occ = Occluders::new(&s);
     let p = simplify(&s, &VoxelParams::with_patches(24)).unwrap();
     let n = p.len();
@@ -898,10 +898,6 @@ fn coarse_patches_on_a_fine_sphere_sample_each_pair_as_a_whole() {
     println!("rows apart by {worst:.2e} at worst, {mean:.2e} on average");
     assert!(worst < 1e-2 && mean < 5e-3, "{worst} {mean}");
     // Closed: rows of 1 within the sampled visibility's noise.
-    let off = ff
-        .row_sums
-        .iter()
-        .map(|r| (r - 1.0).abs())
-        .fold(0.0, f64::max);
+    let off = row_sum_off(&ff);
     assert!(off < 1e-2, "a row sum is {off} from 1");
 }
