@@ -40,7 +40,8 @@
 //!   meet centre to centre, `A_s A_t cos⁺ cos⁺ / (π r²)`, each with its own normal, so a convex
 //!   surface still sees none of itself;
 //! - every other piece pair is integrated as in exact pairs, but with a quadrature of the
-//!   source refined against that target piece alone;
+//!   source refined against that target piece alone, or of the target against the source when
+//!   the target is less than half as wide (`integrate_over_target`);
 //! - visibility is sampled once per pair, not once per sample and piece: [`FAR_RAYS`] or
 //!   [`NEAR_RAYS`] rays drawn systematically in proportion to the unoccluded contributions
 //!   (unbiased for `Σ g·V`), each ending at a kernel-distributed point of its target piece. A
