@@ -964,11 +964,7 @@ impl<'a> Pairs<'a> {
             let (s, t) = (&src[e.s as usize], &dst[e.t as usize]);
             // A near pair integrated over its target piece has its leaves there: its rays run
             // from the target to the source (visibility is symmetric).
-            let (s, t) = if !e.centre && integrate_over_target(s, t) {
-                (t, s)
-            } else {
-                (s, t)
-            };
+            let (s, t) = if e.turned { (t, s) } else { (s, t) };
             // Ray ends in front of the other piece (a piece seen edge-on has points behind the
             // other's plane, and a segment to one of those leaves through the surface it
             // starts on: on a sphere, rows 0.5% low on average), at the target where the
@@ -1022,6 +1018,7 @@ impl<'a> Pairs<'a> {
                             s: si as u32,
                             t: ti as u32,
                             centre: true,
+                            turned: false,
                         };
                         sampler.feed(g, false, |k| visible(&e, k));
                     }
@@ -1038,12 +1035,15 @@ impl<'a> Pairs<'a> {
                     continue;
                 }
                 let k = blocks[b].1;
+                // Decided once per piece pair, as `near_contributions` decides it.
+                let turned = integrate_over_target(s, &dst[k as usize]);
                 near_contributions(s, &dst[k as usize], &mut |leaf, g| {
                     let e = Entry {
                         leaf,
                         s: si as u32,
                         t: k,
                         centre: false,
+                        turned,
                     };
                     sampler.feed(g, false, |k| visible(&e, k));
                 });
@@ -1331,12 +1331,14 @@ const LIFT: f64 = 1e-5;
 
 /// A contribution of a clustered pair that a ray is drawn for: the quadrature leaf of source
 /// piece `s` its ray starts from (unused for a centre-to-centre pair, whose ray starts anywhere
-/// on `s`), target piece `t`.
+/// on `s`), target piece `t`; `turned` when the pair was integrated over `t`
+/// ([`integrate_over_target`]), so that `leaf` lies on `t` and the ray runs from it to `s`.
 struct Entry {
     leaf: [DVec3; 3],
     s: u32,
     t: u32,
     centre: bool,
+    turned: bool,
 }
 
 /// Per-thread scratch of the form-factor loop.
