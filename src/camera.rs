@@ -195,13 +195,10 @@ impl Camera {
                     let x = (f64::from(i) + 0.5) / 9.0 * f64::from(width);
                     let y = (f64::from(j) + 0.5) / 9.0 * f64::from(height);
                     let dir = cam.ray(&b, x, y);
-                    if let Some(h) = occ.closest_hit(cam.position, dir, 0.0, f64::INFINITY) {
-                        let [p0, p1, p2] = triangles[h.triangle as usize];
-                        s += if (p1 - p0).cross(p2 - p0).dot(dir) < 0.0 {
-                            1
-                        } else {
-                            -1
-                        };
+                    if let Some((_, front)) =
+                        occ.first_surface(cam.position, dir, 0.0, f64::INFINITY)
+                    {
+                        s += if front { 1 } else { -1 };
                     }
                 }
             }

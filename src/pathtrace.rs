@@ -421,13 +421,13 @@ impl PathTracer {
 
     /// Radiance arriving at `origin` from direction `dir` (one path).
     fn radiance(&self, origin: DVec3, dir: DVec3, rng: &mut SplitMix64) -> [f64; 3] {
-        let Some(hit) = self.occ.closest_hit(origin, dir, 0.0, f64::INFINITY) else {
+        let Some((hit, front)) = self.occ.first_surface(origin, dir, 0.0, f64::INFINITY) else {
             return [0.0; 3];
         };
-        let t = &self.tris[hit.triangle as usize];
-        if t.normal.dot(dir) >= 0.0 {
+        if !front {
             return [0.0; 3]; // a back face: neither emits nor reflects
         }
+        let t = &self.tris[hit.triangle as usize];
         let y = t.at(f64::from(hit.u), f64::from(hit.v));
         let h = self.irradiance_at(y, t.normal, rng);
         let mut l = [0.0; 3];
@@ -447,12 +447,13 @@ impl PathTracer {
             add_scaled(&mut h, beta, self.direct(x, origin, n, rng));
 
             let dir = cosine_direction(n, rng);
-            let Some(hit) = self.occ.closest_hit(origin, dir, 0.0, f64::INFINITY) else {
+            // A panel's two sheets modelled a hair out of order show the near one's front.
+            let Some((hit, front)) = self.occ.first_surface(origin, dir, 0.0, f64::INFINITY) else {
                 break;
             };
             let t = &self.tris[hit.triangle as usize];
             let cos_y = -t.normal.dot(dir);
-            if cos_y <= 0.0 {
+            if !front || cos_y <= 0.0 {
                 break; // a back face: black
             }
             if t.pick > 0.0 {

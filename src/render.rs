@@ -141,13 +141,15 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
                 (f64::from(s / side) + 0.5) / f64::from(side),
             );
             let dir = cam.ray(&basis, px + sx, py + sy);
-            let hit = occ.closest_hit(cam.position, dir, 0.0, f64::INFINITY)?;
+            // The two sheets of a panel modelled a hair out of order show the near one's front
+            // (`Occluders::first_surface`), as the bake's rays see it.
+            let (hit, front) = occ.first_surface(cam.position, dir, 0.0, f64::INFINITY)?;
+            if !front {
+                return None; // the back of a one-sided surface sends nothing
+            }
             let t = hit.triangle as usize;
             let [a, b, c] = mesh.corners(t).map(|p| Vec3::from(p).as_dvec3());
             let normal = (b - a).cross(c - a).normalize_or_zero();
-            if normal.dot(dir) >= 0.0 {
-                return None; // the back of a one-sided surface sends nothing
-            }
             Some(SampleHit {
                 triangle: hit.triangle,
                 u: hit.u,

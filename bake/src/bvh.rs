@@ -144,6 +144,19 @@ impl RayTriangle {
     }
 }
 
+/// Surfaces closer than this (relative to the scene's extent) are in contact: one f32 step of
+/// the BVH's coordinates at the far end of the scene (`LOCAL_EXTENT`), below which its rays
+/// do not reliably resolve a gap. (Plates 1.4e-7 of the extent apart, 2.4 steps, are still
+/// seen across: `hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets`; the
+/// conference room's chair parts, 4e-10 to 5e-9 apart, were seen across by some rays and
+/// passed through by others.)
+pub const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
+
+/// Two sheets this close along a ray (relative to its distance) count as one panel: a ray meeting
+/// the back of one and then the front of the other sees that front ([`Occluders::reaches`],
+/// [`Occluders::first_surface`]).
+pub const SHEET_GAP: f64 = 1e-4;
+
 /// Where a ray first meets a triangle ([`Occluders::closest_hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -306,6 +319,64 @@ impl Occluders {
         self.closest_hit_passing(origin, direction, 0.0, t_max, &|t| self.holds(t, origin))
     }
 
+    /// What a ray from a point on a surface sees ([`Self::closest_hit_from_surface`]): the hit
+    /// and whether it is a front face the point can see, as [`Self::reaches`] decides: the two
+    /// sheets of a panel resolved ([`Self::facing_sheet`]), and a front face in contact with
+    /// `origin` (its plane within [`CONTACT_GAP`]) covering it, not seen.
+    pub fn first_surface_from_surface(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        t_max: f64,
+    ) -> Option<(Hit, bool)> {
+        let hit = self.closest_hit_from_surface(origin, direction, t_max)?;
+        let (hit, front) = self.facing_sheet(origin, direction, hit, &|t| self.holds(t, origin));
+        Some((hit, front && !self.touches(hit.triangle, origin)))
+    }
+
+    /// What a ray sees ([`Self::closest_hit`], from a point off the surfaces: a camera, a
+    /// lifted path vertex): the hit and whether it is a front face, with the two sheets of a
+    /// panel resolved ([`Self::facing_sheet`]).
+    pub fn first_surface(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<(Hit, bool)> {
+        let hit = self.closest_hit(origin, direction, t_min, t_max)?;
+        Some(self.facing_sheet(origin, direction, hit, &|_| false))
+    }
+
+    /// `hit` (the first triangle met along `direction`, passing those `pass` names) as the
+    /// surface it shows: a front face is itself; a back face with a front face behind it within
+    /// [`SHEET_GAP`] of its distance is the far sheet of a two-sided panel whose sheets the
+    /// model put out of order, and the ray sees the near one's front. (In the conference room
+    /// a panel's two sheets lie 1e-4 apart that way round: rays toward it met the back of the
+    /// outer sheet, 4 of 9 burial rays called a chair leg in front of it buried, and its row of
+    /// F, divided by the exposed share, came out at 2.3.) Returns the hit and whether it is a
+    /// front face.
+    fn facing_sheet(
+        &self,
+        origin: DVec3,
+        direction: DVec3,
+        hit: Hit,
+        pass: &dyn Fn(u32) -> bool,
+    ) -> (Hit, bool) {
+        if self.front(hit.triangle).dot(direction) < 0.0 {
+            return (hit, true);
+        }
+        let near = hit.distance * (1.0 - SHEET_GAP);
+        let far = hit.distance * (1.0 + SHEET_GAP);
+        let sheet = self.closest_hit_passing(origin, direction, near, far, &|t| {
+            pass(t) || self.front(t).dot(direction) >= 0.0
+        });
+        match sheet {
+            Some(front) => (front, true),
+            None => (hit, false),
+        }
+    }
+
     fn closest_hit_passing(
         &self,
         origin: DVec3,
@@ -354,9 +425,19 @@ impl Occluders {
     /// of the extent (f64; a point computed on a triangle is within 1e-15 of it, a real gap
     /// in a scene is far above).
     fn holds(&self, t: u32, x: DVec3) -> bool {
+        self.plane_distance(t, x) <= 1e-9 * self.extent
+    }
+
+    /// The distance from `x` to the plane of triangle `t` (0 for a degenerate triangle).
+    fn plane_distance(&self, t: u32, x: DVec3) -> f64 {
         let c = self.given(t);
         let n = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
-        n.dot(x - c[0]).abs() <= 1e-9 * self.extent
+        n.dot(x - c[0]).abs()
+    }
+
+    /// Whether the plane of triangle `t` lies within [`CONTACT_GAP`] of `x`.
+    fn touches(&self, t: u32, x: DVec3) -> bool {
+        self.plane_distance(t, x) <= CONTACT_GAP * self.extent
     }
 
     /// Whether a ray from `from`, a point on a surface, toward `to`, a point of triangle
@@ -375,8 +456,19 @@ impl Occluders {
         if self.rt.is_empty() || !(len > 0.0) || !len.is_finite() {
             return true;
         }
+        // A target whose plane lies within [`CONTACT_GAP`] of `from` faces it in contact (a
+        // part pressed against another) or lies beside it in one plane: neither passes light.
+        // The BVH's f32 rays cannot see into so thin a gap: hemisphere rays and the burial
+        // test pass through such a target and call the point buried when the inside of an
+        // object lies beyond, and the bake takes that area out of the patch (`expose`), so
+        // a visibility ray must not find the target there. (Without this, chair parts in
+        // the conference room pressed 2e-6 to 2e-5 against each other exchanged F ≈ 1 over
+        // their contact, and their rows over the exposed part came out at up to 2.3.)
+        if self.touches(target, from) {
+            return false;
+        }
         let dir = ray_direction(d / len);
-        let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + 1e-4)) as f32);
+        let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + SHEET_GAP)) as f32);
         let Some((id, t)) = self.first_hit(ray, &|t| self.holds(t, from)) else {
             return true;
         };
@@ -384,7 +476,7 @@ impl Occluders {
         if met == target {
             return true;
         }
-        if f64::from(t) < len * (1.0 - 1e-4) {
+        if f64::from(t) < len * (1.0 - SHEET_GAP) {
             return false;
         }
         // Met at the target's own distance: a neighbour of the target (a point within rounding
@@ -417,8 +509,8 @@ impl Occluders {
         let mut back = true;
         for &t in tilts.iter().chain(&grazing) {
             let d = normal + t;
-            match self.closest_hit_from_surface(x, d, 10.0 * self.extent) {
-                Some(h) if self.front(h.triangle).dot(d) < 0.0 => return false,
+            match self.first_surface_from_surface(x, d, 10.0 * self.extent) {
+                Some((_, true)) => return false,
                 Some(_) => {}
                 None => back = false,
             }
@@ -759,5 +851,88 @@ mod tests {
         let occ = Occluders::from_triangles(&tris);
         assert!(!occ.buried(dvec3(2.0, 1.5, 2.0), DVec3::Y));
         assert!(!occ.buried(dvec3(2.0, 1.5, 2.0), -DVec3::Y));
+    }
+
+    #[test]
+    fn a_panels_sheets_out_of_order_show_the_near_front() {
+        // A two-sided panel over the floor of a room, modelled as in the conference room: the
+        // sheet facing up (+y) lies 1e-5 *below* the sheet facing down, so a ray up from the
+        // floor meets the back of the upper-facing sheet first. What it sees is the panel's
+        // underside; `reaches` already said so for a ray toward it, the closest hit does not.
+        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
+        let sheet =
+            |y: f64| [(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)].map(|(x, z)| dvec3(x, y, z));
+        let [a, b, c, d] = sheet(1.5 - 1e-5);
+        tris.extend([[a, c, b], [a, d, c]]); // facing +y
+        let [a, b, c, d] = sheet(1.5 + 1e-5);
+        let under = tris.len() as u32;
+        tris.extend([[a, b, c], [a, c, d]]); // facing -y
+        let occ = Occluders::from_triangles(&tris);
+        let x = dvec3(2.0, 0.0, 2.0);
+        let back = occ.closest_hit_from_surface(x, DVec3::Y, 10.0).unwrap();
+        assert!(back.triangle < under, "{back:?}");
+        let (hit, front) = occ.first_surface_from_surface(x, DVec3::Y, 10.0).unwrap();
+        assert!(front && hit.triangle >= under, "{hit:?} {front}");
+        assert!((hit.distance - 1.5).abs() < 1e-4, "{hit:?}");
+        assert!(occ.reaches(x, dvec3(2.0, 1.5 + 1e-5, 2.0), under));
+        // From the camera's side too, and from above: the top sheet's front.
+        let (_, front) = occ
+            .first_surface(x + DVec3::Y * 0.1, DVec3::Y, 0.0, 10.0)
+            .unwrap();
+        assert!(front);
+        let (hit, front) = occ
+            .first_surface_from_surface(dvec3(2.0, 3.0, 2.0), -DVec3::Y, 10.0)
+            .unwrap();
+        assert!(front && hit.triangle < under, "{hit:?}");
+        // A lone back face stays a back face: the room seen from outside.
+        let (_, front) = occ
+            .first_surface(dvec3(2.0, -1.0, 2.0), DVec3::Y, 0.0, 10.0)
+            .unwrap();
+        assert!(!front);
+    }
+
+    #[test]
+    fn parts_in_contact_exchange_nothing() {
+        // A block resting on the floor of a room 7 across with a gap of 2e-7 (2.8e-8 of the
+        // extent: above the 1e-9 within which a plane holds a point, below the f32 steps of
+        // the BVH, as parts modelled against each other come out of f32 files). The floor
+        // under it and the block's bottom face each other in contact: buried, and a
+        // visibility ray between them finds nothing, as the burial test decides. Before,
+        // `reaches` let the pair exchange F ≈ 1 over the contact while burial took that area
+        // out of the patches: rows over the exposed part up to 2.3 in the conference room.
+        let gap = 2e-7;
+        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
+        let bottom = tris.len() as u32;
+        tris.extend(boxed(dvec3(1.0, gap, 1.0), dvec3(2.0, 1.0, 2.0), true));
+        let occ = Occluders::from_triangles(&tris);
+        let (x, y) = (dvec3(1.3, 0.0, 1.6), dvec3(1.3, gap, 1.6));
+        let (on_floor, on_bottom) = (dvec3(1.35, 0.0, 1.62), dvec3(1.35, gap, 1.62));
+        let holding = |range: core::ops::Range<u32>, p: DVec3| {
+            range
+                .clone()
+                .find(|&t| {
+                    let c = tris[t as usize];
+                    c.iter().all(|q| q.y == p.y) && inside_by(&c, p, 0.0)
+                })
+                .unwrap()
+        };
+        let floor = holding(0..bottom, on_floor);
+        let bottom = holding(bottom..tris.len() as u32, on_bottom);
+        assert!(!occ.reaches(x, on_bottom, bottom));
+        assert!(!occ.reaches(y, on_floor, floor));
+        assert!(occ.buried(x, DVec3::Y));
+        assert!(occ.buried(y, -DVec3::Y));
+        let (_, front) = occ.first_surface_from_surface(x, DVec3::Y, 10.0).unwrap();
+        assert!(!front);
+        // Beside the block the floor is exposed and sees the block's side.
+        assert!(!occ.buried(dvec3(2.5, 0.0, 1.5), DVec3::Y));
+        // Raised by 1e-3 (1.4e-4 of the extent, far above f32 rounding) it is a real gap:
+        // the floor under the block sees its bottom.
+        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
+        tris.extend(boxed(dvec3(1.0, 1e-3, 1.0), dvec3(2.0, 1.0, 2.0), true));
+        let occ = Occluders::from_triangles(&tris);
+        let (hit, front) = occ.first_surface_from_surface(x, DVec3::Y, 10.0).unwrap();
+        assert!(front && (hit.distance - 1e-3).abs() < 1e-5, "{hit:?}");
+        assert!(!occ.buried(x, DVec3::Y));
     }
 }

@@ -347,14 +347,7 @@ pub fn discretise(
         Effect::new(false, "every patch sees some other patch: none dropped")
     } else {
         // An independent look at the decision: hemisphere rays from the dark patches.
-        dark_patches(
-            scene,
-            &mut patches,
-            checks_occ(),
-            &dark,
-            &full_areas,
-            params.seed,
-        )
+        dark_patches(&mut patches, checks_occ(), &dark, &full_areas, params.seed)
     };
     effects.insert("dark_patches", dark_effect);
     if live.is_empty() {
@@ -832,14 +825,13 @@ fn largest_gain(f: &Dense, patches: &Patches) -> f64 {
 /// The `dark_patches` decision for a non-empty `dark` list, checked by hemisphere rays
 /// ([`check_dark`]); a dark patch whose rays land on patches also adds a warning to `patches`.
 fn dark_patches(
-    scene: &Scene,
     patches: &mut Patches,
     occ: &Occluders,
     dark: &[usize],
     areas: &[f64],
     seed: u64,
 ) -> Effect {
-    let check = check_dark(scene, patches, occ, dark, seed);
+    let check = check_dark(patches, occ, dark, seed);
     let verdict = if check.seeing > 0 {
         patches.warnings.push(format!(
             "{} of {} dark patches send light to other patches by hemisphere rays (up to {:.3} of it, patch {}), though their form factors are zero: that light is lost",

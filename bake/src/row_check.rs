@@ -320,7 +320,6 @@ fn patch_point_at(pieces: &[Piece], total: f64, u: f64, v: f64) -> (DVec3, DVec3
 /// Share of cosine-weighted rays from uniform points of patch `i` that first meet the front
 /// face of a patch's triangle, and share that first meet a back face.
 fn hemisphere(
-    scene: &Scene,
     patches: &Patches,
     owners: &Owners,
     occ: &Occluders,
@@ -339,11 +338,10 @@ fn hemisphere(
     for _ in 0..rays {
         let (x, n) = patch_point(pieces, total, &mut rng);
         let d = cosine_direction(n, &mut rng);
-        let hit = occ.closest_hit_from_surface(x, d, far);
-        let Some(h) = hit else {
+        let Some((h, front)) = occ.first_surface_from_surface(x, d, far) else {
             continue;
         };
-        if scene.triangle_normal(h.triangle as usize).dot(d) >= 0.0 {
+        if !front {
             back += 1;
         } else if owners
             .patch_at(&patches.pieces, h.triangle, x + d * h.distance)
@@ -480,13 +478,7 @@ pub struct DarkCheck {
 /// that object's back faces, and both confirm their zero rows; a patch whose rays land on
 /// other patches lost its light to a fault in the form factors, and with it the light it would
 /// have passed on.
-pub fn check_dark(
-    scene: &Scene,
-    patches: &Patches,
-    occ: &Occluders,
-    dark: &[usize],
-    seed: u64,
-) -> DarkCheck {
+pub fn check_dark(patches: &Patches, occ: &Occluders, dark: &[usize], seed: u64) -> DarkCheck {
     let picked: Vec<usize> = if dark.len() > DARK_CHECK_MAX {
         (0..DARK_CHECK_MAX)
             .map(|k| dark[k * dark.len() / DARK_CHECK_MAX])
@@ -497,7 +489,7 @@ pub fn check_dark(
     let owners = Owners::new(patches);
     let (shares, back): (Vec<f64>, Vec<f64>) = picked
         .par_iter()
-        .map(|&i| hemisphere(scene, patches, &owners, occ, i, DARK_CHECK_RAYS, seed))
+        .map(|&i| hemisphere(patches, &owners, occ, i, DARK_CHECK_RAYS, seed))
         .unzip();
     let worst = shares
         .iter()
@@ -515,12 +507,11 @@ pub fn check_dark(
 }
 
 /// Compares `row_sums[k]` (`Σ_j F_ij` for patch `rows[k]`) with hemisphere rays from that
-/// patch against `occ` (built from `scene`, whose triangles the patches' pieces index).
+/// patch against `occ` (built from the scene whose triangles the patches' pieces index).
 ///
 /// # Panics
 /// If `rows` and `row_sums` differ in length or a row is not a patch.
 pub fn check_rows(
-    scene: &Scene,
     patches: &Patches,
     occ: &Occluders,
     rows: &[usize],
@@ -533,7 +524,7 @@ pub fn check_rows(
         .par_iter()
         .zip(row_sums)
         .map(|(&i, &row_sum)| {
-            let (h, back) = hemisphere(scene, patches, &owners, occ, i, params.rays, params.seed);
+            let (h, back) = hemisphere(patches, &owners, occ, i, params.rays, params.seed);
             RowSample {
                 patch: i,
                 row_sum,
@@ -578,7 +569,7 @@ pub fn check_scene(
     let rows_s = clock.elapsed().as_secs_f64();
     let sums: Vec<f64> = f.iter().map(|r| r.iter().sum()).collect();
     let clock = Instant::now();
-    let check = check_rows(scene, &patches, &occ, &rows, &sums, params);
+    let check = check_rows(&patches, &occ, &rows, &sums, params);
     Ok(SceneCheck {
         patches: patches.len(),
         shadow_rays,

@@ -195,7 +195,7 @@ fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
         patches_of(&scene, &patches, "floor"),
     );
     assert!(!rugs.is_empty() && !floor.is_empty());
-    let dark = check_dark(&scene, &patches, &occ, &rugs, 1);
+    let dark = check_dark(&patches, &occ, &rugs, 1);
     assert_eq!((dark.checked, dark.seeing), (rugs.len(), 0));
     assert_eq!(dark.largest_share, 0.0, "the rug faces the void");
     assert_eq!(
@@ -204,7 +204,7 @@ fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
     );
     // Inside a closed box every ray from the floor lands on a wall, ceiling or the floor's
     // other patches (share 1 exactly, whatever the rays).
-    let lit = check_dark(&scene, &patches, &occ, &floor, 1);
+    let lit = check_dark(&patches, &occ, &floor, 1);
     assert_eq!(lit.seeing, floor.len());
     assert_eq!(lit.largest_share, 1.0);
 
@@ -230,7 +230,7 @@ fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
     let patches = simplify(&scene, &VoxelParams::with_patches(150)).unwrap();
     let occ = Occluders::new(&scene);
     let mat = patches_of(&scene, &patches, "mat");
-    let covered = check_dark(&scene, &patches, &occ, &mat, 1);
+    let covered = check_dark(&patches, &occ, &mat, 1);
     assert_eq!(
         (covered.covered, covered.seeing),
         (mat.len(), 0),

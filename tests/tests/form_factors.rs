@@ -532,14 +532,7 @@ fn hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets() {
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
     let ff = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);
     let rows: Vec<usize> = (0..p.len()).collect();
-    let check = check_rows(
-        &scene,
-        &p,
-        &occ,
-        &rows,
-        &ff.row_sums,
-        &RowCheckParams::default(),
-    );
+    let check = check_rows(&p, &occ, &rows, &ff.row_sums, &RowCheckParams::default());
     let row = |o: u32| check.samples.iter().find(|r| r.patch == find(o)).unwrap();
     for r in &check.samples {
         println!(
@@ -626,7 +619,6 @@ fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
     let ff = form_factors(&p, Some(&occ), &params, None);
     let (low, high) = (find(0), find(1));
     let check = check_rows(
-        &scene,
         &p,
         &occ,
         &[low],
