@@ -21,6 +21,11 @@ pub(crate) struct CheckRowsArgs {
     /// Rows of F to check, drawn at random (all rows when the scene has fewer patches).
     #[arg(long, default_value_t = 120)]
     rows: usize,
+    /// Check this patch's row instead of a random sample (repeatable; patches in
+    /// simplification order, as `bake --json` names the largest row in
+    /// `closure.max_row_patch`).
+    #[arg(long = "patch", value_name = "N")]
+    patch: Vec<usize>,
     /// Hemisphere rays per row (the estimate's standard error is at most 0.5/√rays).
     #[arg(long, default_value_t = 4000)]
     rays: u32,
@@ -70,6 +75,7 @@ pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
         &voxel,
         &form_factors,
         args.rows,
+        &args.patch,
         &params,
         Some(&progress),
     );

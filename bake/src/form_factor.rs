@@ -51,7 +51,7 @@
 //! On Greg Ward's conference room (330 000 triangles, 4410 patches) this took the form factors
 //! from an estimated 4 h to minutes on 2 cores (ARCHITECTURE.md has the measurements).
 
-use crate::bvh::Occluders;
+use crate::bvh::{CONTACT_GAP, Occluders};
 use crate::kernel::point_to_polygon;
 use crate::polygon::point_polygon_distance;
 use crate::polygon::{MAX_VERTICES, Polygon};
@@ -1418,11 +1418,14 @@ impl<'a> Setup<'a> {
             ) => BlockCache::new(patches, o, &patches.triangles),
             _ => None,
         };
-        Self {
-            occ,
-            cache,
-            tol: 1e-9 * extent,
-        }
+        // Where rays are cast, a piece pair within `CONTACT_GAP` of each other's planes is in
+        // contact (or coplanar), and `Occluders::reaches` refuses every ray between them:
+        // left out before its quadrature. (Contact pairs refine to the depth limit all over.)
+        let tol = match occ {
+            Some(o) => CONTACT_GAP * o.extent(),
+            None => 1e-9 * extent,
+        };
+        Self { occ, cache, tol }
     }
 }
 

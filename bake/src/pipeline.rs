@@ -182,6 +182,9 @@ pub struct ClosureReport {
     pub min_row_sum: f64,
     /// Largest row sum, before any correction.
     pub max_row_sum: f64,
+    /// The patch of the largest row sum, in simplification order (`Patches::patches`, the
+    /// numbering `radiosity check-rows --patch` takes).
+    pub max_row_patch: Option<usize>,
     /// Largest relative change of a row sum made by the closure correction (0 when open), apart
     /// from the rows of partly buried patches.
     pub correction: f64,
@@ -347,7 +350,18 @@ pub fn discretise(
         Effect::new(false, "every patch sees some other patch: none dropped")
     } else {
         // An independent look at the decision: hemisphere rays from the dark patches.
-        dark_patches(&mut patches, checks_occ(), &dark, &full_areas, params.seed)
+        let buried = dark
+            .iter()
+            .filter(|&&i| exposure.share.get(i).is_some_and(|&b| b >= 1.0))
+            .count();
+        dark_patches(
+            &mut patches,
+            checks_occ(),
+            &dark,
+            buried,
+            &full_areas,
+            params.seed,
+        )
     };
     effects.insert("dark_patches", dark_effect);
     if live.is_empty() {
@@ -717,6 +731,7 @@ fn closure_effect(
     let mut report = ClosureReport {
         min_row_sum: closure.min_row_sum,
         max_row_sum: closure.max_row_sum,
+        max_row_patch: (0..f.n).max_by(|&a, &b| sums[a].total_cmp(&sums[b])),
         correction: 0.0,
         escaped: None,
     };
@@ -822,12 +837,14 @@ fn largest_gain(f: &Dense, patches: &Patches) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The `dark_patches` decision for a non-empty `dark` list, checked by hemisphere rays
-/// ([`check_dark`]); a dark patch whose rays land on patches also adds a warning to `patches`.
+/// The `dark_patches` decision for a non-empty `dark` list, of which the burial test buried
+/// `buried` whole ([`expose`]), checked by hemisphere rays ([`check_dark`]); a dark patch whose
+/// rays land on patches also adds a warning to `patches`.
 fn dark_patches(
     patches: &mut Patches,
     occ: &Occluders,
     dark: &[usize],
+    buried: usize,
     areas: &[f64],
     seed: u64,
 ) -> Effect {
@@ -848,11 +865,21 @@ fn dark_patches(
             check.checked - check.covered
         )
     };
+    // Hemisphere rays pass through a face they start on, so a patch lying face to face against
+    // a part whose other side looks out of the room "faces the void" to them.
+    let buried = if buried > 0 {
+        format!(
+            "; {buried} of the {} were buried whole (inside another object or face to face against one)",
+            dark.len()
+        )
+    } else {
+        String::new()
+    };
     let dark_area: f64 = dark.iter().map(|&i| areas[i]).sum();
     Effect::new(
         true,
         format!(
-            "{} of {} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{verdict}",
+            "{} of {} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{verdict}{buried}",
             dark.len(),
             patches.len(),
             dark_area / areas.iter().sum::<f64>(),

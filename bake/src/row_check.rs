@@ -546,7 +546,9 @@ pub fn check_rows(
 
 /// [`check_rows`] on a scene as the bake sees it: simplified with `voxel`, occlusion planned as
 /// [`crate::pipeline::discretise`] plans it (a convex enclosure casts no visibility rays), and
-/// `count` sampled rows of F computed alone ([`form_factor_rows`]). Returns the check, the
+/// `count` sampled rows of F computed alone ([`form_factor_rows`]), or the rows `only` names
+/// when it is not empty (patches in simplification order, as the bake's
+/// `closure.max_row_patch` names them; an error if one is not a patch). Returns the check, the
 /// patch count, the shadow rays the rows cast and the seconds spent on the rows and on the
 /// hemisphere rays. `progress` is told about finished rows of F.
 pub fn check_scene(
@@ -554,16 +556,31 @@ pub fn check_scene(
     voxel: &VoxelParams,
     form_factors: &FormFactorParams,
     count: usize,
+    only: &[usize],
     params: &RowCheckParams,
     progress: Option<Progress<'_>>,
 ) -> Result<SceneCheck, BakeError> {
     let patches = simplify(scene, voxel)?;
+    if let Some(&bad) = only.iter().find(|&&i| i >= patches.len()) {
+        return Err(BakeError::InvalidParams(format!(
+            "--patch {bad}: the scene simplifies to {} patches (0 to {})",
+            patches.len(),
+            patches.len().saturating_sub(1)
+        )));
+    }
     let occ = Occluders::new(scene);
     let mut ffp = *form_factors;
     if !crate::effects::plan_occlusion(scene).on {
         ffp.visibility = Visibility::Off;
     }
-    let rows = sample_rows(patches.len(), count, params.seed);
+    let rows = if only.is_empty() {
+        sample_rows(patches.len(), count, params.seed)
+    } else {
+        let mut rows = only.to_vec();
+        rows.sort_unstable();
+        rows.dedup();
+        rows
+    };
     let clock = Instant::now();
     let (f, shadow_rays) = form_factor_rows(&patches, Some(&occ), &ffp, &rows, progress);
     let rows_s = clock.elapsed().as_secs_f64();

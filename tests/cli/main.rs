@@ -462,6 +462,31 @@ fn check_rows_prints_text_and_json() {
     // The same sums in another order: f64 rounding only.
     assert!((c["all"]["rms"].as_f64().unwrap() - rms).abs() < 1e-12);
     assert!(v["patches"].as_u64().unwrap() > 200 && v["shadow_rays"].as_u64().unwrap() > 0);
+    // Named rows instead of a sample (`--patch`, as `bake --json` names its largest row):
+    // exactly those, once each.
+    let named = [
+        "check-rows",
+        scene,
+        "--patches",
+        "256",
+        "--patch",
+        "7",
+        "--patch",
+        "3",
+        "--patch",
+        "7",
+        "--rays",
+        "200",
+        "--json",
+    ];
+    let v: serde_json::Value = serde_json::from_slice(&radiosity_ok(&named).stdout).unwrap();
+    let rows: Vec<u64> = v["check"]["samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["patch"].as_u64().unwrap())
+        .collect();
+    assert_eq!(rows, [3, 7]);
 }
 
 #[test]
@@ -479,6 +504,15 @@ fn check_rows_refuses_bad_counts() {
     assert_one_line_error(
         &radiosity(&["check-rows", scene, "--patches", "0"]),
         "--patches",
+    );
+    // A patch the scene does not have (Goral's box loads without warnings: one line).
+    let goral = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-original/cornell_box_data.obj"
+    );
+    assert_one_line_error(
+        &radiosity(&["check-rows", goral, "--patches", "64", "--patch", "100000"]),
+        "--patch 100000",
     );
     assert_one_line_error(
         &radiosity(&["check-rows", "/nonexistent/scene.obj"]),

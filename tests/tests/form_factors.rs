@@ -582,6 +582,7 @@ fn cornell_box_rows_agree_with_hemisphere_rays() {
         &VoxelParams::with_patches(1024),
         &FormFactorParams::default(),
         60,
+        &[],
         &RowCheckParams::default(),
         None,
     )

@@ -622,6 +622,13 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
     let closed = &out.report.effects["closed"];
     assert!(closed.on, "{}", closed.why);
     assert!(closed.why.contains("partly buried"), "{}", closed.why);
+    // The block's bottom and the wall behind the cube are buried whole: dark, and said so.
+    let dark = &out.report.effects["dark_patches"];
+    assert!(
+        dark.on && dark.why.contains("were buried whole"),
+        "{}",
+        dark.why
+    );
     let want = 1.0 / (1.0 - rho);
     let (h, b) = frame(&out);
     for i in 0..h.len() {
