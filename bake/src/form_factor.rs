@@ -55,7 +55,7 @@ use crate::bvh::{CONTACT_GAP, Occluders};
 use crate::kernel::point_to_polygon;
 use crate::polygon::point_polygon_distance;
 use crate::polygon::{MAX_VERTICES, Polygon};
-use crate::quadrature::{Adaptive, Rule, Sample, integrate};
+use crate::quadrature::{Adaptive, Rule, Sample, integrate_bounded};
 use crate::rng::SplitMix64;
 use crate::voxel::{Patches, Piece};
 use glam::DVec3;
@@ -645,12 +645,13 @@ fn exchange(
         for &(k, need_rays) in live.iter() {
             let t = &dst[k];
             let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
+            let bound = sphere_distance(centre_radius(t));
             let quadrature = Adaptive {
                 max_depth: pair_depth(params.quadrature.max_depth, s.normal, t.normal),
                 ..params.quadrature
             };
             for tri in fan(sv) {
-                integrate(tri, &quadrature, &dist, &mut |q| {
+                integrate_bounded(tri, &quadrature, &bound, &dist, &mut |q| {
                     let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
                     if f > 0.0 && need_rays {
                         samples.push((si, k as u32, q.leaf, q.w * f));
@@ -903,13 +904,14 @@ impl<'a> Pairs<'a> {
                 (s, t)
             };
             let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
+            let bound = sphere_distance(centre_radius(t));
             let quadrature = Adaptive {
                 rule: self.params.clustered_rule,
                 max_depth: pair_depth(self.params.quadrature.max_depth, s.normal, t.normal),
                 ..self.params.quadrature
             };
             for tri in fan(s.polygon.vertices()) {
-                integrate(tri, &quadrature, &dist, &mut |q| {
+                integrate_bounded(tri, &quadrature, &bound, &dist, &mut |q| {
                     let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
                     if f > 0.0 {
                         out(q.leaf, q.w * f);
@@ -1246,6 +1248,13 @@ fn integrate_over_target(s: &Piece, t: &Piece) -> bool {
     2.0 * centre_radius(t).1 < centre_radius(s).1
 }
 
+/// A lower bound of the distance from a point to anything inside the sphere `(c, r)`, for
+/// [`integrate_bounded`]: a hair under `|x − c| − r`, so that rounding never puts it above the
+/// distance to a polygon the sphere holds ([`centre_radius`]).
+fn sphere_distance((c, r): (DVec3, f64)) -> impl Fn(DVec3) -> f64 {
+    move |x: DVec3| ((x - c).length() - r) * (1.0 - 1e-9)
+}
+
 /// Whether a source piece (centre `cs`, radius `rs`) and a target piece (centre and radius
 /// `ct`) are near: not more than [`POINT_RATIO`] times the sum of their radii apart.
 fn near(cs: DVec3, rs: f64, ct: (DVec3, f64)) -> bool {
@@ -1255,11 +1264,12 @@ fn near(cs: DVec3, rs: f64, ct: (DVec3, f64)) -> bool {
 /// The unoccluded exchange of source piece `s` (centre `cs`) and target piece `t` (centre
 /// `ct`) centre to centre, for pieces that are not [`near`]; `None` when they face away.
 fn centre_to_centre(s: &Piece, cs: DVec3, t: &Piece, ct: DVec3) -> Option<f64> {
+    // `cos θ_s cos θ_t / r²` as `(n_s·d)(−n_t·d) / r⁴`: no square root (a clustered pair of
+    // two curved patches evaluates this for every piece pair).
     let d = ct - cs;
     let r2 = d.length_squared();
-    let inv = r2.sqrt().recip();
-    let (c1, c2) = (s.normal.dot(d) * inv, -t.normal.dot(d) * inv);
-    (c1 > 0.0 && c2 > 0.0).then(|| s.area * t.area * c1 * c2 / (std::f64::consts::PI * r2))
+    let (c1, c2) = (s.normal.dot(d), -t.normal.dot(d));
+    (c1 > 0.0 && c2 > 0.0).then(|| s.area * t.area * c1 * c2 / (std::f64::consts::PI * r2 * r2))
 }
 
 /// The depth limit of the source quadrature against one target piece, from the general

@@ -117,6 +117,20 @@ pub fn integrate(
     dist: &impl Fn(DVec3) -> f64,
     f: &mut impl FnMut(Sample),
 ) {
+    integrate_bounded(tri, params, &|_| f64::NEG_INFINITY, dist, f);
+}
+
+/// [`integrate`] with a cheap lower bound of `dist` (`bound(x) ≤ dist(x)`, say the distance to a
+/// sphere holding the target), asked first: where it already lets a leaf stop, `dist` is not
+/// called. The refinement test is monotone in the distance, so the leaves, and every value,
+/// are those of [`integrate`] with `dist` alone.
+pub fn integrate_bounded(
+    tri: [DVec3; 3],
+    params: &Adaptive,
+    bound: &impl Fn(DVec3) -> f64,
+    dist: &impl Fn(DVec3) -> f64,
+    f: &mut impl FnMut(Sample),
+) {
     let mut stack: Vec<([DVec3; 3], u32)> = vec![(tri, 0)];
     while let Some((t, depth)) = stack.pop() {
         let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
@@ -128,11 +142,11 @@ pub fn integrate(
             .length()
             .max((t[1] - c).length())
             .max((t[2] - c).length());
-        let d = dist(c) - radius;
         // The slack decides exact ties (common on regular grids, where a leaf's width can be
         // exactly `ratio` times its distance) the same way at every scale: without it the
         // rounding decided, and the same room at 1 and 1e4 got different quadratures.
-        if depth >= params.max_depth || 2.0 * radius <= params.ratio * d * (1.0 + TIE_SLACK) {
+        let small = |d: f64| 2.0 * radius <= params.ratio * (d - radius) * (1.0 + TIE_SLACK);
+        if depth >= params.max_depth || small(bound(c)) || small(dist(c)) {
             for &(b, w) in params.rule.points() {
                 let x = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
                 f(Sample {
@@ -235,5 +249,46 @@ mod tests {
         });
         assert!((s - 3.0).abs() < 1e-12, "weights sum {s}");
         assert!(n > 3, "it subdivided near the origin");
+    }
+
+    #[test]
+    fn a_lower_bound_of_the_distance_changes_no_leaf() {
+        // A triangle refined against a square hovering beside it, with and without the distance
+        // to the square's bounding sphere asked first: the same samples, bit for bit, with
+        // fewer exact distances (the bound can only let a leaf stop that would stop anyway).
+        let tri = [
+            dvec3(0.0, 0.0, 0.0),
+            dvec3(4.0, 0.0, 0.0),
+            dvec3(0.0, 4.0, 0.0),
+        ];
+        let sq = [
+            dvec3(1.0, 1.0, 0.3),
+            dvec3(2.0, 1.0, 0.3),
+            dvec3(2.0, 2.0, 0.3),
+            dvec3(1.0, 2.0, 0.3),
+        ];
+        let n = dvec3(0.0, 0.0, -1.0);
+        let (c, r) = (dvec3(1.5, 1.5, 0.3), 0.5f64.sqrt());
+        let params = Adaptive {
+            rule: Rule::Degree2,
+            ratio: 0.5,
+            max_depth: 6,
+        };
+        let exact_calls = core::cell::Cell::new(0);
+        let dist = |x: DVec3| {
+            exact_calls.set(exact_calls.get() + 1);
+            crate::polygon::point_polygon_distance(x, &sq, n)
+        };
+        let mut plain = Vec::new();
+        integrate(tri, &params, &dist, &mut |q| plain.push((q.x, q.w)));
+        let all = exact_calls.replace(0);
+        let mut bounded = Vec::new();
+        let bound = |x: DVec3| ((x - c).length() - r) * (1.0 - 1e-9);
+        integrate_bounded(tri, &params, &bound, &dist, &mut |q| {
+            bounded.push((q.x, q.w))
+        });
+        assert_eq!(plain, bounded);
+        assert!(plain.len() > 100, "{} samples", plain.len());
+        assert!(exact_calls.get() < all, "{} of {all}", exact_calls.get());
     }
 }
