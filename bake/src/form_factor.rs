@@ -645,7 +645,7 @@ fn exchange(
         for &(k, need_rays) in live.iter() {
             let t = &dst[k];
             let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
-            let bound = sphere_distance(centre_radius(t));
+            let bound = sphere_distance(targets[k]);
             let quadrature = Adaptive {
                 max_depth: pair_depth(params.quadrature.max_depth, s.normal, t.normal),
                 ..params.quadrature
@@ -883,28 +883,35 @@ impl<'a> Pairs<'a> {
         let Scratch {
             live,
             targets,
+            sources,
             starts,
             blocks,
             ..
         } = scratch;
         targets.clear();
+        sources.clear();
         starts.clear();
         blocks.clear();
+        // Every piece's centre and radius, once per pair: the walk below asks them for every
+        // near piece pair.
         targets.extend(dst.iter().map(centre_radius));
+        sources.extend(src.iter().map(centre_radius));
+        let (targets, sources) = (&*targets, &*sources);
         // The near contributions of source piece `s` and target piece `t`: each near target
         // gets its own adaptive quadrature of the source, so that a source piece that touches
         // one target is refined next to that one only.
         // The exchange is symmetric, so each piece pair is integrated over the smaller of its
         // two pieces (`integrate_over_target`): a piece the size of a wall against a chair's
         // facet a hand away from it was refined to the depth limit once per facet.
-        let near_contributions = |s: &Piece, t: &Piece, out: &mut dyn FnMut([DVec3; 3], f64)| {
-            let (s, t) = if integrate_over_target(s, t) {
-                (t, s)
+        let near_contributions = |si: usize, ti: usize, out: &mut dyn FnMut([DVec3; 3], f64)| {
+            let (s, t) = (&src[si], &dst[ti]);
+            let (s, t, t_sphere) = if integrate_over_target(sources[si], targets[ti]) {
+                (t, s, sources[si])
             } else {
-                (s, t)
+                (s, t, targets[ti])
             };
             let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
-            let bound = sphere_distance(centre_radius(t));
+            let bound = sphere_distance(t_sphere);
             let quadrature = Adaptive {
                 rule: self.params.clustered_rule,
                 max_depth: pair_depth(self.params.quadrature.max_depth, s.normal, t.normal),
@@ -928,9 +935,9 @@ impl<'a> Pairs<'a> {
         // piece and each near piece pair starts; the drawing pass recomputes them, in the same
         // order and to the same bits, only where a ray falls.
         let mut total = 0.0;
-        for s in src {
+        for (si, s) in src.iter().enumerate() {
             let sv = s.polygon.vertices();
-            let (cs, rs) = centre_radius(s);
+            let (cs, rs) = sources[si];
             starts.push((total, blocks.len()));
             live.clear();
             for (ti, t) in dst.iter().enumerate() {
@@ -944,7 +951,7 @@ impl<'a> Pairs<'a> {
             }
             for &(k, _) in live.iter() {
                 blocks.push((total, k as u32));
-                near_contributions(s, &dst[k], &mut |_, g| total += g);
+                near_contributions(si, k, &mut |_, g| total += g);
             }
         }
         let (per_sample, occ) = match (self.params.visibility, self.occ) {
@@ -1009,7 +1016,7 @@ impl<'a> Pairs<'a> {
             if sampler.idle_until(far_end) {
                 sampler.skip_to(far_end);
             } else {
-                let (cs, rs) = centre_radius(s);
+                let (cs, rs) = sources[si];
                 for (ti, t) in dst.iter().enumerate() {
                     if near(cs, rs, targets[ti]) {
                         continue;
@@ -1038,8 +1045,8 @@ impl<'a> Pairs<'a> {
                 }
                 let k = blocks[b].1;
                 // Decided once per piece pair, as `near_contributions` decides it.
-                let turned = integrate_over_target(s, &dst[k as usize]);
-                near_contributions(s, &dst[k as usize], &mut |leaf, g| {
+                let turned = integrate_over_target(sources[si], targets[k as usize]);
+                near_contributions(si, k as usize, &mut |leaf, g| {
                     let e = Entry {
                         leaf,
                         s: si as u32,
@@ -1244,8 +1251,8 @@ fn kernel_point(x: DVec3, ns: DVec3, poly: &Polygon, nt: DVec3, seed: u64) -> Op
 /// exact polygon kernel takes the large one whole. The conference room at 568 patches, where a
 /// wall patch of four pieces meets a patch of 2080 chair facets: 8052 near piece pairs and 10 M
 /// leaves for that one pair.
-fn integrate_over_target(s: &Piece, t: &Piece) -> bool {
-    2.0 * centre_radius(t).1 < centre_radius(s).1
+fn integrate_over_target(s: (DVec3, f64), t: (DVec3, f64)) -> bool {
+    2.0 * t.1 < s.1
 }
 
 /// A lower bound of the distance from a point to anything inside the sphere `(c, r)`, for
@@ -1367,6 +1374,8 @@ struct Scratch {
     /// Exact pairs' contributions that need rays: (target piece, source quadrature leaf, weight).
     samples: Vec<Contribution>,
     targets: Vec<(DVec3, f64)>,
+    /// A clustered pair's source pieces' centres and radii.
+    sources: Vec<(DVec3, f64)>,
     /// Per source piece of a clustered pair: the running sum of the contributions before its
     /// own, and its first near target in `blocks`.
     starts: Vec<(f64, usize)>,
