@@ -31,7 +31,7 @@ pub(crate) struct BakeArgs {
     #[arg(long)]
     pub(crate) tile: Option<u32>,
     /// Form factors: `draft` (centroid rule, coarse leaves: previews; on scenes of many small
-    /// triangles the quicker knob than fewer patches, 41% less time on the conference room),
+    /// triangles the quicker knob than fewer patches: a third less time on the conference room),
     /// `default` (degree-2 rule), `fine` (finer leaves next to edges, four shadow rays per
     /// leaf: final bakes)
     #[arg(
