@@ -905,7 +905,7 @@ impl<'a> Pairs<'a> {
         // facet a hand away from it was refined to the depth limit once per facet.
         let near_contributions = |si: usize, ti: usize, out: &mut dyn FnMut([DVec3; 3], f64)| {
             let (s, t) = (&src[si], &dst[ti]);
-            let (s, t, t_sphere) = if integrate_over_target(sources[si], targets[ti]) {
+            let (s, t, t_sphere) = if integrate_over_target(sources[si].1, targets[ti].1) {
                 (t, s, sources[si])
             } else {
                 (s, t, targets[ti])
@@ -1045,7 +1045,7 @@ impl<'a> Pairs<'a> {
                 }
                 let k = blocks[b].1;
                 // Decided once per piece pair, as `near_contributions` decides it.
-                let turned = integrate_over_target(sources[si], targets[k as usize]);
+                let turned = integrate_over_target(sources[si].1, targets[k as usize].1);
                 near_contributions(si, k as usize, &mut |leaf, g| {
                     let e = Entry {
                         leaf,
@@ -1243,16 +1243,16 @@ fn kernel_point(x: DVec3, ns: DVec3, poly: &Polygon, nt: DVec3, seed: u64) -> Op
     None
 }
 
-/// Whether a near piece pair of a clustered pair is integrated over its target piece `t`
-/// instead of its source `s`: when `t` is less than half as wide. The adaptive quadrature
-/// refines its domain down to leaves a fraction of their distance to the other piece, so a
-/// large piece near a small one was refined to the depth limit around it (1024 leaves a fan
-/// triangle), once for every small piece near it; the small piece needs a few leaves, and the
-/// exact polygon kernel takes the large one whole. The conference room at 568 patches, where a
+/// Whether a near piece pair of a clustered pair is integrated over its target piece instead
+/// of its source, from their radii ([`centre_radius`]): when the target is less than half as
+/// wide. The adaptive quadrature refines its domain down to leaves a fraction of their
+/// distance to the other piece, so a large piece near a small one was refined to the depth
+/// limit around it (1024 leaves a fan triangle), once for every small piece near it; the small
+/// piece needs a few leaves, and the exact polygon kernel takes the large one whole. The conference room at 568 patches, where a
 /// wall patch of four pieces meets a patch of 2080 chair facets: 8052 near piece pairs and 10 M
 /// leaves for that one pair.
-fn integrate_over_target(s: (DVec3, f64), t: (DVec3, f64)) -> bool {
-    2.0 * t.1 < s.1
+fn integrate_over_target(source_radius: f64, target_radius: f64) -> bool {
+    2.0 * target_radius < source_radius
 }
 
 /// A lower bound of the distance from a point to anything inside the sphere `(c, r)`, for
@@ -1373,6 +1373,7 @@ struct Scratch {
     spans: Vec<(u32, u32)>,
     /// Exact pairs' contributions that need rays: (target piece, source quadrature leaf, weight).
     samples: Vec<Contribution>,
+    /// A pair's target pieces' centres and radii ([`centre_radius`]).
     targets: Vec<(DVec3, f64)>,
     /// A clustered pair's source pieces' centres and radii.
     sources: Vec<(DVec3, f64)>,
