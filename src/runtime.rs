@@ -260,8 +260,8 @@ pub(crate) fn load(
 mod tests {
     use super::*;
     use radiosity_core::{
-        Bounces, CornerWeight, DEFAULT_MAX_TILE, Format, MatrixLayout, MeshTriangle, PatchOrder,
-        PatchSample, SparseRows, TransferMatrix,
+        BlockCorrections, Bounces, CornerWeight, DEFAULT_MAX_TILE, Format, MatrixLayout,
+        MeshTriangle, PatchOrder, PatchSample, SparseRows, TransferMatrix,
     };
     use std::borrow::Cow;
 
@@ -326,6 +326,7 @@ mod tests {
                 scales: Cow::Owned(vec![]),
                 blocks: Cow::Owned(vec![0; 64]),
                 sparse: SparseRows::empty(1),
+                corrections: BlockCorrections::empty(1),
             },
             objects: vec![Cow::Borrowed("floor")],
             bounces: Bounces::Infinite,

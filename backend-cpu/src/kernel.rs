@@ -37,6 +37,8 @@ pub(crate) struct Ctx<'a, 'm> {
     pub(crate) f16: &'a [f32],
     pub(crate) xs: &'a [f32x8],
     pub(crate) exitance: &'a [Rgb],
+    /// `TransferMatrix::correction_tables()`: the block corrections' scales per channel.
+    pub(crate) corrections: &'a [[f32; 256]; 3],
 }
 
 /// Block row `r` (output rows `4r..4r + out.len()`) on the chosen path.
@@ -129,12 +131,16 @@ fn block_row<K: Kernel, I: Isa>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
 }
 
 /// Writes output rows `row..row + out.len()` from the blocks' row sums (`sums[channel][i]`
-/// for row `row + i`) plus each row's sparse corrections, in column order.
+/// for row `row + i`) plus the block row's block corrections, in column order, plus each row's
+/// sparse corrections, in column order.
 #[inline(always)]
-pub(crate) fn finish_rows(ctx: &Ctx<'_, '_>, row: usize, sums: [[f32; 4]; 3], out: &mut [Rgb]) {
+pub(crate) fn finish_rows(ctx: &Ctx<'_, '_>, row: usize, mut sums: [[f32; 4]; 3], out: &mut [Rgb]) {
     let m = ctx.matrix;
     let ch = m.layout.channels();
     let grey = ch == 1;
+    if !m.corrections.is_empty() {
+        add_corrections(ctx, row, &mut sums);
+    }
     for (i, y) in out.iter_mut().enumerate() {
         let mut v = [sums[0][i], sums[1][i], sums[2][i]];
         for (c, s) in m.sparse.row(row + i, ch) {
@@ -144,5 +150,29 @@ pub(crate) fn finish_rows(ctx: &Ctx<'_, '_>, row: usize, sums: [[f32; 4]; 3], ou
             }
         }
         *y = Rgb::from_array(v);
+    }
+}
+
+/// Adds the block corrections of the block row starting at `row` to its row sums. Scalar: a
+/// good order corrects a few per cent of the blocks, so this is a small share of a gather.
+#[inline(never)]
+fn add_corrections(ctx: &Ctx<'_, '_>, row: usize, sums: &mut [[f32; 4]; 3]) {
+    let m = ctx.matrix;
+    let ch = m.layout.channels();
+    for (bc, index) in m.corrections.row(row / 4) {
+        let mut fix = [[0f32; 16]; 3];
+        m.corrections.add(index, ch, ctx.corrections, &mut fix);
+        for j in 0..4 {
+            let Some(x) = ctx.exitance.get(bc * 4 + j) else {
+                break;
+            };
+            let x = x.to_array();
+            for (k, sum) in sums.iter_mut().enumerate() {
+                let f = &fix[if ch == 1 { 0 } else { k }];
+                for (i, s) in sum.iter_mut().enumerate() {
+                    *s += f[4 * i + j] * x[k];
+                }
+            }
+        }
     }
 }

@@ -202,6 +202,8 @@ pub struct CpuGather<'m> {
     /// The same for the `zmm` bodies and the AVX2 BC1 body (each column block's four values
     /// once); empty unless one of them runs.
     x4: Vec<kernel::X4>,
+    /// The block corrections' scale tables ([`TransferMatrix::correction_tables`]).
+    correction_tables: [[f32; 256]; 3],
     simd: SimdPath,
     parallel: bool,
     name: String,
@@ -274,6 +276,7 @@ impl<'m> CpuGather<'m> {
             Vec::new()
         };
         let name = format!("cpu-{}", l.format().name());
+        let correction_tables = matrix.correction_tables();
         Self {
             matrix,
             tables,
@@ -283,6 +286,7 @@ impl<'m> CpuGather<'m> {
             f16,
             xs,
             x4,
+            correction_tables,
             simd,
             parallel: true,
             name,
@@ -359,6 +363,7 @@ impl Gather for CpuGather<'_> {
             f16: &self.f16,
             xs: &self.xs,
             exitance,
+            corrections: &self.correction_tables,
         };
         let (simd, parallel) = (self.simd, self.parallel);
         let format = self.matrix.layout.format();

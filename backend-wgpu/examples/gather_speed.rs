@@ -12,7 +12,8 @@
 
 use radiosity_backend_wgpu::{DecodePath, GpuOptions, WgpuGather, choose_adapter};
 use radiosity_core::{
-    DEFAULT_MAX_TILE, Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix,
+    BlockCorrections, DEFAULT_MAX_TILE, Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows,
+    TransferMatrix,
 };
 use std::borrow::Cow;
 use std::time::Instant;
@@ -62,6 +63,7 @@ fn main() {
             scales: Cow::Owned(vec![LogScale::new(1e-3, 6.9); layout.scale_count()]),
             blocks: Cow::Owned(blocks),
             sparse: SparseRows::empty(n as usize),
+            corrections: BlockCorrections::empty(n as usize),
         };
         let x: Vec<Rgb> = (0..n).map(|i| Rgb::splat((i % 7) as f32)).collect();
         let mut y = vec![Rgb::ZERO; n as usize];

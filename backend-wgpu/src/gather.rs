@@ -577,7 +577,15 @@ impl WgpuGather {
             "finish",
             &finish_layout,
         );
-        let sp = &matrix.sparse;
+        // The block corrections ride along in the sparse list (16 entries each at most): the
+        // finish pass then adds them without bindings of their own.
+        let merged;
+        let sp = if matrix.corrections.is_empty() {
+            &matrix.sparse
+        } else {
+            merged = matrix.sparse_with_corrections();
+            &merged
+        };
         let mut finishes = Vec::new();
         for (row0, rows) in plan::sparse_bands(sp, channels, &lim).map_err(unsupported)? {
             let (a, b) = (sp.row_ptr[row0], sp.row_ptr[row0 + rows]);

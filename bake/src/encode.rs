@@ -12,13 +12,14 @@
 
 use radiosity_core::half::f32_to_f16;
 use radiosity_core::{
-    Bc1Block, Bc4Block, BlockDecoder, DEFAULT_MAX_TILE, DEFAULT_SHIFT, DecodeMode, Format,
-    LayoutError, LogScale, MatrixLayout, Rgb, SparseRows, Tile, TransferMatrix,
+    Bc1Block, Bc4Block, BlockCorrections, BlockDecoder, DEFAULT_MAX_TILE, DEFAULT_SHIFT,
+    DecodeMode, Format, LayoutError, LogScale, MatrixLayout, Rgb, SparseRows, Tile, TransferMatrix,
 };
 use rayon::prelude::*;
 use refine::{BlockTarget, Coupling};
 use std::borrow::Cow;
 
+mod correct;
 mod refine;
 mod select;
 
@@ -35,11 +36,15 @@ pub struct EncodeParams {
     pub shift: f32,
     /// Fraction of the non-zero entries, the largest ones, kept exactly in the sparse list (log
     /// formats only; float formats keep nothing sparse). Each kept entry costs 4 + 4·channels
-    /// bytes; with each row's [`ROW_KEEP`] largest entries also kept, the default 0.4% keeps a
-    /// 4096-patch BC1 Cornell box within 1/20 of the dense f32 RGB matrix (measured: 1% made it
-    /// 1/18). [`SparseSelection::ErrorDriven`] keeps as many entries, chosen by error instead of
-    /// size.
+    /// bytes, and each row's [`ROW_KEEP`] largest entries are kept as well. The default
+    /// ([`default_sparse_fraction`]) spends a quarter of [`SPARSE_BUDGET`] on them.
+    /// [`SparseSelection::ErrorDriven`] keeps as many entries, chosen by error instead of size.
     pub sparse_fraction: f32,
+    /// Share of the block positions given a block correction ([`radiosity_core::BlockCorrections`],
+    /// `4 + 9·channels` bytes each), those where it removes the most weighted error; log
+    /// formats and [`SparseSelection::ErrorDriven`] only. The default
+    /// ([`default_correction_fraction`]) spends three quarters of [`SPARSE_BUDGET`] on them.
+    pub corrections: f32,
     /// Share of BC1 blocks, those of largest error from the range-fit start, that the
     /// error-driven encode ([`SparseSelection::ErrorDriven`]) fits again from texpresso's
     /// cluster fit, keeping whichever start refines to the lower error ([`BC1_RETRY`]).
@@ -55,7 +60,8 @@ impl Default for EncodeParams {
             format: Format::Bc1,
             max_tile: DEFAULT_MAX_TILE,
             shift: DEFAULT_SHIFT,
-            sparse_fraction: 0.004,
+            sparse_fraction: default_sparse_fraction(Format::Bc1, 3),
+            corrections: default_correction_fraction(Format::Bc1, 3),
             bc1_retry: BC1_RETRY,
             bc1_iterative: false,
         }
@@ -68,6 +74,7 @@ impl EncodeParams {
         Self {
             format,
             sparse_fraction: default_sparse_fraction(format, 3),
+            corrections: default_correction_fraction(format, 3),
             ..Self::default()
         }
     }
@@ -128,21 +135,56 @@ pub enum EncodeError {
     },
 }
 
-/// Share of the block bytes the sparse list may take by default: 1/8. A BC1 matrix (0.5 byte
-/// per entry) then keeps 0.4% of its entries exact, which holds a 4096-patch Cornell box within
-/// 1/20 of the dense f32 RGB matrix; a three-channel BC4 matrix, three times larger, keeps 1.2%
-/// (measured lighting error 0.84% at 1% against 1.03% at 0.4%).
+/// Share of the block bytes the sparse list and the block corrections may take together by
+/// default: 1/8, which holds a 4096-patch BC1 Cornell box within 1/20 of the dense f32 RGB
+/// matrix. Spent all on sparse entries, a BC1 matrix (0.5 byte per entry) would keep 0.4% of
+/// its entries exact, a three-channel BC4 matrix 1.2%.
 pub const SPARSE_BUDGET: f32 = 0.128;
 
+/// Share of [`SPARSE_BUDGET`] spent on block corrections rather than sparse entries. A
+/// correction (31 bytes in RGB) fixes a whole block for the price of two sparse entries, which
+/// pays where the error is concentrated in few blocks, as it is in a good order. Measured on
+/// the Cornell box at 4098 patches, BC1, paper order, the Frobenius error at shares 0 / 0.5 /
+/// 0.7 / 0.8 / 0.85: 2.54 / 1.96 / 1.76 / 1.70 / 1.67%, lighting error 0.15 / 0.17 / 0.23 /
+/// 0.26 / 0.27% (ARCHITECTURE.md, "Block corrections").
+pub const CORRECTION_SHARE: f32 = 0.75;
+
+/// Bytes of the block data per 4×4 block position for `format` with `channels`.
+fn block_position_bytes(format: Format, channels: usize) -> f32 {
+    let planes = if format == Format::Bc1 { 1 } else { channels };
+    (planes * format.block_bytes()) as f32
+}
+
+/// Whether `format` takes block corrections (the block-compressed ones, BC1 and BC4).
+pub fn takes_corrections(format: Format) -> bool {
+    matches!(format, Format::Bc1 | Format::Bc4)
+}
+
 /// The default sparse fraction for `format` with `channels`: [`SPARSE_BUDGET`] of the block
-/// bytes, at `4 + 4·channels` bytes per kept entry; 0 for the float formats.
+/// bytes, at `4 + 4·channels` bytes per kept entry, less [`CORRECTION_SHARE`] of it for BC1
+/// and BC4; 0 for the float formats.
 pub fn default_sparse_fraction(format: Format, channels: usize) -> f32 {
     if !format.is_log() {
         return 0.0;
     }
-    let planes = if format == Format::Bc1 { 1 } else { channels };
-    let block_bytes_per_entry = (planes * format.block_bytes()) as f32 / 16.0;
-    SPARSE_BUDGET * block_bytes_per_entry / (4 + 4 * channels) as f32
+    let share = if takes_corrections(format) {
+        1.0 - CORRECTION_SHARE
+    } else {
+        1.0
+    };
+    let per_entry = block_position_bytes(format, channels) / 16.0;
+    share * SPARSE_BUDGET * per_entry / (4 + 4 * channels) as f32
+}
+
+/// The default share of block positions corrected for `format` with `channels`:
+/// [`CORRECTION_SHARE`] of [`SPARSE_BUDGET`] of the block bytes, at `4 + 9·channels` bytes per
+/// correction; 0 for formats other than BC1 and BC4.
+pub fn default_correction_fraction(format: Format, channels: usize) -> f32 {
+    if !takes_corrections(format) {
+        return 0.0;
+    }
+    CORRECTION_SHARE * SPARSE_BUDGET * block_position_bytes(format, channels)
+        / (4 + 9 * channels) as f32
 }
 
 /// Encodes a dense row-major matrix (`n · n · channels` values, channels interleaved per entry)
@@ -185,6 +227,8 @@ pub fn encode_dense(
 /// 4. With emitters: the coupled pass ([`ErrorWeights`], `refine::Coupling`) along each block
 ///    row, over the blocks that hold an emitting column.
 /// 5. The sparse list: each kept entry's exact value minus what its block decodes there.
+/// 6. [`SparseSelection::ErrorDriven`]: the block corrections, `params.corrections` of the
+///    block positions, those where a correction removes the most weighted error (`correct`).
 ///
 /// Float formats keep nothing sparse and are stored as they are. Deterministic: the same input
 /// gives the same bytes on any thread count (per-block work is independent, the coupled pass
@@ -333,8 +377,13 @@ pub fn encode_dense_with(
         scales: Cow::Owned(scales.clone()),
         blocks: Cow::Owned(blocks),
         sparse: SparseRows::empty(n),
+        corrections: BlockCorrections::empty(n),
     };
     matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
+    if selection == SparseSelection::ErrorDriven {
+        let count = (f64::from(params.corrections) * (side * side) as f64) as usize;
+        matrix.corrections = correct::choose(&matrix, dense, weights, count);
+    }
     Ok(matrix)
 }
 
@@ -813,6 +862,9 @@ pub fn check_input(
     }
     if !(0.0..=1.0).contains(&params.sparse_fraction) {
         return Err(EncodeError::Params("sparse_fraction must be in [0, 1]"));
+    }
+    if !(0.0..=1.0).contains(&params.corrections) {
+        return Err(EncodeError::Params("corrections must be in [0, 1]"));
     }
     if !(0.0..=1.0).contains(&params.bc1_retry) {
         return Err(EncodeError::Params("bc1_retry must be in [0, 1]"));

@@ -6,7 +6,8 @@ use crate::bvh::Occluders;
 use crate::effects::{self, Effect, Effects};
 use crate::encode::EncodeError;
 use crate::encode::{
-    EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
+    EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
+    default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
     FAR_RAYS, FormFactorParams, FormFactorSummary, MAX_EXACT_PIECES, NEAR_RAYS, Progress,
@@ -62,6 +63,9 @@ pub struct BakeParams {
     /// Fraction of entries kept exact; `None` for [`default_sparse_fraction`] of the format
     /// (a fixed share of the block bytes).
     pub sparse_fraction: Option<f32>,
+    /// Share of block positions given a block correction; `None` for
+    /// [`default_correction_fraction`] of the format (a fixed share of the block bytes).
+    pub corrections: Option<f32>,
     /// A scene is treated as closed when every row of F sums to 1 within this; its rows are then
     /// rebalanced to sum to exactly 1 (the correction is reported).
     pub closure_tolerance: f64,
@@ -79,6 +83,7 @@ impl Default for BakeParams {
             order: OrderKind::Best,
             encode: EncodeParams::default(),
             sparse_fraction: None,
+            corrections: None,
             closure_tolerance: 0.05,
             seed: 1,
         }
@@ -125,6 +130,10 @@ pub struct Bytes {
     pub blocks: usize,
     /// Sparse arrays.
     pub sparse: usize,
+    /// Block corrections (their four arrays).
+    pub corrections: usize,
+    /// Blocks corrected.
+    pub corrected_blocks: usize,
 }
 
 /// What the bake did and measured: the `bake --json` object (DESIGN.md), also stored in the
@@ -461,6 +470,9 @@ pub fn bake_discretised(
         sparse_fraction: params
             .sparse_fraction
             .unwrap_or_else(|| default_sparse_fraction(format, channels)),
+        corrections: params
+            .corrections
+            .unwrap_or_else(|| default_correction_fraction(format, channels)),
         ..params.encode
     };
 
@@ -565,6 +577,8 @@ pub fn bake_discretised(
     };
     let blocks = file.matrix.blocks.len();
     let sparse = file.matrix.sparse.bytes();
+    let corrections = file.matrix.corrections.bytes();
+    let corrected_blocks = file.matrix.corrections.count();
     let discretise_ms: f64 = system.timings_ms.values().sum();
     timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let mut report = BakeReport {
@@ -580,6 +594,8 @@ pub fn bake_discretised(
             total: 0,
             blocks,
             sparse,
+            corrections,
+            corrected_blocks,
         },
         rays_cast: system.rays_cast,
         form_factors: system.form_factors,

@@ -23,7 +23,7 @@ compile_error!("the .rad zero-copy parser assumes a little-endian target");
 use crate::checksum::{Crc32, crc32};
 use crate::layout::{Format, MatrixLayout};
 use crate::mesh::Mesh;
-use crate::{Patch, RadError, SectionKind, SparseRows, TransferMatrix};
+use crate::{BlockCorrections, Patch, RadError, SectionKind, SparseRows, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::string::String;
 use alloc::vec::Vec;
@@ -31,8 +31,12 @@ use bytemuck::{Pod, Zeroable};
 
 /// The first 8 bytes of every `.rad` file.
 pub const MAGIC: [u8; 8] = *b"\x89RAD\r\n\x1a\n";
-/// The version this build writes and reads.
-pub const VERSION: u32 = 1;
+/// The version this build writes. Version 2 added the block corrections (META's
+/// `correction_count` and `correction_base`, sections 12–15).
+pub const VERSION: u32 = 2;
+/// The oldest version this build reads: version-1 files are version-2 files without block
+/// corrections.
+pub const OLDEST_VERSION: u32 = 1;
 /// Sections start at multiples of this.
 pub const SECTION_ALIGN: u64 = 16;
 
@@ -96,8 +100,12 @@ pub struct Meta {
     pub compression_rmse: f32,
     /// Relative L2 error of the lighting from the scene's own emitters; negative when not measured.
     pub lighting_error: f32,
+    /// Blocks with a correction ([`crate::BlockCorrections`]); 0 in version-1 files.
+    pub correction_count: u32,
+    /// [`crate::BlockCorrections::base`].
+    pub correction_base: [f32; 3],
     /// Zero.
-    pub reserved: [u32; 6],
+    pub reserved: [u32; 2],
 }
 
 /// How many bounces the matrix carries.
@@ -317,7 +325,9 @@ impl<'a> RadFile<'a> {
             sparse_nnz: self.matrix.sparse.nnz() as u32,
             compression_rmse: opt_to_f32(self.compression_rmse),
             lighting_error: opt_to_f32(self.lighting_error),
-            reserved: [0; 6],
+            correction_count: self.matrix.corrections.count() as u32,
+            correction_base: self.matrix.corrections.base,
+            reserved: [0; 2],
         };
         let objects = encode_objects(&self.objects);
         let mut sections: Vec<(SectionKind, &[u8])> = alloc::vec![
@@ -349,6 +359,18 @@ impl<'a> RadFile<'a> {
         let mesh = self.mesh.as_ref().map(Mesh::to_bytes);
         if let Some(m) = &mesh {
             sections.push((SectionKind::Mesh, m));
+        }
+        let c = &self.matrix.corrections;
+        if !c.is_empty() {
+            sections.extend([
+                (
+                    SectionKind::CorrectionRows,
+                    bytemuck::cast_slice(&c.row_ptr),
+                ),
+                (SectionKind::CorrectionCols, bytemuck::cast_slice(&c.cols)),
+                (SectionKind::CorrectionExponents, &c.exponents[..]),
+                (SectionKind::CorrectionCodes, bytemuck::cast_slice(&c.codes)),
+            ]);
         }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());
@@ -432,6 +454,7 @@ impl<'a> RadFile<'a> {
             }
         }
         let (n, ch, nnz) = (meta.n as u64, meta.channels as u64, meta.sparse_nnz as u64);
+        let corrections = read_corrections(&s, &meta, &layout)?;
         let required = |k: SectionKind| sec(k).ok_or(RadError::MissingSection { kind: k });
         let patches = required(SectionKind::Patches)?;
         expect_len(
@@ -474,6 +497,7 @@ impl<'a> RadFile<'a> {
                     cols: cast(cols),
                     values: cast(values),
                 },
+                corrections,
             },
             objects,
             bounces,
@@ -512,7 +536,65 @@ impl<'a> RadFile<'a> {
 
 /// The byte-level structure of a file: the header and each known section's bytes.
 struct Structure<'a> {
+    version: u32,
     sections: [Option<&'a [u8]>; SectionKind::ALL.len()],
+}
+
+/// The block corrections META announces: all four sections with their exact lengths when
+/// `correction_count > 0`, none of them (and a zero base) otherwise, none in a version-1 file.
+fn read_corrections<'a>(
+    s: &Structure<'a>,
+    meta: &Meta,
+    layout: &MatrixLayout,
+) -> Result<BlockCorrections<'a>, RadError> {
+    const KINDS: [SectionKind; 4] = [
+        SectionKind::CorrectionRows,
+        SectionKind::CorrectionCols,
+        SectionKind::CorrectionExponents,
+        SectionKind::CorrectionCodes,
+    ];
+    let sec = |k: SectionKind| s.sections[k as usize - 1];
+    let count = u64::from(meta.correction_count);
+    if count == 0 {
+        if let Some(&kind) = KINDS.iter().find(|k| sec(**k).is_some()) {
+            return Err(RadError::Invalid {
+                section: kind,
+                index: 0,
+                reason: "block-correction section in a file without corrections",
+            });
+        }
+        if meta.correction_base != [0.0; 3] {
+            return Err(RadError::Invalid {
+                section: SectionKind::Meta,
+                index: 0,
+                reason: "correction base set in a file without corrections",
+            });
+        }
+        return Ok(BlockCorrections::empty(layout.n()));
+    }
+    if s.version < 2 {
+        return Err(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "block corrections in a version-1 file",
+        });
+    }
+    let ch = layout.channels() as u64;
+    let side = layout.padded() as u64 / 4;
+    let lens = [4 * (side + 1), 4 * count, count * ch, 8 * count * ch];
+    let mut bytes = [&[][..]; 4];
+    for ((kind, len), out) in KINDS.into_iter().zip(lens).zip(&mut bytes) {
+        let b = sec(kind).ok_or(RadError::MissingSection { kind })?;
+        expect_len(kind, b, len)?;
+        *out = b;
+    }
+    Ok(BlockCorrections {
+        row_ptr: cast(bytes[0]),
+        cols: cast(bytes[1]),
+        exponents: Cow::Borrowed(bytes[2]),
+        codes: cast(bytes[3]),
+        base: meta.correction_base,
+    })
 }
 
 fn header_checksum(header: &Header, table: &[u8]) -> u32 {
@@ -538,7 +620,7 @@ fn read_table(bytes: &[u8]) -> Result<(Header, Vec<SectionEntry>), RadError> {
     if header.magic != MAGIC {
         return Err(RadError::BadMagic);
     }
-    if header.version != VERSION {
+    if !(OLDEST_VERSION..=VERSION).contains(&header.version) {
         return Err(RadError::UnsupportedVersion {
             found: header.version,
         });
@@ -658,7 +740,10 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
             return Err(RadError::MissingSection { kind: k });
         }
     }
-    Ok(Structure { sections })
+    Ok(Structure {
+        version: header.version,
+        sections,
+    })
 }
 
 fn check_padding(bytes: &[u8], from: u64, to: u64) -> Result<(), RadError> {

@@ -29,11 +29,19 @@ pub enum SectionKind {
     Report = 10,
     /// Optional full-detail mesh ([`crate::mesh::Mesh`]).
     Mesh = 11,
+    /// `[u32; padded/4 + 1]` block-correction row offsets (only with corrections).
+    CorrectionRows = 12,
+    /// `[u32; count]` block-correction columns.
+    CorrectionCols = 13,
+    /// `[u8; count · channels]` block-correction scale exponents.
+    CorrectionExponents = 14,
+    /// `[u32; count · channels · 2]` block-correction nibbles.
+    CorrectionCodes = 15,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 11] = [
+    pub const ALL: [SectionKind; 15] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -45,6 +53,10 @@ impl SectionKind {
         SectionKind::Objects,
         SectionKind::Report,
         SectionKind::Mesh,
+        SectionKind::CorrectionRows,
+        SectionKind::CorrectionCols,
+        SectionKind::CorrectionExponents,
+        SectionKind::CorrectionCodes,
     ];
 
     /// The kind with this code.
@@ -54,7 +66,15 @@ impl SectionKind {
 
     /// Whether every file must have it.
     pub fn required(self) -> bool {
-        !matches!(self, SectionKind::Report | SectionKind::Mesh)
+        !matches!(
+            self,
+            SectionKind::Report
+                | SectionKind::Mesh
+                | SectionKind::CorrectionRows
+                | SectionKind::CorrectionCols
+                | SectionKind::CorrectionExponents
+                | SectionKind::CorrectionCodes
+        )
     }
 
     /// Upper-case name used in messages.
@@ -71,6 +91,10 @@ impl SectionKind {
             SectionKind::Objects => "OBJECTS",
             SectionKind::Report => "REPORT",
             SectionKind::Mesh => "MESH",
+            SectionKind::CorrectionRows => "CORRECTION_ROWS",
+            SectionKind::CorrectionCols => "CORRECTION_COLS",
+            SectionKind::CorrectionExponents => "CORRECTION_EXPONENTS",
+            SectionKind::CorrectionCodes => "CORRECTION_CODES",
         }
     }
 }

@@ -72,6 +72,7 @@ mod bc4;
 mod checksum;
 mod color;
 pub mod container;
+pub mod corrections;
 mod error;
 mod gather;
 pub mod half;
@@ -95,6 +96,7 @@ pub use bc4::{
 pub use checksum::{Crc32, crc32};
 pub use color::Rgb;
 pub use container::{Bounces, PatchOrder, RadFile};
+pub use corrections::BlockCorrections;
 pub use error::{RadError, SectionKind};
 pub use gather::{Gather, GatherError, ReferenceGather, check_gather_args};
 pub use layout::{DEFAULT_MAX_TILE, Format, LayoutError, MatrixLayout, Tile};

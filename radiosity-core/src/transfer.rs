@@ -4,7 +4,7 @@ use crate::bc1::Bc1Block;
 use crate::bc4::Bc4Block;
 use crate::half::{f16_is_finite, f16_to_f32};
 use crate::layout::{Format, MatrixLayout, Tile};
-use crate::{DecodeMode, LogScale, RadError, SectionKind, SparseRows};
+use crate::{BlockCorrections, DecodeMode, LogScale, RadError, SectionKind, SparseRows};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
 
@@ -21,6 +21,8 @@ pub struct TransferMatrix<'a> {
     pub blocks: Cow<'a, [u8]>,
     /// The large entries, exact; zero in the blocks.
     pub sparse: SparseRows<'a>,
+    /// Residuals added to a few whole blocks ([`BlockCorrections`]); empty for the float formats.
+    pub corrections: BlockCorrections<'a>,
 }
 
 /// Decodes blocks of one matrix to values: holds the decode mode and a 256-entry table per scale.
@@ -137,7 +139,7 @@ impl<'a> TransferMatrix<'a> {
         if let Some(i) = sp.values.iter().position(|v| !v.is_finite()) {
             return Err(bad(SectionKind::SparseValues, i, "value not finite"));
         }
-        Ok(())
+        self.corrections.validate(l)
     }
 
     /// A decoder for this matrix under `mode` (builds the scale tables once).
@@ -148,15 +150,16 @@ impl<'a> TransferMatrix<'a> {
         }
     }
 
-    /// Bytes of block data plus sparse arrays plus scales: what a gather reads.
+    /// Bytes of block data plus sparse arrays plus corrections plus scales: what a gather reads.
     pub fn bytes(&self) -> usize {
         self.blocks.len()
             + self.sparse.bytes()
+            + self.corrections.bytes()
             + self.scales.len() * core::mem::size_of::<LogScale>()
     }
 
-    /// The whole matrix decoded, row-major, `channels` values per entry interleaved, blocks and
-    /// sparse part added. Allocates `n² · channels` floats: for tests and error measurement.
+    /// The whole matrix decoded, row-major, `channels` values per entry interleaved, blocks,
+    /// block corrections and sparse part added. Allocates `n² · channels` floats: for tests and error measurement.
     pub fn decode_dense(&self, mode: DecodeMode) -> Vec<f32> {
         let l = &self.layout;
         let (n, ch) = (l.n(), l.channels());
@@ -173,6 +176,21 @@ impl<'a> TransferMatrix<'a> {
                             for k in 0..ch {
                                 out[(r * n + c) * ch + k] = vals[k][i];
                             }
+                        }
+                    }
+                }
+            }
+        }
+        let tables = self.correction_tables();
+        for br in 0..l.padded() / 4 {
+            for (bc, index) in self.corrections.row(br) {
+                let mut fix = [[0f32; 16]; 3];
+                self.corrections.add(index, ch, &tables, &mut fix);
+                for i in 0..16 {
+                    let (r, c) = (br * 4 + i / 4, bc * 4 + i % 4);
+                    if r < n && c < n {
+                        for k in 0..ch {
+                            out[(r * n + c) * ch + k] += fix[k][i];
                         }
                     }
                 }
@@ -195,7 +213,79 @@ impl<'a> TransferMatrix<'a> {
             scales: Cow::Owned(self.scales.into_owned()),
             blocks: Cow::Owned(self.blocks.into_owned()),
             sparse: self.sparse.into_owned(),
+            corrections: self.corrections.into_owned(),
         }
+    }
+
+    /// The sparse list with the block corrections folded in: every corrected texel with a
+    /// non-zero multiple becomes an entry (added to the sparse entry already there, if any),
+    /// valued as [`BlockCorrections::add`] values it. For a backend without a corrections pass
+    /// of its own; 16 entries per correction at most, so it costs more memory than the
+    /// corrections themselves.
+    pub fn sparse_with_corrections(&self) -> SparseRows<'static> {
+        let l = &self.layout;
+        let (n, ch) = (l.n(), l.channels());
+        let tables = self.correction_tables();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut cols = Vec::new();
+        let mut values = Vec::new();
+        row_ptr.push(0u32);
+        let mut fixes: Vec<(usize, BlockValues)> = Vec::new();
+        for r in 0..n {
+            if r % 4 == 0 {
+                fixes.clear();
+                for (bc, index) in self.corrections.row(r / 4) {
+                    let mut fix = [[0f32; 16]; 3];
+                    self.corrections.add(index, ch, &tables, &mut fix);
+                    fixes.push((bc, fix));
+                }
+            }
+            let mut sparse = self.sparse.row(r, ch).peekable();
+            let mut corrected = fixes
+                .iter()
+                .flat_map(|(bc, fix)| {
+                    (0..4).map(move |j| {
+                        let t = (r % 4) * 4 + j;
+                        (bc * 4 + j, core::array::from_fn::<f32, 3, _>(|k| fix[k][t]))
+                    })
+                })
+                .filter(|(c, v)| *c < n && v[..ch].iter().any(|x| *x != 0.0))
+                .peekable();
+            loop {
+                let next_sparse = sparse.peek().map(|(c, _)| *c);
+                let next_fix = corrected.peek().map(|(c, _)| *c);
+                let (c, v): (usize, [f32; 3]) = match (next_sparse, next_fix) {
+                    (None, None) => break,
+                    (Some(a), Some(b)) if a == b => {
+                        let (_, s) = sparse.next().expect("peeked");
+                        let (_, f) = corrected.next().expect("peeked");
+                        (
+                            a,
+                            core::array::from_fn(|k| if k < ch { s[k] + f[k] } else { 0.0 }),
+                        )
+                    }
+                    (Some(a), b) if b.is_none_or(|b| a < b) => {
+                        let (_, s) = sparse.next().expect("peeked");
+                        (a, core::array::from_fn(|k| if k < ch { s[k] } else { 0.0 }))
+                    }
+                    _ => corrected.next().expect("peeked"),
+                };
+                cols.push(c as u32);
+                values.extend_from_slice(&v[..ch]);
+            }
+            row_ptr.push(cols.len() as u32);
+        }
+        SparseRows {
+            row_ptr: Cow::Owned(row_ptr),
+            cols: Cow::Owned(cols),
+            values: Cow::Owned(values),
+        }
+    }
+
+    /// The scale tables of the block corrections, one per channel
+    /// ([`BlockCorrections::scale_table`]; unused channels all zero).
+    pub fn correction_tables(&self) -> [[f32; 256]; 3] {
+        core::array::from_fn(|k| self.corrections.scale_table(k))
     }
 }
 

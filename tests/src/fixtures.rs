@@ -1,7 +1,7 @@
 //! Deterministic inputs shared by the cross-crate tests: a tiny PRNG, form-factor-like
 //! matrices, and a complete sample `.rad` file.
 
-use radiosity_bake::encode::{EncodeParams, encode_dense};
+use radiosity_bake::encode::{EncodeParams, ErrorWeights, SparseSelection, encode_dense_with};
 use radiosity_core::{
     Bounces, DecodeMode, Format, Gather, GatherError, Patch, PatchOrder, RadFile, ReferenceGather,
     Rgb, TransferMatrix, check_gather_args,
@@ -57,16 +57,26 @@ pub fn sample_patches(n: usize) -> Vec<Patch> {
 }
 
 /// A complete, valid `.rad` file: `n` patches, `channels`, `format`, tiles of `max_tile`,
-/// 2% sparse entries, a reversed patch order, two objects and a report.
+/// 2% sparse entries, for BC1 and BC4 a quarter of the blocks corrected (the bake's
+/// error-driven encode), a reversed patch order, two objects and a report.
 pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> RadFile<'static> {
     let dense = transfer_like_matrix(n, channels, 7);
     let params = EncodeParams {
         format,
         max_tile,
         sparse_fraction: 0.02,
+        corrections: 0.25,
         ..EncodeParams::default()
     };
-    let matrix = encode_dense(n, channels, &dense, &params).expect("sample matrix encodes");
+    let matrix = encode_dense_with(
+        n,
+        channels,
+        &dense,
+        &params,
+        &ErrorWeights::uniform(),
+        SparseSelection::ErrorDriven,
+    )
+    .expect("sample matrix encodes");
     RadFile {
         patches: Cow::Owned(sample_patches(n)),
         order: Cow::Owned((0..n as u32).rev().collect()),

@@ -8,7 +8,9 @@
 //! The seed corpus is made here too ([`seed_corpus`]), deterministically, so that it can be
 //! regenerated after a format change (see `fuzz/README.md`).
 
-use radiosity_bake::encode::{EncodeError, EncodeParams, encode_dense};
+use radiosity_bake::encode::{
+    EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense, encode_dense_with,
+};
 use radiosity_core::container::reseal;
 use radiosity_core::half::f16_to_f32;
 use radiosity_core::{
@@ -232,7 +234,9 @@ pub struct EncodeCase {
 }
 
 impl EncodeCase {
-    /// Layout of the input: byte 0 picks n (`1 + b % 24`); byte 1: bit 0 three channels, bits
+    /// Layout of the input: byte 0 picks n (`1 + b % 24`) and the share of blocks corrected
+    /// (`[0, 0.1, 1][b / 24 % 3]`; with corrections the encode is the bake's error-driven one);
+    /// byte 1: bit 0 three channels, bits
     /// 1..=3 the format (BC1 only with three channels), bits 4..=5 `max_tile` (4, 8, 16, 8),
     /// bits 6..=7 the sparse fraction (0, 1%, 10%, 100%); byte 2: bits 0..=1 the shift (ln 1000,
     /// 1, 4, 30), bit 2 the iterative BC1 fit, bits 3..=4 the patch order, bit 5 a report, bit
@@ -259,6 +263,7 @@ impl EncodeCase {
             sparse_fraction,
             bc1_retry: [0.0, 0.05, 0.5, 1.0][usize::from((b2 >> 3) & 3)],
             bc1_iterative: b2 & 4 != 0,
+            corrections: [0.0, 0.1, 1.0][usize::from(b0 / 24) % 3],
         };
         let narrow = b2 & 0x80 != 0;
         let body = data.get(3..).unwrap_or(&[]);
@@ -363,7 +368,19 @@ pub fn check_encode_roundtrip(data: &[u8]) {
     let (n, ch) = (case.n, case.channels);
     let format = case.params.format;
     let f16_overflow = format == Format::F16 && case.dense.iter().any(|v| *v > F16_MAX);
-    let matrix = match encode_dense(n, ch, &case.dense, &case.params) {
+    let encoded = if case.params.corrections > 0.0 {
+        encode_dense_with(
+            n,
+            ch,
+            &case.dense,
+            &case.params,
+            &ErrorWeights::uniform(),
+            SparseSelection::ErrorDriven,
+        )
+    } else {
+        encode_dense(n, ch, &case.dense, &case.params)
+    };
+    let matrix = match encoded {
         Ok(m) => {
             assert!(!f16_overflow, "f16 accepted a value above {F16_MAX}");
             m
@@ -387,6 +404,7 @@ pub fn check_encode_roundtrip(data: &[u8]) {
     let decoded = m.decode_dense(DecodeMode::D3d10);
     assert_eq!(decoded.len(), n * n * ch);
     let sparse = sparse_mask(&m.sparse, n, ch);
+    let fixes = correction_dense(m);
     if !format.is_log() {
         assert_eq!(
             m.sparse.nnz(),
@@ -405,7 +423,9 @@ pub fn check_encode_roundtrip(data: &[u8]) {
                     "{}: decoded {d} not finite and non-negative",
                     at()
                 );
+                let fix = fixes[i];
                 if sparse[r * n + c] {
+                    assert_eq!(fix, 0.0, "{}: a sparse texel was corrected", at());
                     // Sparse entries are exact: the list stores the entry minus its block's
                     // decoded value, and decode_dense adds the two back in f32, which rounds
                     // once: within 2^-23 of the larger of the entry and the tile's v_max.
@@ -431,9 +451,10 @@ pub fn check_encode_roundtrip(data: &[u8]) {
                         if format == Format::U8 {
                             check_u8(v, d, scale.v_max, scale.shift, &at);
                         } else {
+                            // A block correction may lift a texel by its own size past v_max.
                             assert!(
-                                d <= scale.v_max,
-                                "{}: decoded {d} above the tile's v_max {}",
+                                d <= scale.v_max + fix.abs(),
+                                "{}: decoded {d} above the tile's v_max {} (corrected by {fix})",
                                 at(),
                                 scale.v_max
                             );
@@ -448,6 +469,28 @@ pub fn check_encode_roundtrip(data: &[u8]) {
 
 /// The largest finite binary16 value.
 const F16_MAX: f32 = 65504.0;
+
+/// The block corrections alone as a dense `n · n · channels` matrix.
+fn correction_dense(m: &TransferMatrix<'_>) -> Vec<f32> {
+    let (n, ch) = (m.layout.n(), m.layout.channels());
+    let tables = m.correction_tables();
+    let mut out = vec![0f32; n * n * ch];
+    for br in 0..m.layout.padded() / 4 {
+        for (bc, index) in m.corrections.row(br) {
+            let mut fix = [[0f32; 16]; 3];
+            m.corrections.add(index, ch, &tables, &mut fix);
+            for t in 0..16 {
+                let (r, c) = (br * 4 + t / 4, bc * 4 + t % 4);
+                if r < n && c < n {
+                    for k in 0..ch {
+                        out[(r * n + c) * ch + k] = fix[k][t];
+                    }
+                }
+            }
+        }
+    }
+    out
+}
 
 /// Marks the entries held by the sparse list.
 fn sparse_mask(sp: &SparseRows<'_>, n: usize, channels: usize) -> Vec<bool> {
@@ -525,6 +568,8 @@ fn check_gather(m: &TransferMatrix<'_>, decoded: &[f32], x: &[Rgb]) {
     let mut gather = ReferenceGather::new(m.clone(), DecodeMode::D3d10);
     let mut y = vec![Rgb::ZERO; n];
     gather.gather(x, &mut y).expect("gather");
+    // A corrected entry is decoded as one f32 sum but gathered as two terms, like a sparse one.
+    let fixes = correction_dense(m);
     for r in 0..n {
         for k in 0..3 {
             let (mut sum, mut s) = (0f64, 0f64);
@@ -539,6 +584,10 @@ fn check_gather(m: &TransferMatrix<'_>, decoded: &[f32], x: &[Rgb]) {
                 let c = sp.cols[idx] as usize;
                 let v = sp.values[idx * ch + if ch == 1 { 0 } else { k }];
                 s += 2.0 * (f64::from(v) * f64::from(x[c].channel(k))).abs();
+            }
+            for c in 0..n {
+                let f = fixes[(r * n + c) * ch + if ch == 1 { 0 } else { k }];
+                s += 2.0 * (f64::from(f) * f64::from(x[c].channel(k))).abs();
             }
             let (got, want) = (y[r].channel(k), sum as f32);
             let tol = 4.0 * s / 16_777_216.0 + 2.0 * f64::from(f32::from_bits(1));

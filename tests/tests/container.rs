@@ -153,12 +153,23 @@ fn zeroed_sections_and_garbage_headers() {
         );
     }
     let mut b = bytes.clone();
-    b[8] = 2;
+    b[8] = 3;
     reseal(&mut b).unwrap();
     assert_eq!(
         RadFile::parse(&b),
-        Err(RadError::UnsupportedVersion { found: 2 })
+        Err(RadError::UnsupportedVersion { found: 3 })
     );
+    // Version 1 had no block corrections: a file that has some cannot claim it.
+    let mut b = bytes.clone();
+    b[8] = 1;
+    reseal(&mut b).unwrap();
+    assert!(matches!(
+        RadFile::parse(&b),
+        Err(RadError::Invalid {
+            section: SectionKind::Meta,
+            ..
+        })
+    ));
     let mut b = bytes.clone();
     b.push(0);
     assert!(matches!(
@@ -369,10 +380,40 @@ fn bad_meta_values() {
         }
     ));
     assert!(matches!(
-        corrupt_meta(|m| m.reserved[2] = 1),
+        corrupt_meta(|m| m.reserved[1] = 1),
         RadError::Invalid {
             section: SectionKind::Meta,
-            index: 2,
+            index: 1,
+            ..
+        }
+    ));
+    // The sample has block corrections: their count must match the sections, their base be
+    // finite and positive in the stored channels.
+    assert!(matches!(
+        corrupt_meta(|m| m.correction_base[0] = f32::NAN),
+        RadError::Invalid {
+            section: SectionKind::Meta,
+            ..
+        }
+    ));
+    assert!(matches!(
+        corrupt_meta(|m| m.correction_base[1] = 0.0),
+        RadError::Invalid {
+            section: SectionKind::Meta,
+            ..
+        }
+    ));
+    assert!(matches!(
+        corrupt_meta(|m| m.correction_count += 1),
+        RadError::SectionLength {
+            kind: SectionKind::CorrectionCols,
+            ..
+        }
+    ));
+    assert!(matches!(
+        corrupt_meta(|m| m.correction_count = 0),
+        RadError::Invalid {
+            section: SectionKind::CorrectionRows,
             ..
         }
     ));
@@ -600,4 +641,32 @@ fn errors_say_what_and_where() {
         computed: 2,
     };
     assert!(e.to_string().contains("BLOCKS") && e.to_string().contains("4096"));
+}
+
+#[test]
+fn version_one_files_still_load() {
+    // A version-1 file is a version-2 file without block corrections (META's correction
+    // fields were reserved zeros, sections 12–15 did not exist).
+    let mut file = sample_file(37, 3, Format::Bc1, 16);
+    file.matrix.corrections = radiosity_core::BlockCorrections::empty(37);
+    let mut b = file.to_bytes().expect("valid");
+    assert_eq!(b[8], 2, "this build writes version 2");
+    b[8] = 1;
+    reseal(&mut b).unwrap();
+    assert_eq!(RadFile::parse(&b), Ok(file));
+}
+
+#[test]
+fn corrections_round_trip_and_count() {
+    let file = sample_file(37, 3, Format::Bc1, 16);
+    let c = &file.matrix.corrections;
+    // 10 × 10 block positions, a quarter corrected at most (fewer where nothing is left).
+    assert!(
+        c.count() > 0 && c.count() <= 25,
+        "{} corrections",
+        c.count()
+    );
+    let bytes = file.to_bytes().unwrap();
+    let parsed = RadFile::parse(&bytes).unwrap();
+    assert_eq!(parsed.matrix.corrections, *c);
 }

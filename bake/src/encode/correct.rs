@@ -1,0 +1,201 @@
+//! Choosing the block corrections ([`radiosity_core::BlockCorrections`]) of an encoded matrix.
+//!
+//! Every block's residual after the block fit and the sparse list is quantised to sixteen
+//! signed 4-bit multiples per channel of the smallest scale step that covers its largest
+//! residual; the blocks where that removes the most weighted squared error are kept, as many as
+//! the budget allows. In a good order the error sits in few blocks, so a few corrections remove
+//! much of it; in a random order it is spread and they remove little (ARCHITECTURE.md, "Block
+//! corrections").
+
+use super::ErrorWeights;
+use radiosity_core::corrections::{EXPONENT_STEPS, ZERO_NIBBLE, scale};
+use radiosity_core::{BlockCorrections, DecodeMode, TransferMatrix};
+use rayon::prelude::*;
+use std::borrow::Cow;
+
+/// The largest multiple a scale is chosen for: the block's largest residual maps to ±7, so
+/// rounding never needs the −8 the nibble could hold.
+const TOP_MULTIPLE: f32 = 7.0;
+
+/// One block's candidate correction.
+struct Candidate {
+    /// Weighted squared error it removes.
+    gain: f64,
+    /// Block index, row-major over the padded matrix's block rows and columns.
+    block: usize,
+    exponents: [u8; 3],
+    codes: [[u32; 2]; 3],
+}
+
+/// The best `count` corrections of `m` (blocks and sparse part already final) against the
+/// exact `dense`, judged by `weights`.
+pub(super) fn choose(
+    m: &TransferMatrix<'_>,
+    dense: &[f32],
+    weights: &ErrorWeights,
+    count: usize,
+) -> BlockCorrections<'static> {
+    let l = &m.layout;
+    let (n, ch) = (l.n(), l.channels());
+    let side = l.padded() / 4;
+    if count == 0 || !super::takes_corrections(l.format()) {
+        return BlockCorrections::empty(n);
+    }
+    // No residual exceeds the largest decodable value (entries above their tile's `v_max`
+    // are sparse and exact), so a scale of `v_max / 7` covers every block at exponent 0.
+    let mut base = [0f32; 3];
+    for (k, b) in base.iter_mut().enumerate().take(ch) {
+        *b = (0..l.tile_count())
+            .map(|t| m.scales[l.scale_index(t, k)].v_max)
+            .fold(0.0, f32::max)
+            / TOP_MULTIPLE;
+    }
+    let decoder = m.decoder(DecodeMode::D3d10);
+    let mut candidates: Vec<Candidate> = (0..side)
+        .into_par_iter()
+        .flat_map_iter(|br| {
+            // The block row as decoded: blocks, then the sparse entries of its four rows (their
+            // texels are exact and keep the zero multiple).
+            let mut row = vec![([[0f32; 16]; 3], 0u16); side];
+            for (bc, (vals, _)) in row.iter_mut().enumerate() {
+                let (tile, tbr, tbc) = l.locate(br * 4, bc * 4);
+                decoder.decode(m, &tile, tbr, tbc, vals);
+            }
+            for r in br * 4..(br * 4 + 4).min(n) {
+                for (c, v) in m.sparse.row(r, ch) {
+                    let t = (r % 4) * 4 + c % 4;
+                    let (vals, sparse) = &mut row[c / 4];
+                    *sparse |= 1 << t;
+                    for k in 0..ch {
+                        vals[k][t] += v[k];
+                    }
+                }
+            }
+            (0..side).filter_map(move |bc| {
+                let (vals, sparse) = &row[bc];
+                candidate(br, bc, vals, *sparse, dense, n, ch, weights, &base)
+            })
+        })
+        .collect();
+    let count = count.min(candidates.len());
+    if count == 0 {
+        return BlockCorrections::empty(n);
+    }
+    // The largest gains, ties broken by block index: the same choice on any thread count.
+    let better =
+        |a: &Candidate, b: &Candidate| b.gain.total_cmp(&a.gain).then(a.block.cmp(&b.block));
+    candidates.select_nth_unstable_by(count - 1, better);
+    candidates.truncate(count);
+    candidates.sort_unstable_by_key(|c| c.block);
+
+    let mut row_ptr = Vec::with_capacity(side + 1);
+    let mut cols = Vec::with_capacity(count);
+    let mut exponents = Vec::with_capacity(count * ch);
+    let mut codes = Vec::with_capacity(count * ch * 2);
+    row_ptr.push(0u32);
+    let mut next = candidates.iter().peekable();
+    for br in 0..side {
+        while let Some(c) = next.next_if(|c| c.block / side == br) {
+            cols.push((c.block % side) as u32);
+            exponents.extend_from_slice(&c.exponents[..ch]);
+            for words in &c.codes[..ch] {
+                codes.extend_from_slice(words);
+            }
+        }
+        row_ptr.push(cols.len() as u32);
+    }
+    BlockCorrections {
+        row_ptr: Cow::Owned(row_ptr),
+        cols: Cow::Owned(cols),
+        exponents: Cow::Owned(exponents),
+        codes: Cow::Owned(codes),
+        base,
+    }
+}
+
+/// The correction of block (`br`, `bc`) whose decoded values are `decoded` and whose texels
+/// in the mask `sparse` are exact, if it removes any error. Every corrected value stays
+/// non-negative, as decoded (`decoded + multiple · scale` in `f32`).
+#[allow(clippy::too_many_arguments)]
+fn candidate(
+    br: usize,
+    bc: usize,
+    decoded: &[[f32; 16]; 3],
+    sparse: u16,
+    dense: &[f32],
+    n: usize,
+    ch: usize,
+    weights: &ErrorWeights,
+    base: &[f32; 3],
+) -> Option<Candidate> {
+    let mut c = Candidate {
+        gain: 0.0,
+        block: br * (n.div_ceil(4)) + bc,
+        exponents: [0; 3],
+        codes: [[0x8888_8888; 2]; 3],
+    };
+    debug_assert_eq!(ZERO_NIBBLE, 8);
+    let texels = || {
+        (0..16)
+            .map(move |t| (t, br * 4 + t / 4, bc * 4 + t % 4))
+            .filter(move |&(t, r, col)| r < n && col < n && sparse & (1 << t) == 0)
+    };
+    for k in 0..ch {
+        let residual =
+            |t: usize, r: usize, col: usize| dense[(r * n + col) * ch + k] - decoded[k][t];
+        let largest = texels()
+            .map(|(t, r, col)| residual(t, r, col).abs())
+            .fold(0f32, f32::max);
+        if !(largest > 0.0) {
+            continue;
+        }
+        let e = exponent(base[k], largest / TOP_MULTIPLE);
+        let s = scale(base[k], e);
+        c.exponents[k] = e;
+        for (t, r, col) in texels() {
+            let res = residual(t, r, col);
+            let mut q = (res / s).round().clamp(-8.0, 7.0);
+            while q < TOP_MULTIPLE && decoded[k][t] + q * s < 0.0 {
+                q += 1.0;
+            }
+            let after = res - q * s;
+            let w = f64::from(weights.weight(col, k, ch));
+            c.gain += w * (f64::from(res).powi(2) - f64::from(after).powi(2));
+            let nibble = (q as i32 + ZERO_NIBBLE as i32) as u32;
+            let word = &mut c.codes[k][t / 8];
+            *word = (*word & !(15 << (4 * (t % 8)))) | nibble << (4 * (t % 8));
+        }
+    }
+    (c.gain > 0.0).then_some(c)
+}
+
+/// The largest exponent whose scale still covers `needed` (at least `needed`), 0 to 255.
+fn exponent(base: f32, needed: f32) -> u8 {
+    let guess = (f64::from(EXPONENT_STEPS) * (f64::from(base) / f64::from(needed)).log2()).floor();
+    let mut e = guess.clamp(0.0, 255.0) as u8;
+    while e > 0 && scale(base, e) < needed {
+        e -= 1;
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_exponent_is_the_finest_scale_that_covers() {
+        for needed in [1e-9f32, 3.7e-5, 0.01, 0.3, 0.999, 1.0] {
+            let e = exponent(1.0, needed);
+            assert!(scale(1.0, e) >= needed || e == 0, "{needed}");
+            if e < 255 {
+                assert!(
+                    scale(1.0, e + 1) < needed,
+                    "{needed}: e = {e} is not the finest"
+                );
+            }
+        }
+        // Beyond 32 octaves the finest scale is the last one.
+        assert_eq!(exponent(1.0, 1e-12), 255);
+    }
+}
