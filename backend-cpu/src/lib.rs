@@ -79,7 +79,9 @@
 //!
 //! ```
 //! use radiosity_backend_cpu::CpuGather;
-//! use radiosity_core::{Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix};
+//! use radiosity_core::{
+//!     BlockCorrections, Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix,
+//! };
 //! use std::borrow::Cow;
 //!
 //! // A 4×4 grey u8 matrix whose every entry is code 255 (= v_max = 0.5).
@@ -89,6 +91,7 @@
 //!     scales: Cow::Owned(vec![LogScale::new(0.5, 6.9)]),
 //!     blocks: Cow::Owned(vec![255; 16]),
 //!     sparse: SparseRows::empty(4),
+//!     corrections: BlockCorrections::empty(4),
 //! };
 //! let mut gather = CpuGather::new(matrix);
 //! let x = vec![Rgb::new(1.0, 2.0, 0.0); 4];

@@ -32,7 +32,9 @@
 //!
 //! ```
 //! use radiosity_backend_wgpu::{GpuOptions, WgpuGather};
-//! use radiosity_core::{Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix};
+//! use radiosity_core::{
+//!     BlockCorrections, Format, Gather, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix,
+//! };
 //! use std::borrow::Cow;
 //!
 //! // A 4×4 grey u8 matrix whose every entry is code 255 (= v_max = 0.5).
@@ -42,6 +44,7 @@
 //!     scales: Cow::Owned(vec![LogScale::new(0.5, 6.9)]),
 //!     blocks: Cow::Owned(vec![255; 16]),
 //!     sparse: SparseRows::empty(4),
+//!     corrections: BlockCorrections::empty(4),
 //! };
 //! match WgpuGather::new(&matrix, &GpuOptions::default()) {
 //!     Ok(mut gather) => {

@@ -41,6 +41,7 @@
 //!         scales: Cow::Owned(vec![]),
 //!         blocks: Cow::Owned(bytemuck::cast_slice(&block).to_vec()),
 //!         sparse: SparseRows::empty(2),
+//!         corrections: BlockCorrections::empty(2),
 //!     },
 //!     objects: vec![Cow::Borrowed("box")],
 //!     bounces: Bounces::Infinite,
