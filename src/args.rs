@@ -26,6 +26,10 @@ pub(crate) struct BakeArgs {
     /// Fraction of the largest entries kept exactly in the sparse list (log formats).
     #[arg(long)]
     pub(crate) sparse: Option<f32>,
+    /// Share of the 4×4 blocks given a block correction, sixteen 4-bit residuals per channel
+    /// (BC1 and BC4; default: three quarters of the sparse budget, 2.5% of the blocks for BC1)
+    #[arg(long)]
+    pub(crate) corrections: Option<f32>,
     /// Largest tile side in patches (a multiple of 4); each tile has its own log scale per
     /// channel
     #[arg(long)]

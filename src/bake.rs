@@ -31,6 +31,12 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
         }
         p.sparse_fraction = Some(f);
     }
+    if let Some(f) = args.corrections {
+        if !(0.0..=1.0).contains(&f) {
+            bail!("--corrections must be a fraction in [0, 1], not {f}");
+        }
+        p.corrections = Some(f);
+    }
     if let Some(t) = args.tile {
         if t < 4 || t % 4 != 0 {
             bail!("--tile must be a positive multiple of 4, not {t}");

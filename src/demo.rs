@@ -29,6 +29,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         format: "auto".into(),
         order: "best".into(),
         sparse: None,
+        corrections: None,
         tile: None,
         form_factors: "default".into(),
         max_reflectance: None,

@@ -89,7 +89,7 @@ pub(crate) fn export(file: &RadFile<'_>, dir: &Path) -> anyhow::Result<usize> {
     }
     let n = index.len();
     let meta = json!({ "patches": file.n(), "tile_size": l.tile_size(), "tiles": index,
-        "note": "rows/cols beyond `patches` are padding; sparse entries are not in the textures" });
+        "note": "rows/cols beyond `patches` are padding; sparse entries and block corrections are not in the textures" });
     std::fs::write(dir.join("tiles.json"), serde_json::to_string_pretty(&meta)?)
         .with_context(|| format!("cannot write {}", dir.join("tiles.json").display()))?;
     Ok(n)

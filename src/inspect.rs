@@ -52,11 +52,13 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "total": total,
             "blocks": m.blocks.len(),
             "sparse": m.sparse.bytes(),
+            "corrections": m.corrections.bytes(),
             "scales": m.scales.len() * std::mem::size_of::<radiosity_core::LogScale>(),
         },
         "tiles": l.tile_count(),
         "tile_size": l.tile_size(),
         "sparse_entries": m.sparse.nnz(),
+        "corrected_blocks": m.corrections.count(),
         "compression_rmse": rmse,
         "lighting_error": file.lighting_error,
         "objects": file.objects.iter().map(|o| o.as_ref()).collect::<Vec<_>>(),
@@ -93,11 +95,13 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         l.tile_size()
     );
     outln!(
-        "  bytes        {:.3} MiB total: blocks {:.3} MiB, sparse {:.3} MiB ({} entries)",
+        "  bytes        {:.3} MiB total: blocks {:.3} MiB, sparse {:.3} MiB ({} entries), corrections {:.3} MiB ({} blocks)",
         mib(&s["bytes"]["total"]),
         mib(&s["bytes"]["blocks"]),
         mib(&s["bytes"]["sparse"]),
-        file.matrix.sparse.nnz()
+        file.matrix.sparse.nnz(),
+        mib(&s["bytes"]["corrections"]),
+        file.matrix.corrections.count()
     );
     let dense_rgb = (file.n() * file.n() * 3 * 4) as f64;
     outln!(

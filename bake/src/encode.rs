@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use refine::{BlockTarget, Coupling};
 use std::borrow::Cow;
 
-mod correct;
+pub(crate) mod correct;
 mod refine;
 mod select;
 
@@ -41,8 +41,8 @@ pub struct EncodeParams {
     /// [`SparseSelection::ErrorDriven`] keeps as many entries, chosen by error instead of size.
     pub sparse_fraction: f32,
     /// Share of the block positions given a block correction ([`radiosity_core::BlockCorrections`],
-    /// `4 + 9·channels` bytes each), those where it removes the most weighted error; log
-    /// formats and [`SparseSelection::ErrorDriven`] only. The default
+    /// `4 + 9·channels` bytes each), those where it removes the most weighted error; BC1 and
+    /// BC4 only. The default
     /// ([`default_correction_fraction`]) spends three quarters of [`SPARSE_BUDGET`] on them.
     pub corrections: f32,
     /// Share of BC1 blocks, those of largest error from the range-fit start, that the
@@ -227,8 +227,8 @@ pub fn encode_dense(
 /// 4. With emitters: the coupled pass ([`ErrorWeights`], `refine::Coupling`) along each block
 ///    row, over the blocks that hold an emitting column.
 /// 5. The sparse list: each kept entry's exact value minus what its block decodes there.
-/// 6. [`SparseSelection::ErrorDriven`]: the block corrections, `params.corrections` of the
-///    block positions, those where a correction removes the most weighted error (`correct`).
+/// 6. The block corrections (BC1, BC4): `params.corrections` of the block positions, those
+///    where a correction removes the most weighted error (`correct`).
 ///
 /// Float formats keep nothing sparse and are stored as they are. Deterministic: the same input
 /// gives the same bytes on any thread count (per-block work is independent, the coupled pass
@@ -380,10 +380,8 @@ pub fn encode_dense_with(
         corrections: BlockCorrections::empty(n),
     };
     matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
-    if selection == SparseSelection::ErrorDriven {
-        let count = (f64::from(params.corrections) * (side * side) as f64) as usize;
-        matrix.corrections = correct::choose(&matrix, dense, weights, count);
-    }
+    let count = correct::count(params, side);
+    matrix.corrections = correct::choose(&matrix, dense, weights, count);
     Ok(matrix)
 }
 

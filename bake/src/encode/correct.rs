@@ -9,7 +9,7 @@
 
 use super::ErrorWeights;
 use radiosity_core::corrections::{EXPONENT_STEPS, ZERO_NIBBLE, scale};
-use radiosity_core::{BlockCorrections, DecodeMode, TransferMatrix};
+use radiosity_core::{BlockCorrections, DecodeMode, LogScale, MatrixLayout, TransferMatrix};
 use rayon::prelude::*;
 use std::borrow::Cow;
 
@@ -41,15 +41,7 @@ pub(super) fn choose(
     if count == 0 || !super::takes_corrections(l.format()) {
         return BlockCorrections::empty(n);
     }
-    // No residual exceeds the largest decodable value (entries above their tile's `v_max`
-    // are sparse and exact), so a scale of `v_max / 7` covers every block at exponent 0.
-    let mut base = [0f32; 3];
-    for (k, b) in base.iter_mut().enumerate().take(ch) {
-        *b = (0..l.tile_count())
-            .map(|t| m.scales[l.scale_index(t, k)].v_max)
-            .fold(0.0, f32::max)
-            / TOP_MULTIPLE;
-    }
+    let base = bases(l, &m.scales);
     let decoder = m.decoder(DecodeMode::D3d10);
     let mut candidates: Vec<Candidate> = (0..side)
         .into_par_iter()
@@ -114,8 +106,7 @@ pub(super) fn choose(
 }
 
 /// The correction of block (`br`, `bc`) whose decoded values are `decoded` and whose texels
-/// in the mask `sparse` are exact, if it removes any error. Every corrected value stays
-/// non-negative, as decoded (`decoded + multiple · scale` in `f32`).
+/// in the mask `sparse` are exact, if it removes any error.
 #[allow(clippy::too_many_arguments)]
 fn candidate(
     br: usize,
@@ -128,45 +119,96 @@ fn candidate(
     weights: &ErrorWeights,
     base: &[f32; 3],
 ) -> Option<Candidate> {
-    let mut c = Candidate {
-        gain: 0.0,
-        block: br * (n.div_ceil(4)) + bc,
-        exponents: [0; 3],
-        codes: [[0x8888_8888; 2]; 3],
-    };
+    let mut exact = [[f32::NAN; 16]; 3];
+    for t in 0..16 {
+        let (r, col) = (br * 4 + t / 4, bc * 4 + t % 4);
+        if r < n && col < n && sparse & (1 << t) == 0 {
+            for k in 0..ch {
+                exact[k][t] = dense[(r * n + col) * ch + k];
+            }
+        }
+    }
+    let (gain, exponents, codes) = fit(decoded, &exact, ch, base, |t, k| {
+        weights.weight(bc * 4 + t % 4, k, ch)
+    });
+    (gain > 0.0).then_some(Candidate {
+        gain,
+        block: br * n.div_ceil(4) + bc,
+        exponents,
+        codes,
+    })
+}
+
+/// Per channel, the scale of exponent 0: the largest `v_max` of any tile over 7. No residual
+/// exceeds the largest decodable value (entries above their tile's `v_max` are sparse and
+/// exact), so exponent 0 covers every block. Zero for the float formats (no scales).
+pub(crate) fn bases(layout: &MatrixLayout, scales: &[LogScale]) -> [f32; 3] {
+    let mut base = [0f32; 3];
+    for (k, b) in base.iter_mut().enumerate().take(layout.channels()) {
+        *b = (0..layout.tile_count())
+            .map(|t| {
+                scales
+                    .get(layout.scale_index(t, k))
+                    .map_or(0.0, |s| s.v_max)
+            })
+            .fold(0.0, f32::max)
+            / TOP_MULTIPLE;
+    }
+    base
+}
+
+/// A block's correction: the weighted squared error it removes (`weight(texel, channel)`),
+/// its exponents and its code words. `decoded` is what the block (and the sparse list)
+/// decode to, `exact` the entries, NaN on texels that do not count (exact already, or beyond
+/// the last patch), which keep the zero multiple. Every corrected value stays non-negative as
+/// decoded (`decoded + multiple · scale` in `f32`).
+pub(crate) fn fit(
+    decoded: &[[f32; 16]; 3],
+    exact: &[[f32; 16]; 3],
+    ch: usize,
+    base: &[f32; 3],
+    weight: impl Fn(usize, usize) -> f32,
+) -> (f64, [u8; 3], [[u32; 2]; 3]) {
     debug_assert_eq!(ZERO_NIBBLE, 8);
-    let texels = || {
-        (0..16)
-            .map(move |t| (t, br * 4 + t / 4, bc * 4 + t % 4))
-            .filter(move |&(t, r, col)| r < n && col < n && sparse & (1 << t) == 0)
-    };
+    let mut gain = 0f64;
+    let mut exponents = [0u8; 3];
+    let mut codes = [[0x8888_8888u32; 2]; 3];
     for k in 0..ch {
-        let residual =
-            |t: usize, r: usize, col: usize| dense[(r * n + col) * ch + k] - decoded[k][t];
-        let largest = texels()
-            .map(|(t, r, col)| residual(t, r, col).abs())
+        let counts = |t: &usize| !exact[k][*t].is_nan();
+        let residual = |t: usize| exact[k][t] - decoded[k][t];
+        let largest = (0..16)
+            .filter(counts)
+            .map(|t| residual(t).abs())
             .fold(0f32, f32::max);
-        if !(largest > 0.0) {
+        if !(largest > 0.0 && largest.is_finite()) {
             continue;
         }
         let e = exponent(base[k], largest / TOP_MULTIPLE);
         let s = scale(base[k], e);
-        c.exponents[k] = e;
-        for (t, r, col) in texels() {
-            let res = residual(t, r, col);
+        exponents[k] = e;
+        for t in (0..16).filter(counts) {
+            let res = residual(t);
             let mut q = (res / s).round().clamp(-8.0, 7.0);
             while q < TOP_MULTIPLE && decoded[k][t] + q * s < 0.0 {
                 q += 1.0;
             }
             let after = res - q * s;
-            let w = f64::from(weights.weight(col, k, ch));
-            c.gain += w * (f64::from(res).powi(2) - f64::from(after).powi(2));
+            gain += f64::from(weight(t, k)) * (f64::from(res).powi(2) - f64::from(after).powi(2));
             let nibble = (q as i32 + ZERO_NIBBLE as i32) as u32;
-            let word = &mut c.codes[k][t / 8];
+            let word = &mut codes[k][t / 8];
             *word = (*word & !(15 << (4 * (t % 8)))) | nibble << (4 * (t % 8));
         }
     }
-    (c.gain > 0.0).then_some(c)
+    (gain, exponents, codes)
+}
+
+/// How many blocks `params` corrects in a matrix of `side²` block positions.
+pub(crate) fn count(params: &super::EncodeParams, side: usize) -> usize {
+    if super::takes_corrections(params.format) {
+        (f64::from(params.corrections) * (side * side) as f64) as usize
+    } else {
+        0
+    }
 }
 
 /// The largest exponent whose scale still covers `needed` (at least `needed`), 0 to 255.

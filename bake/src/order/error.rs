@@ -25,11 +25,13 @@
 //! minus its block's decoded value), so their texels count no error.
 
 use super::DenseMatrix;
+use crate::encode::correct;
 use crate::encode::{
     BlockEncoder, EncodeError, EncodeParams, SPARSE_TEXEL, SparseRule, check_input, encode_dense,
     tile_scales,
 };
 use crate::rng::SplitMix64;
+use radiosity_core::corrections::{multiple, scale};
 use radiosity_core::{BlockDecoder, DecodeMode, LogScale, MatrixLayout, TransferMatrix};
 use rayon::prelude::*;
 
@@ -263,9 +265,11 @@ impl<'a> ErrorMeter<'a> {
             ErrorSampling::Blocks { seed, .. } => seed,
         };
         let side = layout.padded() / 4;
-        // (squared error / p, its variance term, squared code error / p, blocks encoded),
-        // summed over the sample.
-        let (sum, var, codes, count) = (0..weights.len())
+        let base = correct::bases(layout, scales);
+        let corrected = correct::count(&self.params, side);
+        // Per sampled block: squared error / p, its variance term, squared code error / p,
+        // what a correction would remove from the first and the third, and the weight 1/p.
+        let sampled: Vec<Sampled> = (0..weights.len())
             .into_par_iter()
             .filter_map(|b| {
                 let p = probability(weights[b]);
@@ -282,15 +286,27 @@ impl<'a> ErrorMeter<'a> {
                     }
                 }
                 let (row, col) = (b / side * 4, b % side * 4);
-                let (err, code) = self.block_error(&seen, &encoder, &decoder, scales, row, col);
-                Some((err / p, err * err * (1.0 - p) / (p * p), code / p, 1usize))
+                let (err, code, gain) =
+                    self.block_error(&seen, &encoder, &decoder, scales, &base, row, col);
+                Some(Sampled {
+                    error: err / p,
+                    variance: err * err * (1.0 - p) / (p * p),
+                    codes: code / p,
+                    gain,
+                    weight: 1.0 / p,
+                    block: b,
+                })
             })
-            .reduce(
-                || (0.0, 0.0, 0.0, 0),
-                |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3 + b.3),
-            );
+            .collect();
+        let count = sampled.len();
+        let (mut sum, var, mut codes) = sampled.iter().fold((0.0, 0.0, 0.0), |a, s| {
+            (a.0 + s.error, a.1 + s.variance, a.2 + s.codes)
+        });
+        let removed = corrected_gain(&sampled, corrected);
+        sum -= removed[0];
+        codes -= removed[1];
         let exact = count == nonzero;
-        self.estimate(sum, var, codes, count, nonzero, exact)
+        self.estimate(sum.max(0.0), var, codes.max(0.0), count, nonzero, exact)
     }
 
     fn estimate(
@@ -354,17 +370,20 @@ impl<'a> ErrorMeter<'a> {
     }
 
     /// Squared error of the block position whose top-left texel is (`row`, `col`), over every
-    /// plane, decoded as the reference decoder does (D3D10): in value, and in log codes of
-    /// the tile's `scales` (0 for the float formats).
+    /// plane, decoded as the reference decoder does (D3D10): in value, in log codes of the
+    /// tile's `scales` (0 for the float formats), and what a block correction with exponent
+    /// bases `base` would remove from each (chosen for the first, with uniform weights).
+    #[allow(clippy::too_many_arguments)]
     fn block_error<V>(
         &self,
         seen: &V,
         encoder: &BlockEncoder<'_>,
         decoder: &BlockDecoder,
         scales: &[LogScale],
+        base: &[f32; 3],
         row: usize,
         col: usize,
-    ) -> (f64, f64)
+    ) -> (f64, f64, [f64; 2])
     where
         V: Fn(usize, usize, usize) -> f32,
     {
@@ -380,6 +399,7 @@ impl<'a> ErrorMeter<'a> {
         }
         let n = self.m.n;
         let (mut err, mut code_err) = (0f64, 0f64);
+        let mut exact = [[f32::NAN; 16]; 3];
         for i in 0..16 {
             let (r, c) = (row + i / 4, col + i % 4);
             if r >= n || c >= n {
@@ -392,6 +412,7 @@ impl<'a> ErrorMeter<'a> {
                     continue;
                 }
                 let got = decoded[ch][i];
+                exact[ch][i] = want;
                 err += (f64::from(got) - f64::from(want)).powi(2);
                 if let Some(scale) = scales.get(layout.scale_index(tile.index, ch)) {
                     let d = i32::from(scale.encode(got)) - i32::from(scale.encode(want));
@@ -399,8 +420,63 @@ impl<'a> ErrorMeter<'a> {
                 }
             }
         }
-        (err, code_err)
+        if !(crate::encode::takes_corrections(self.params.format) && self.params.corrections > 0.0)
+        {
+            return (err, code_err, [0.0; 2]);
+        }
+        let (gain, exponents, words) =
+            correct::fit(&decoded, &exact, self.m.channels, base, |_, _| 1.0);
+        // The code error the correction removes, from the values it decodes to.
+        let mut code_after = 0f64;
+        for (ch, want) in exact.iter().enumerate().take(self.m.channels) {
+            let step = scale(base[ch], exponents[ch]);
+            let scale_of = &scales[layout.scale_index(tile.index, ch)];
+            for (i, want) in want.iter().enumerate().filter(|(_, w)| !w.is_nan()) {
+                let got = decoded[ch][i] + multiple(&words[ch], i) as f32 * step;
+                let d = i32::from(scale_of.encode(got)) - i32::from(scale_of.encode(*want));
+                code_after += f64::from(d * d);
+            }
+        }
+        let code_gain = code_err - code_after;
+        (err, code_err, [gain, code_gain])
     }
+}
+
+/// One sampled block of [`ErrorMeter::measure`].
+struct Sampled {
+    /// Squared error over the inclusion probability p.
+    error: f64,
+    /// Its variance term.
+    variance: f64,
+    /// Squared code error over p.
+    codes: f64,
+    /// What a block correction removes from the squared error and the squared code error.
+    gain: [f64; 2],
+    /// 1/p: how many blocks this one stands for.
+    weight: f64,
+    /// Block index.
+    block: usize,
+}
+
+/// The squared error and squared code error the encoder's block corrections remove, estimated
+/// from the sampled blocks: the encoder corrects the `corrected` blocks of largest gain (ties
+/// by index), so the sample's blocks are taken in that order, each standing for `1/p` blocks,
+/// until `corrected` blocks are accounted for. Exact when every block is sampled.
+fn corrected_gain(sampled: &[Sampled], corrected: usize) -> [f64; 2] {
+    let mut by_gain: Vec<&Sampled> = sampled.iter().filter(|s| s.gain[0] > 0.0).collect();
+    by_gain.sort_unstable_by(|a, b| b.gain[0].total_cmp(&a.gain[0]).then(a.block.cmp(&b.block)));
+    let mut left = corrected as f64;
+    let mut removed = [0.0; 2];
+    for s in by_gain {
+        if left <= 0.0 {
+            break;
+        }
+        let take = s.weight.min(left);
+        removed[0] += s.gain[0] * take;
+        removed[1] += s.gain[1] * take;
+        left -= take;
+    }
+    removed
 }
 
 /// The decode mode errors are measured under (the reference decoder's exact-integer mode).
