@@ -852,5 +852,56 @@ pub fn seed_corpus() -> Vec<Seed> {
         name: "empty.rad".into(),
         bytes: Vec::new(),
     });
+
+    // A file with block corrections (every block that gains), 10 patches so that the last
+    // block row and column hold padding, and two corruptions of its corrections.
+    let mut input = encode_input(10, true, 0, 0x40, 0x80, &rng.bytes(80));
+    input[0] += 48;
+    let case = EncodeCase::from_bytes(&input);
+    assert_eq!(
+        case.params.corrections, 1.0,
+        "the seed asks for corrections"
+    );
+    let m = encode_dense(case.n, case.channels, &case.dense, &case.params).expect("seed encodes");
+    assert!(!m.corrections.is_empty(), "the seed has corrections");
+    let corrected = rad_file_around(m, case.bounces, case.patch_order, case.report)
+        .to_bytes()
+        .expect("seed writes");
+    let ranges = radiosity_core::container::section_ranges(&corrected).expect("sections");
+    let find = |kind: SectionKind| {
+        ranges
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, r)| r.clone())
+            .expect("section present")
+    };
+    let (cols, codes) = (
+        find(SectionKind::CorrectionCols),
+        find(SectionKind::CorrectionCodes),
+    );
+    let mut variants = vec![("bc1-n10-corrected.rad", corrected.clone())];
+    let mut b = corrected.clone();
+    b[cols.start..cols.start + 4].copy_from_slice(&3u32.to_le_bytes());
+    variants.push(("resealed-correction-column-past-end.rad", b));
+    let mut b = corrected.clone();
+    b[codes.start..codes.end].fill(0x11);
+    variants.push(("resealed-correction-codes-all-minus-7.rad", b));
+    for (name, mut bytes) in variants {
+        if name.starts_with("resealed") {
+            reseal(&mut bytes).expect("reseal");
+        }
+        seeds.push(Seed {
+            target: "parse_container",
+            name: name.into(),
+            bytes,
+        });
+    }
+    let mut input = encode_input(9, false, 0, 0x40, 0x80, &rng.bytes(60));
+    input[0] += 24;
+    seeds.push(Seed {
+        target: "encode_roundtrip",
+        name: "bc4-grey-corrected.bin".into(),
+        bytes: input,
+    });
     seeds
 }

@@ -670,3 +670,69 @@ fn corrections_round_trip_and_count() {
     let parsed = RadFile::parse(&bytes).unwrap();
     assert_eq!(parsed.matrix.corrections, *c);
 }
+
+#[test]
+fn corrupt_corrections_are_refused_with_their_section() {
+    let bytes = sample_bytes();
+    let range = |kind: SectionKind| {
+        section_ranges(&bytes)
+            .unwrap()
+            .into_iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, r)| r)
+            .expect("the sample has corrections")
+    };
+    let corrupt = |kind: SectionKind, edit: &dyn Fn(&mut [u8])| {
+        let mut b = bytes.clone();
+        let r = range(kind);
+        edit(&mut b[r]);
+        reseal(&mut b).unwrap();
+        RadFile::parse(&b).expect_err("corruption must be caught")
+    };
+    // 37 patches: 10 block columns, the last one half padding.
+    let past_end = corrupt(SectionKind::CorrectionCols, &|s| {
+        s[..4].copy_from_slice(&10u32.to_le_bytes())
+    });
+    assert!(
+        matches!(
+            past_end,
+            RadError::Invalid {
+                section: SectionKind::CorrectionCols,
+                index: 0,
+                ..
+            }
+        ),
+        "{past_end}"
+    );
+    let decreasing = corrupt(SectionKind::CorrectionRows, &|s| {
+        s[4..8].copy_from_slice(&u32::MAX.to_le_bytes())
+    });
+    assert!(
+        matches!(
+            decreasing,
+            RadError::Invalid {
+                section: SectionKind::CorrectionRows,
+                ..
+            }
+        ),
+        "{decreasing}"
+    );
+    // The last correction moved to the last block column (still the largest of its block
+    // row), and every multiple −7: it now corrects texels past patch 37.
+    let mut b = bytes.clone();
+    let cols = range(SectionKind::CorrectionCols);
+    b[cols.end - 4..cols.end].copy_from_slice(&9u32.to_le_bytes());
+    b[range(SectionKind::CorrectionCodes)].fill(0x11);
+    reseal(&mut b).unwrap();
+    let padding = RadFile::parse(&b).expect_err("corruption must be caught");
+    assert!(
+        matches!(
+            padding,
+            RadError::Invalid {
+                section: SectionKind::CorrectionCodes,
+                ..
+            }
+        ),
+        "{padding}"
+    );
+}
