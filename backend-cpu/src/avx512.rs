@@ -64,7 +64,7 @@ pub(crate) unsafe fn bc1_block_row(ctx: &Ctx<'_, '_>, x4: &[X4], r: usize, out: 
             }
         }
     }
-    finish_rows(ctx, row, acc.map(row_sums), out);
+    finish_rows::<crate::decode::Avx2>(ctx, row, acc.map(row_sums), out);
 }
 
 /// Block row `r` of a u8 matrix (output rows `4r..4r + out.len()`): each block and plane
@@ -143,7 +143,7 @@ fn planar_block_row<const B: usize>(
                 }
             }
         }
-        finish_rows(ctx, row, acc.map(row_sums), out);
+        finish_rows::<crate::decode::Avx2>(ctx, row, acc.map(row_sums), out);
     }
 }
 

@@ -33,6 +33,14 @@ pub(crate) trait Isa {
     fn expand8(pal: &[f32; 8], bits: u64) -> [f32x8; 2];
     /// `a · b + c`.
     fn mul_add(a: f32x8, b: f32x8, c: f32x8) -> f32x8;
+    /// The eight signed multiples `nibble − 8` of a block correction's code word, texel `i`
+    /// at bits `4i`.
+    #[inline(always)]
+    fn multiples(word: u32) -> f32x8 {
+        f32x8::from(core::array::from_fn::<f32, 8, _>(|i| {
+            ((word >> (4 * i)) & 15) as f32 - 8.0
+        }))
+    }
     /// A whole BC4 block (`raw`) through its tile's log table.
     #[inline(always)]
     fn bc4(raw: &[u8; 8], table: &[f32; 256]) -> [f32x8; 2] {
@@ -173,6 +181,17 @@ pub(crate) mod avx2 {
         fn mul_add(a: f32x8, b: f32x8, c: f32x8) -> f32x8 {
             // SAFETY: as in `expand4`.
             unsafe { cast(_mm256_fmadd_ps(cast(a), cast(b), cast(c))) }
+        }
+        #[inline(always)]
+        fn multiples(word: u32) -> f32x8 {
+            // SAFETY: as in `expand4`.
+            unsafe {
+                let w = _mm256_set1_epi32(word as i32);
+                let sh = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+                let nib = _mm256_and_si256(_mm256_srlv_epi32(w, sh), _mm256_set1_epi32(15));
+                let m = _mm256_sub_epi32(nib, _mm256_set1_epi32(8));
+                cast(_mm256_cvtepi32_ps(m))
+            }
         }
         #[inline(always)]
         fn bc4(raw: &[u8; 8], table: &[f32; 256]) -> [f32x8; 2] {

@@ -365,6 +365,7 @@ impl Gather for CpuGather<'_> {
             tiles: &self.tiles,
             f16: &self.f16,
             xs: &self.xs,
+            x4: &self.x4,
             exitance,
             corrections: &self.correction_tables,
         };

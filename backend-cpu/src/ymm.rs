@@ -74,7 +74,7 @@ pub(crate) unsafe fn bc1_block_row(ctx: &Ctx<'_, '_>, x4: &[X4], r: usize, out: 
             }
         }
     }
-    finish_rows(ctx, row, row_sums(&acc), out);
+    finish_rows::<crate::decode::Avx2>(ctx, row, row_sums(&acc), out);
 }
 
 /// Row sums of the accumulators (`[channel][row]`): lanes `4q..4q + 4` of each half belong
@@ -175,7 +175,7 @@ fn planar_block_row<const B: usize>(
                 }
             }
         }
-        finish_rows(ctx, row, row_sums(&acc), out);
+        finish_rows::<crate::decode::Avx2>(ctx, row, row_sums(&acc), out);
     }
 }
 
