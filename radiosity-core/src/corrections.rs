@@ -145,34 +145,14 @@ impl BlockCorrections<'_> {
         let (n, ch) = (layout.n(), layout.channels());
         let side = layout.padded() / 4;
         let count = self.cols.len();
-        if self.row_ptr.len() != side + 1 {
-            return Err(RadError::Count {
-                section: SectionKind::CorrectionRows,
-                expected: side as u64 + 1,
-                found: self.row_ptr.len() as u64,
-            });
-        }
-        if self.row_ptr[0] != 0 {
-            return Err(bad(
-                SectionKind::CorrectionRows,
-                0,
-                "first row offset is not 0",
-            ));
-        }
-        if let Some(i) = self.row_ptr.windows(2).position(|w| w[1] < w[0]) {
-            return Err(bad(
-                SectionKind::CorrectionRows,
-                i + 1,
-                "row offsets decrease",
-            ));
-        }
-        if self.row_ptr[side] as usize != count {
-            return Err(RadError::Count {
-                section: SectionKind::CorrectionCols,
-                expected: u64::from(self.row_ptr[side]),
-                found: count as u64,
-            });
-        }
+        crate::sparse::validate_csr(
+            &self.row_ptr,
+            &self.cols,
+            side,
+            side,
+            (SectionKind::CorrectionRows, SectionKind::CorrectionCols),
+            "columns not strictly increasing in a block row",
+        )?;
         if self.exponents.len() != count * ch {
             return Err(RadError::Count {
                 section: SectionKind::CorrectionExponents,
@@ -212,16 +192,6 @@ impl BlockCorrections<'_> {
             let (a, b) = (self.row_ptr[br] as usize, self.row_ptr[br + 1] as usize);
             for i in a..b {
                 let bc = self.cols[i] as usize;
-                if bc >= side {
-                    return Err(bad(SectionKind::CorrectionCols, i, "column out of range"));
-                }
-                if i > a && self.cols[i] <= self.cols[i - 1] {
-                    return Err(bad(
-                        SectionKind::CorrectionCols,
-                        i,
-                        "columns not strictly increasing in a block row",
-                    ));
-                }
                 // Texels beyond the last patch must carry the zero multiple, so that every
                 // decoder sees the same matrix whether or not it skips the padding.
                 if 4 * br + 4 > n || 4 * bc + 4 > n {

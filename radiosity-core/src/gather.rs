@@ -90,7 +90,6 @@ pub fn check_gather_args(
 pub struct ReferenceGather<'m> {
     matrix: TransferMatrix<'m>,
     decoder: crate::BlockDecoder,
-    correction_tables: [[f32; 256]; 3],
     acc: Vec<[f64; 3]>,
 }
 
@@ -101,7 +100,6 @@ impl<'m> ReferenceGather<'m> {
         let decoder = matrix.decoder(mode);
         let acc = alloc::vec![[0.0; 3]; matrix.layout.n()];
         Self {
-            correction_tables: matrix.correction_tables(),
             matrix,
             decoder,
             acc,
@@ -149,24 +147,13 @@ impl Gather for ReferenceGather<'_> {
             }
         }
         let ch = l.channels();
-        let corrections = &self.matrix.corrections;
-        for br in 0..l.padded() / 4 {
-            for (bc, index) in corrections.row(br) {
-                let mut fix = [[0f32; 16]; 3];
-                corrections.add(index, ch, &self.correction_tables, &mut fix);
-                for i in 0..16 {
-                    let (r, c) = (br * 4 + i / 4, bc * 4 + i % 4);
-                    if r >= n || c >= n {
-                        continue;
-                    }
-                    let x = exitance[c].to_array();
-                    for k in 0..3 {
-                        let v = if grey { fix[0][i] } else { fix[k][i] };
-                        self.acc[r][k] += f64::from(v) * f64::from(x[k]);
-                    }
-                }
+        let acc = &mut self.acc;
+        self.matrix.for_each_correction(|r, c, v| {
+            let x = exitance[c].to_array();
+            for k in 0..3 {
+                acc[r][k] += f64::from(v[if grey { 0 } else { k }]) * f64::from(x[k]);
             }
-        }
+        });
         for (r, acc) in self.acc.iter_mut().enumerate() {
             for (c, v) in self.matrix.sparse.row(r, ch) {
                 let x = exitance[c].to_array();

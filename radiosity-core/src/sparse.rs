@@ -1,5 +1,6 @@
 //! The large entries, kept exactly in compressed sparse rows.
 
+use crate::{RadError, SectionKind};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
 
@@ -55,4 +56,56 @@ impl SparseRows<'_> {
             values: Cow::Owned(self.values.into_owned()),
         }
     }
+}
+
+/// Checks a compressed-sparse-row structure of `rows` rows whose columns lie in `0..bound`:
+/// `rows + 1` offsets from 0, never decreasing, ending at `cols.len()`, and columns strictly
+/// increasing within each row. Errors name `sections` (offsets, columns) and the first bad
+/// index; `row` is what a row is called in them.
+pub(crate) fn validate_csr(
+    row_ptr: &[u32],
+    cols: &[u32],
+    rows: usize,
+    bound: usize,
+    sections: (SectionKind, SectionKind),
+    row: &'static str,
+) -> Result<(), RadError> {
+    let (rows_kind, cols_kind) = sections;
+    let bad = |section, index: usize, reason| RadError::Invalid {
+        section,
+        index: index as u64,
+        reason,
+    };
+    if row_ptr.len() != rows + 1 {
+        return Err(RadError::Count {
+            section: rows_kind,
+            expected: rows as u64 + 1,
+            found: row_ptr.len() as u64,
+        });
+    }
+    if row_ptr[0] != 0 {
+        return Err(bad(rows_kind, 0, "first row offset is not 0"));
+    }
+    if let Some(i) = row_ptr.windows(2).position(|w| w[1] < w[0]) {
+        return Err(bad(rows_kind, i + 1, "row offsets decrease"));
+    }
+    if row_ptr[rows] as usize != cols.len() {
+        return Err(RadError::Count {
+            section: cols_kind,
+            expected: u64::from(row_ptr[rows]),
+            found: cols.len() as u64,
+        });
+    }
+    for r in 0..rows {
+        let (a, b) = (row_ptr[r] as usize, row_ptr[r + 1] as usize);
+        for k in a..b {
+            if cols[k] as usize >= bound {
+                return Err(bad(cols_kind, k, "column out of range"));
+            }
+            if k > a && cols[k] <= cols[k - 1] {
+                return Err(bad(cols_kind, k, row));
+            }
+        }
+    }
+    Ok(())
 }

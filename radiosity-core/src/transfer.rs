@@ -92,47 +92,20 @@ impl<'a> TransferMatrix<'a> {
             _ => {}
         }
         let sp = &self.sparse;
-        if sp.row_ptr.len() != n + 1 {
-            return Err(RadError::Count {
-                section: SectionKind::SparseRows,
-                expected: n as u64 + 1,
-                found: sp.row_ptr.len() as u64,
-            });
-        }
-        if sp.row_ptr[0] != 0 {
-            return Err(bad(SectionKind::SparseRows, 0, "first row offset is not 0"));
-        }
-        if let Some(i) = sp.row_ptr.windows(2).position(|w| w[1] < w[0]) {
-            return Err(bad(SectionKind::SparseRows, i + 1, "row offsets decrease"));
-        }
-        if sp.row_ptr[n] as usize != sp.cols.len() {
-            return Err(RadError::Count {
-                section: SectionKind::SparseCols,
-                expected: u64::from(sp.row_ptr[n]),
-                found: sp.cols.len() as u64,
-            });
-        }
+        crate::sparse::validate_csr(
+            &sp.row_ptr,
+            &sp.cols,
+            n,
+            n,
+            (SectionKind::SparseRows, SectionKind::SparseCols),
+            "columns not strictly increasing in a row",
+        )?;
         if sp.values.len() != sp.cols.len() * l.channels() {
             return Err(RadError::Count {
                 section: SectionKind::SparseValues,
                 expected: (sp.cols.len() * l.channels()) as u64,
                 found: sp.values.len() as u64,
             });
-        }
-        for row in 0..n {
-            let (a, b) = (sp.row_ptr[row] as usize, sp.row_ptr[row + 1] as usize);
-            for k in a..b {
-                if sp.cols[k] as usize >= n {
-                    return Err(bad(SectionKind::SparseCols, k, "column out of range"));
-                }
-                if k > a && sp.cols[k] <= sp.cols[k - 1] {
-                    return Err(bad(
-                        SectionKind::SparseCols,
-                        k,
-                        "columns not strictly increasing in a row",
-                    ));
-                }
-            }
         }
         // A sparse value corrects what the block decodes at its position, so it may be negative
         // in a channel; it must be finite.
@@ -181,21 +154,11 @@ impl<'a> TransferMatrix<'a> {
                 }
             }
         }
-        let tables = self.correction_tables();
-        for br in 0..l.padded() / 4 {
-            for (bc, index) in self.corrections.row(br) {
-                let mut fix = [[0f32; 16]; 3];
-                self.corrections.add(index, ch, &tables, &mut fix);
-                for i in 0..16 {
-                    let (r, c) = (br * 4 + i / 4, bc * 4 + i % 4);
-                    if r < n && c < n {
-                        for k in 0..ch {
-                            out[(r * n + c) * ch + k] += fix[k][i];
-                        }
-                    }
-                }
+        self.for_each_correction(|r, c, v| {
+            for k in 0..ch {
+                out[(r * n + c) * ch + k] += v[k];
             }
-        }
+        });
         for r in 0..n {
             for (c, v) in self.sparse.row(r, ch) {
                 for k in 0..ch {
@@ -279,6 +242,27 @@ impl<'a> TransferMatrix<'a> {
             row_ptr: Cow::Owned(row_ptr),
             cols: Cow::Owned(cols),
             values: Cow::Owned(values),
+        }
+    }
+
+    /// Calls `f(row, column, values)` for every texel of every block correction inside the
+    /// matrix (padding left out), with the values [`BlockCorrections::add`] gives (`channels`
+    /// of them used), block rows in order.
+    pub fn for_each_correction(&self, mut f: impl FnMut(usize, usize, &[f32; 3])) {
+        let n = self.layout.n();
+        let ch = self.layout.channels();
+        let tables = self.correction_tables();
+        for br in 0..self.layout.padded() / 4 {
+            for (bc, index) in self.corrections.row(br) {
+                let mut fix = [[0f32; 16]; 3];
+                self.corrections.add(index, ch, &tables, &mut fix);
+                for t in 0..16 {
+                    let (r, c) = (br * 4 + t / 4, bc * 4 + t % 4);
+                    if r < n && c < n {
+                        f(r, c, &[fix[0][t], fix[1][t], fix[2][t]]);
+                    }
+                }
+            }
         }
     }
 

@@ -473,23 +473,21 @@ const F16_MAX: f32 = 65504.0;
 /// The block corrections alone as a dense `n · n · channels` matrix.
 fn correction_dense(m: &TransferMatrix<'_>) -> Vec<f32> {
     let (n, ch) = (m.layout.n(), m.layout.channels());
-    let tables = m.correction_tables();
     let mut out = vec![0f32; n * n * ch];
-    for br in 0..m.layout.padded() / 4 {
-        for (bc, index) in m.corrections.row(br) {
-            let mut fix = [[0f32; 16]; 3];
-            m.corrections.add(index, ch, &tables, &mut fix);
-            for t in 0..16 {
-                let (r, c) = (br * 4 + t / 4, bc * 4 + t % 4);
-                if r < n && c < n {
-                    for k in 0..ch {
-                        out[(r * n + c) * ch + k] = fix[k][t];
-                    }
-                }
-            }
-        }
-    }
+    m.for_each_correction(|r, c, v| out[(r * n + c) * ch..][..ch].copy_from_slice(&v[..ch]));
     out
+}
+
+/// The byte range of section `kind` among `ranges` ([`radiosity_core::container::section_ranges`]).
+fn section_range(
+    ranges: &[(SectionKind, std::ops::Range<usize>)],
+    kind: SectionKind,
+) -> std::ops::Range<usize> {
+    ranges
+        .iter()
+        .find(|(k, _)| *k == kind)
+        .map(|(_, r)| r.clone())
+        .expect("section present")
 }
 
 /// Marks the entries held by the sparse list.
@@ -807,13 +805,7 @@ pub fn seed_corpus() -> Vec<Seed> {
     }
     // Semantic corruptions behind valid checksums: a NaN value, a bad count, a repeated order
     // entry, a huge object count.
-    let find = |kind: SectionKind| {
-        ranges
-            .iter()
-            .find(|(k, _)| *k == kind)
-            .map(|(_, r)| r.clone())
-            .expect("section present")
-    };
+    let find = |kind: SectionKind| section_range(&ranges, kind);
     let mut resealed = |name: &str, edit: &dyn Fn(&mut Vec<u8>)| {
         let mut b = base.clone();
         edit(&mut b);
@@ -868,13 +860,7 @@ pub fn seed_corpus() -> Vec<Seed> {
         .to_bytes()
         .expect("seed writes");
     let ranges = radiosity_core::container::section_ranges(&corrected).expect("sections");
-    let find = |kind: SectionKind| {
-        ranges
-            .iter()
-            .find(|(k, _)| *k == kind)
-            .map(|(_, r)| r.clone())
-            .expect("section present")
-    };
+    let find = |kind: SectionKind| section_range(&ranges, kind);
     let (cols, codes) = (
         find(SectionKind::CorrectionCols),
         find(SectionKind::CorrectionCodes),
