@@ -523,7 +523,7 @@ impl ErrorWeights {
 
     /// `E_j / σ` of column `col` (zero when uniform).
     #[inline]
-    fn emission(&self, col: usize) -> [f32; 3] {
+    pub(crate) fn emission(&self, col: usize) -> [f32; 3] {
         self.emission.get(col).copied().unwrap_or([0.0; 3])
     }
 

@@ -28,7 +28,12 @@ struct Candidate {
 }
 
 /// The best `count` corrections of `m` (blocks and sparse part already final) against the
-/// exact `dense`, judged by `weights`.
+/// exact `dense`, judged by `weights`. Blocks in a column block that holds an emitter get
+/// none: the coupled pass (`refine::Coupling`) encoded them so that their errors cancel
+/// along each block row for the scene's own light, and a correction fitted to one block
+/// undoes that. Measured on the Cornell box at 4098 patches, BC1 paper order: with them
+/// Frobenius 1.748%, own-light error 0.294%; without them 1.628%, 0.205% (their weighted gains
+/// had drawn the budget to them).
 pub(super) fn choose(
     m: &TransferMatrix<'_>,
     dense: &[f32],
@@ -64,6 +69,11 @@ pub(super) fn choose(
                 }
             }
             (0..side).filter_map(move |bc| {
+                // The coupled pass encoded the emitters' column blocks against their whole
+                // block row's error; a correction fitted to one block alone would undo that.
+                if (bc * 4..(bc * 4 + 4).min(n)).any(|c| weights.emission(c) != [0.0; 3]) {
+                    return None;
+                }
                 let (vals, sparse) = &row[bc];
                 candidate(br, bc, vals, *sparse, dense, n, ch, weights, &base)
             })
