@@ -75,7 +75,15 @@ pub(super) fn choose(
                     return None;
                 }
                 let (vals, sparse) = &row[bc];
-                candidate(br, bc, vals, *sparse, dense, n, ch, weights, &base)
+                let tile = l.locate(br * 4, bc * 4).0;
+                let ceiling = core::array::from_fn(|k| {
+                    m.scales
+                        .get(l.scale_index(tile.index, k))
+                        .map_or(0.0, |s| s.v_max)
+                });
+                candidate(
+                    br, bc, vals, *sparse, dense, n, ch, weights, &base, &ceiling,
+                )
             })
         })
         .collect();
@@ -128,6 +136,7 @@ fn candidate(
     ch: usize,
     weights: &ErrorWeights,
     base: &[f32; 3],
+    ceiling: &[f32; 3],
 ) -> Option<Candidate> {
     let mut exact = [[f32::NAN; 16]; 3];
     for t in 0..16 {
@@ -138,7 +147,7 @@ fn candidate(
             }
         }
     }
-    let (gain, exponents, codes) = fit(decoded, &exact, ch, base, |t, k| {
+    let (gain, exponents, codes) = fit(decoded, &exact, ch, base, ceiling, |t, k| {
         weights.weight(bc * 4 + t % 4, k, ch)
     });
     (gain > 0.0).then_some(Candidate {
@@ -170,13 +179,15 @@ pub(crate) fn bases(layout: &MatrixLayout, scales: &[LogScale]) -> [f32; 3] {
 /// A block's correction: the weighted squared error it removes (`weight(texel, channel)`),
 /// its exponents and its code words. `decoded` is what the block (and the sparse list)
 /// decode to, `exact` the entries, NaN on texels that do not count (exact already, or beyond
-/// the last patch), which keep the zero multiple. Every corrected value stays non-negative as
-/// decoded (`decoded + multiple · scale` in `f32`).
+/// the last patch), which keep the zero multiple. Every corrected value stays within
+/// `[0, ceiling]` of its channel (the tile's `v_max`) as decoded (`decoded + multiple · scale`
+/// in `f32`), so a corrected block keeps the promise of an uncorrected one.
 pub(crate) fn fit(
     decoded: &[[f32; 16]; 3],
     exact: &[[f32; 16]; 3],
     ch: usize,
     base: &[f32; 3],
+    ceiling: &[f32; 3],
     weight: impl Fn(usize, usize) -> f32,
 ) -> (f64, [u8; 3], [[u32; 2]; 3]) {
     debug_assert_eq!(ZERO_NIBBLE, 8);
@@ -199,8 +210,11 @@ pub(crate) fn fit(
         for t in (0..16).filter(counts) {
             let res = residual(t);
             let mut q = (res / s).round().clamp(-8.0, 7.0);
-            while q < TOP_MULTIPLE && decoded[k][t] + q * s < 0.0 {
+            while q < 0.0 && decoded[k][t] + q * s < 0.0 {
                 q += 1.0;
+            }
+            while q > 0.0 && decoded[k][t] + q * s > ceiling[k] {
+                q -= 1.0;
             }
             let after = res - q * s;
             gain += f64::from(weight(t, k)) * (f64::from(res).powi(2) - f64::from(after).powi(2));
@@ -249,5 +263,63 @@ mod tests {
         }
         // Beyond 32 octaves the finest scale is the last one.
         assert_eq!(exponent(1.0, 1e-12), 255);
+    }
+
+    /// With every block allowed a correction, the column blocks of emitters still get none,
+    /// most other blocks do, and the corrections lower the error.
+    #[test]
+    fn emitter_columns_keep_their_coupled_encode() {
+        use crate::encode::{EncodeParams, SparseSelection, encode_dense_with};
+        use radiosity_core::{Format, Rgb};
+        let n = 24;
+        let dense: Vec<f32> = (0..n * n * 3)
+            .map(|i| {
+                let (e, k) = (i / 3, i % 3);
+                let (r, c) = ((e / n) as f32, (e % n) as f32);
+                (0.02 + 0.5 / (1.0 + (r - c).abs())) * (1.0 + 0.1 * k as f32)
+            })
+            .collect();
+        let mut emission = vec![Rgb::ZERO; n];
+        emission[5] = Rgb::new(10.0, 10.0, 10.0);
+        let params = EncodeParams {
+            format: Format::Bc1,
+            corrections: 1.0,
+            ..EncodeParams::default()
+        };
+        let weights = ErrorWeights::for_emitters(&emission);
+        let m = encode_dense_with(
+            n,
+            3,
+            &dense,
+            &params,
+            &weights,
+            SparseSelection::ErrorDriven,
+        )
+        .expect("encodes");
+        let side = n / 4;
+        let mut corrected = 0;
+        for br in 0..side {
+            for (bc, _) in m.corrections.row(br) {
+                assert_ne!(bc, 1, "block ({br}, 1) holds emitter column 5");
+                corrected += 1;
+            }
+        }
+        assert!(corrected > side * (side - 1) / 2, "{corrected} corrections");
+        let error = |m: &TransferMatrix<'_>| -> f64 {
+            let d = m.decode_dense(DecodeMode::D3d10);
+            d.iter()
+                .zip(&dense)
+                .map(|(a, b)| f64::from(a - b).powi(2))
+                .sum()
+        };
+        let mut bare = m.clone();
+        bare.corrections = BlockCorrections::empty(n);
+        // Each kept correction removes error (its gain is positive), so the whole must too.
+        assert!(
+            error(&m) < error(&bare),
+            "{} !< {}",
+            error(&m),
+            error(&bare)
+        );
     }
 }

@@ -424,8 +424,15 @@ impl<'a> ErrorMeter<'a> {
         {
             return (err, code_err, [0.0; 2]);
         }
+        let ceiling = core::array::from_fn(|k| {
+            scales
+                .get(layout.scale_index(tile.index, k))
+                .map_or(0.0, |s| s.v_max)
+        });
         let (gain, exponents, words) =
-            correct::fit(&decoded, &exact, self.m.channels, base, |_, _| 1.0);
+            correct::fit(&decoded, &exact, self.m.channels, base, &ceiling, |_, _| {
+                1.0
+            });
         // The code error the correction removes, from the values it decodes to.
         let mut code_after = 0f64;
         for (ch, want) in exact.iter().enumerate().take(self.m.channels) {
