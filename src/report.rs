@@ -1,8 +1,8 @@
 //! `radiosity report [--quick] [-o DIR]`: what accuracy costs in time and memory (issue #7).
 //!
 //! On the embedded Cornell box it sweeps the patch count n (every format at each n), and at one
-//! middle n the bounces K, the patch order (BC1 and BC4) and the sparse threshold. Each
-//! configuration is baked from one shared discretisation per n ([`discretise`] then
+//! middle n the bounces K, the patch order (BC1 and BC4), the sparse threshold and the share of
+//! blocks corrected. Each configuration is baked from one shared discretisation per n ([`discretise`] then
 //! [`bake_discretised`]), and records: bake time (discretisation included), file bytes, CPU
 //! gather time (median), GPU gather time when a GPU backend is available, compression error,
 //! the error of the scene's own lighting against the exact f64 solution of the same patches
@@ -43,6 +43,8 @@ struct Plan {
     middle: usize,
     bounces: Vec<u32>,
     sparse: Vec<f32>,
+    /// Shares of the blocks given a block correction (BC1).
+    corrections: Vec<f32>,
     /// Path-tracer samples per object (standard error ∝ 1/√samples).
     pt_samples: usize,
     /// Rendered image side and path-traced samples per pixel.
@@ -60,6 +62,7 @@ impl Plan {
                 middle: 512,
                 bounces: vec![1, 2, 4, 8],
                 sparse: vec![0.0, 0.002, 0.008, 0.032],
+                corrections: vec![0.0, 0.025, 0.1],
                 pt_samples: 1 << 16,
                 image_side: 160,
                 pt_spp: 32,
@@ -71,6 +74,7 @@ impl Plan {
                 middle: 2048,
                 bounces: vec![1, 2, 4, 8, 16],
                 sparse: vec![0.0, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032, 0.064],
+                corrections: vec![0.0, 0.0125, 0.025, 0.05, 0.1],
                 pt_samples: 1 << 20,
                 image_side: 384,
                 pt_spp: 512,
@@ -89,6 +93,8 @@ struct Sample {
     format: &'static str,
     order: &'static str,
     sparse_fraction: f64,
+    /// Share of the blocks corrected ([`BakeParams::corrections`]).
+    corrections: f64,
     bake_ms: f64,
     file_bytes: usize,
     cpu_ms: f64,
@@ -98,13 +104,14 @@ struct Sample {
     err_pt: f64,
 }
 
-const CSV_HEADER: [&str; 13] = [
+const CSV_HEADER: [&str; 14] = [
     "sweep",
     "patches",
     "bounces",
     "format",
     "order",
     "sparse_fraction",
+    "corrections",
     "bake_ms",
     "file_bytes",
     "cpu_gather_ms",
@@ -123,6 +130,7 @@ impl Sample {
             self.format.into(),
             self.order.into(),
             format!("{}", self.sparse_fraction),
+            format!("{}", self.corrections),
             format!("{:.1}", self.bake_ms),
             self.file_bytes.to_string(),
             format!("{:.4}", self.cpu_ms),
@@ -280,6 +288,17 @@ pub(crate) fn run(quick: bool, out: &Path) -> anyhow::Result<()> {
                 timers.push((samples.len(), timer));
                 samples.push(s);
             }
+            for &f in &plan.corrections {
+                say(format!("n = {target}: block corrections {f}"));
+                let p = BakeParams {
+                    format: FormatChoice::Fixed(Format::Bc1),
+                    corrections: Some(f),
+                    ..params.clone()
+                };
+                let (s, _, timer) = sample(&level, "corrections", &p, &plan, &mut gpu)?;
+                timers.push((samples.len(), timer));
+                samples.push(s);
+            }
         }
         say(format!(
             "n = {target}: timing {} CPU gathers in turns",
@@ -401,6 +420,12 @@ fn sample(
         order: r.order,
         sparse_fraction: f64::from(params.sparse_fraction.unwrap_or_else(|| {
             radiosity_bake::encode::default_sparse_fraction(
+                Format::from_name(r.format).unwrap_or(Format::Bc1),
+                r.channels,
+            )
+        })),
+        corrections: f64::from(params.corrections.unwrap_or_else(|| {
+            radiosity_bake::encode::default_correction_fraction(
                 Format::from_name(r.format).unwrap_or(Format::Bc1),
                 r.channels,
             )
@@ -715,7 +740,7 @@ fn summary_plots(
             front: Some(("Pareto front".into(), front)),
         },
     )?;
-    made.push(("error_vs_time.png".to_owned(), format!("Headline: error of the scene's own lighting against the exact solution of the same {n_mid} patches, against CPU gather time, for every format, bounce count, order and sparse threshold at that size; the black line is the Pareto front.")));
+    made.push(("error_vs_time.png".to_owned(), format!("Headline: error of the scene's own lighting against the exact solution of the same {n_mid} patches, against CPU gather time, for every format, bounce count, order, sparse threshold and block-correction share at that size; the black line is the Pareto front.")));
     // The true error (against the path tracer) over every size.
     let pts: Vec<(f64, f64)> = samples.iter().map(|s| (s.cpu_ms, s.err_pt)).collect();
     let front: Vec<(f64, f64)> = table::pareto_front(&pts).iter().map(|&i| pts[i]).collect();
@@ -895,6 +920,7 @@ fn markdown(samples: &[Sample], plan: &Plan, quick: bool, notes: &Notes) -> Stri
         "format",
         "order",
         "sparse",
+        "corr.",
         "bake s",
         "file MB",
         "CPU ms",
@@ -910,6 +936,7 @@ fn markdown(samples: &[Sample], plan: &Plan, quick: bool, notes: &Notes) -> Stri
             s.format.into(),
             s.order.into(),
             format!("{:.4}", s.sparse_fraction),
+            format!("{:.4}", s.corrections),
             format!("{:.2}", s.bake_ms / 1e3),
             format!("{:.3}", s.file_bytes as f64 / 1e6),
             format!("{:.3}", s.cpu_ms),
@@ -973,6 +1000,12 @@ fn markdown(samples: &[Sample], plan: &Plan, quick: bool, notes: &Notes) -> Stri
         "Sparse threshold",
         "sparse",
         "BC1 with a growing fraction of the largest entries kept exact: bytes against error.",
+    );
+    section(
+        &mut md,
+        "Block corrections",
+        "corrections",
+        "BC1 with a growing share of its 4×4 blocks given a block correction (sixteen 4-bit residuals per channel, 31 bytes; the default is 2.5%), the sparse fraction at its default: bytes against error.",
     );
     let _ = writeln!(md, "## Plots\n");
     for (f, caption) in notes.plots.iter().chain(&notes.figures) {

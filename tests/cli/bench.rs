@@ -172,13 +172,36 @@ fn report_quick_writes_every_sweep_timed() {
         );
     }
     // The quick plan: 3 sizes × 5 formats, K ∈ {1, 2, 4, 8}, 2 formats × 4 orders, 4 sparse
-    // fractions.
-    let want: std::collections::BTreeMap<String, usize> =
-        [("n", 15), ("bounces", 4), ("order", 8), ("sparse", 4)]
-            .into_iter()
-            .map(|(k, v)| (k.to_string(), v))
-            .collect();
+    // fractions, 3 shares of corrected blocks.
+    let want: std::collections::BTreeMap<String, usize> = [
+        ("n", 15),
+        ("bounces", 4),
+        ("order", 8),
+        ("sparse", 4),
+        ("corrections", 3),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect();
     assert_eq!(per_sweep, want);
+    // More corrected blocks, a larger file (31 bytes each) and no larger compression error.
+    let (corr, bytes, rmse) = (
+        col("corrections"),
+        col("file_bytes"),
+        col("compression_rmse"),
+    );
+    let rows: Vec<Vec<String>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .filter(|f: &Vec<String>| f[sweep] == "corrections")
+        .collect();
+    for w in rows.windows(2) {
+        let num = |f: &Vec<String>, i: usize| f[i].parse::<f64>().unwrap();
+        assert!(num(&w[1], corr) > num(&w[0], corr), "{w:?}");
+        assert!(num(&w[1], bytes) > num(&w[0], bytes), "{w:?}");
+        assert!(num(&w[1], rmse) <= num(&w[0], rmse), "{w:?}");
+    }
     let md = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
     assert!(md.contains("Pareto front"), "{md}");
     assert!(md.contains("timed in turns"), "{md}");
