@@ -353,7 +353,7 @@ pub fn encode_dense_with(
         // the Cornell box), so it is reserved for scenes whose emitters fill few column blocks
         // (a lamp, not a glowing room); the others get the coupled index choice alone (≈ 5 µs).
         let emitting = (0..side)
-            .filter(|&bc| (bc * 4..(bc * 4 + 4).min(n)).any(|c| weights.emission(c) != [0.0; 3]))
+            .filter(|&bc| weights.emits_in_column_block(bc, n))
             .count();
         let search = emitting * COUPLED_SEARCH_SHARE <= side;
         encoded
@@ -523,8 +523,14 @@ impl ErrorWeights {
 
     /// `E_j / σ` of column `col` (zero when uniform).
     #[inline]
-    pub(crate) fn emission(&self, col: usize) -> [f32; 3] {
+    fn emission(&self, col: usize) -> [f32; 3] {
         self.emission.get(col).copied().unwrap_or([0.0; 3])
+    }
+
+    /// Whether any of the four columns of column block `bc` (of `n`) emits: the blocks the
+    /// coupled pass encodes along their rows.
+    fn emits_in_column_block(&self, bc: usize, n: usize) -> bool {
+        (bc * 4..(bc * 4 + 4).min(n)).any(|c| self.emission(c) != [0.0; 3])
     }
 
     /// The diagonal weight of column `col`, matrix channel `ch`, in units of σ²: `1 + (E/σ)²`

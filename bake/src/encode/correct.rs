@@ -47,6 +47,11 @@ pub(super) fn choose(
         return BlockCorrections::empty(n);
     }
     let base = bases(l, &m.scales);
+    // The coupled pass encoded the emitters' column blocks against their whole block row's
+    // error; a correction fitted to one block alone would undo that.
+    let coupled: Vec<bool> = (0..side)
+        .map(|bc| weights.emits_in_column_block(bc, n))
+        .collect();
     let decoder = m.decoder(DecodeMode::D3d10);
     let mut candidates: Vec<Candidate> = (0..side)
         .into_par_iter()
@@ -54,7 +59,7 @@ pub(super) fn choose(
             // The block row as decoded: blocks, then the sparse entries of its four rows (their
             // texels are exact and keep the zero multiple).
             let mut row = vec![([[0f32; 16]; 3], 0u16); side];
-            for (bc, (vals, _)) in row.iter_mut().enumerate() {
+            for (bc, (vals, _)) in row.iter_mut().enumerate().filter(|(bc, _)| !coupled[*bc]) {
                 let (tile, tbr, tbc) = l.locate(br * 4, bc * 4);
                 decoder.decode(m, &tile, tbr, tbc, vals);
             }
@@ -68,12 +73,8 @@ pub(super) fn choose(
                     }
                 }
             }
-            (0..side).filter_map(move |bc| {
-                // The coupled pass encoded the emitters' column blocks against their whole
-                // block row's error; a correction fitted to one block alone would undo that.
-                if (bc * 4..(bc * 4 + 4).min(n)).any(|c| weights.emission(c) != [0.0; 3]) {
-                    return None;
-                }
+            let coupled = &coupled;
+            (0..side).filter(|bc| !coupled[*bc]).filter_map(move |bc| {
                 let (vals, sparse) = &row[bc];
                 let tile = l.locate(br * 4, bc * 4).0;
                 let ceiling = core::array::from_fn(|k| {
