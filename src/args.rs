@@ -83,8 +83,10 @@ pub(crate) fn patch_count(s: &str) -> Result<usize, String> {
         return Err(format!("the patch count must be at least 1, not {n}"));
     }
     let n = usize::try_from(n).unwrap_or(usize::MAX);
-    crate::limits::check_ceiling(n).map_err(|e| e.to_string())?;
-    Ok(n)
+    match crate::limits::above_ceiling(n) {
+        Some(why) => Err(why),
+        None => Ok(n),
+    }
 }
 
 /// The form-factor settings named by `--form-factors` (`FormFactorParams`'s presets).

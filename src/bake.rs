@@ -98,7 +98,7 @@ pub(crate) fn capped_loading(max_reflectance: Option<f64>) -> anyhow::Result<Loa
 /// `--max-reflectance` when a `Kd` at or above 1 is refused.
 pub(crate) fn load_scene(path: &Path, load: &LoadOptions) -> anyhow::Result<Scene> {
     if let Some(why) = binary_data(path) {
-        bail!("cannot load the scene: {}:{why}", path.display());
+        bail!("cannot load the scene: {}: {why}", path.display());
     }
     Scene::load_obj_with(path, load)
         .map_err(|e| {
@@ -128,9 +128,9 @@ fn kd_at_or_above_one(message: &str) -> bool {
         .any(|c| c.is_finite() && c >= 1.0)
 }
 
-/// Where the first 64 KiB of `path` show binary data (`LINE: not an OBJ file: …`): a NUL
-/// byte, or more than 1% control bytes (an OBJ is text; a Latin-1 name is not binary).
-/// `None` for text, or a file that cannot be read (the loader says why).
+/// Whether the first 64 KiB of `path` are binary data (`not an OBJ file: …`): a NUL byte, or
+/// more than 1% control bytes (an OBJ is text; a Latin-1 name is not binary). `None` for
+/// text, or a file that cannot be read (the loader says why).
 fn binary_data(path: &Path) -> Option<String> {
     use std::io::Read;
     let mut head = Vec::with_capacity(1 << 16);
@@ -142,17 +142,15 @@ fn binary_data(path: &Path) -> Option<String> {
     let line_of = |at: usize| head[..at].iter().filter(|&&b| b == b'\n').count() + 1;
     if let Some(at) = head.iter().position(|&b| b == 0) {
         return Some(format!(
-            "{}: not an OBJ file: binary data (a NUL byte)",
+            "not an OBJ file: binary data (a NUL byte on line {})",
             line_of(at)
         ));
     }
     let control = |b: &u8| (*b < 0x20 && !b"\t\n\r\x0c".contains(b)) || *b == 0x7f;
     let count = head.iter().filter(|b| control(b)).count();
     (count * 100 > head.len()).then(|| {
-        let at = head.iter().position(control).unwrap_or(0);
         format!(
-            "{}: not an OBJ file: binary data ({count} control bytes in the first {} bytes)",
-            line_of(at),
+            "not an OBJ file: binary data ({count} control bytes in the first {})",
             head.len()
         )
     })

@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use clap::Args;
 use radiosity_bake::row_check::{RowCheckParams, RowGroup, SceneCheck, check_scene};
-use radiosity_bake::scene::{LoadOptions, Scene};
+use radiosity_bake::scene::LoadOptions;
 use radiosity_bake::voxel::VoxelParams;
 use std::path::PathBuf;
 

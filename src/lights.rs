@@ -114,6 +114,17 @@ pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
         text,
         r#"{"lights": [...]} (see docs/examples/lights.json)"#,
     )?;
+    // A light given as an array would be read as its fields in order (the first one its
+    // type): say what a light is instead.
+    if let Ok(serde_json::Value::Object(top)) = serde_json::from_str::<serde_json::Value>(text)
+        && let Some(serde_json::Value::Array(lights)) = top.get("lights")
+        && let Some(i) = lights.iter().position(|l| !l.is_object())
+    {
+        bail!(
+            r#"light {i}: expected a light object {{"type": "point", "spot" or "directional", ...}}, not {}"#,
+            lights[i]
+        );
+    }
     let file: LightsFile = serde_json::from_str(text).map_err(|e| json_error(&e))?;
     let mut lights = Vec::with_capacity(file.lights.len());
     for (i, e) in file.lights.iter().enumerate() {

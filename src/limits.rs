@@ -47,14 +47,21 @@ pub(crate) fn physical_memory() -> Option<u64> {
     kib.checked_mul(1024)
 }
 
+/// Why a patch target is above [`MAX_PATCHES`] (`None` when it is not).
+pub(crate) fn above_ceiling(patches: usize) -> Option<String> {
+    (patches > MAX_PATCHES).then(|| {
+        format!(
+            "more than any bake can hold: at most {MAX_PATCHES} (a bake of n patches stores n² matrix entries, counted in 32 bits)"
+        )
+    })
+}
+
 /// Refuses a patch target above [`MAX_PATCHES`].
 pub(crate) fn check_ceiling(patches: usize) -> anyhow::Result<()> {
-    if patches > MAX_PATCHES {
-        bail!(
-            "--patches {patches} is more than any bake can hold: at most {MAX_PATCHES} (a bake of n patches stores n² matrix entries, counted in 32 bits)"
-        );
+    match above_ceiling(patches) {
+        Some(why) => bail!("--patches {patches} is {why}"),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Refuses a patch target the bake cannot hold: above [`MAX_PATCHES`], or whose estimated

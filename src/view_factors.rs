@@ -1,9 +1,8 @@
 //! `radiosity view-factors SCENE.obj [--json]`: object-to-object view factors from the
 //! full-detail geometry (`docs/contract.md`, "Command line").
 
-use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use radiosity_bake::scene::{LoadOptions, Scene};
+use radiosity_bake::scene::LoadOptions;
 use radiosity_bake::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 use serde_json::json;
 use std::path::Path;

@@ -4,9 +4,8 @@
 
 use super::{ObjectEstimate, PathTracer};
 use crate::camera::Camera;
-use anyhow::{Context, bail};
+use anyhow::bail;
 use clap::Args;
-use radiosity_bake::scene::Scene;
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
