@@ -2,8 +2,8 @@
 
 use crate::args::{BakeArgs, form_factor_params, parse_bounces};
 use anyhow::{Context, bail};
-use radiosity_bake::order::OrderKind;
 use radiosity_bake::error::BakeError;
+use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::{LoadOptions, Scene};
 use radiosity_bake::voxel::VoxelParams;

@@ -102,7 +102,8 @@ impl Camera {
             text,
             r#"{"position": [x, y, z], "look_at": [x, y, z], ...} (see docs/examples/camera.json)"#,
         )?;
-        let f: CameraFile = serde_json::from_str(text).map_err(|e| crate::lights::json_error(&e))?;
+        let f: CameraFile =
+            serde_json::from_str(text).map_err(|e| crate::lights::json_error(&e))?;
         let cam = Camera {
             position: DVec3::from(f.position),
             look_at: DVec3::from(f.look_at),

@@ -110,10 +110,7 @@ pub(crate) fn refuse_bare_array(text: &str, expected: &str) -> anyhow::Result<()
 
 /// Parses and validates a lights file's text.
 pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
-    refuse_bare_array(
-        text,
-        r#"{"lights": [...]} (see docs/examples/lights.json)"#,
-    )?;
+    refuse_bare_array(text, r#"{"lights": [...]} (see docs/examples/lights.json)"#)?;
     // A light given as an array would be read as its fields in order (the first one its
     // type): say what a light is instead.
     if let Ok(serde_json::Value::Object(top)) = serde_json::from_str::<serde_json::Value>(text)
@@ -201,7 +198,10 @@ mod tests {
                 r#"[{"type":"point","position":[0,0,0],"intensity":[1,1,1]}]"#,
                 r#"expected an object {"lights": [...]}"#,
             ),
-            (r#"{"lights":[[0,0,0]]}"#, r#"expected a light object {"type""#),
+            (
+                r#"{"lights":[[0,0,0]]}"#,
+                r#"expected a light object {"type""#,
+            ),
             ("", "EOF"),
         ] {
             let err = format!("{:#}", parse(text).unwrap_err());

@@ -103,7 +103,9 @@ mod tests {
         assert!(bake_peak_bytes(fit) <= gb23 as f64);
         assert!(bake_peak_bytes(fit + 200) > gb23 as f64, "{fit}");
         check_patches_in(fit, Some(gb23)).unwrap();
-        let err = check_patches_in(50_000, Some(gb23)).unwrap_err().to_string();
+        let err = check_patches_in(50_000, Some(gb23))
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("--patches 50000") && err.contains(&format!("at most {fit} patches")),
             "{err}"

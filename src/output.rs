@@ -135,12 +135,18 @@ mod tests {
         let err = check_dir_path(&file).unwrap_err().to_string();
         assert!(err.contains("not a directory"), "{err}");
         check_file(&d.join("ok.png")).unwrap();
-        assert_eq!(std::fs::read_dir(d).unwrap().count(), 1, "the probe is gone");
+        assert_eq!(
+            std::fs::read_dir(d).unwrap().count(),
+            1,
+            "the probe is gone"
+        );
     }
 
     #[test]
     fn temporary_names_are_cut_from_messages() {
-        let e = std::io::Error::other("No such file or directory (os error 2) at path \"/x/.radiosity-AbC\"");
+        let e = std::io::Error::other(
+            "No such file or directory (os error 2) at path \"/x/.radiosity-AbC\"",
+        );
         assert_eq!(plain(&e), "No such file or directory (os error 2)");
     }
 

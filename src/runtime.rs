@@ -189,7 +189,11 @@ impl Runtime {
 /// Warns when nothing lights the scene: no patch emits and no lights file was given, so every
 /// irradiance is zero and an image is black. Says how to add light.
 pub(crate) fn warn_if_unlit(rt: &Runtime, lights: &[Light]) {
-    let emits = rt.file.patches.iter().any(|p| p.emission.max_channel() > 0.0);
+    let emits = rt
+        .file
+        .patches
+        .iter()
+        .any(|p| p.emission.max_channel() > 0.0);
     if lights.is_empty() && !emits {
         eprintln!(
             "warning: nothing lights this scene (no emitting material, no --lights): everything is black; add lights with --lights LIGHTS.json (see docs/examples/lights.json) or give a material Ke in the MTL file"

@@ -477,25 +477,80 @@ fn bad_flags_and_output_paths_fail_at_once() {
     let a_file = work.path().join("room.mtl");
     let missing = work.path().join("missing.obj");
     let mut cases: Vec<(Vec<&str>, &str)> = vec![
-        (vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--patches", "-5"], "at least 1"),
-        (vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--patches=-5"], "at least 1"),
-        (vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--bounces", "-1"], "--bounces must be a number"),
-        (vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--bounces=-1"], "--bounces must be a number"),
-        (vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--sparse", "-0.5"], "--sparse must be"),
-        (vec!["bake", "MISSING", "-o", "OUT/out.rad", "--patches", "10000000"], "more than any bake can hold"),
-        (vec!["solve", "MISSING", "--patches", "10000000"], "more than any bake can hold"),
-        (vec!["demo", "--out", "OUT", "--patches", "10000000"], "more than any bake can hold"),
-        (vec!["check-rows", "MISSING", "--patches", "-1"], "at least 1"),
-        (vec!["solve", "GOOD", "--patches", "300"], "--patches do not apply"),
-        (vec!["solve", "GOOD", "--bounces", "2", "--format", "f32"], "--bounces, --format do not apply"),
-        (vec!["render", "GOOD", "--order", "none", "-o", "OUT/out.png"], "--order do not apply"),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--patches", "-5"],
+            "at least 1",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--patches=-5"],
+            "at least 1",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--bounces", "-1"],
+            "--bounces must be a number",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--bounces=-1"],
+            "--bounces must be a number",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--sparse", "-0.5"],
+            "--sparse must be",
+        ),
+        (
+            vec![
+                "bake",
+                "MISSING",
+                "-o",
+                "OUT/out.rad",
+                "--patches",
+                "10000000",
+            ],
+            "more than any bake can hold",
+        ),
+        (
+            vec!["solve", "MISSING", "--patches", "10000000"],
+            "more than any bake can hold",
+        ),
+        (
+            vec!["demo", "--out", "OUT", "--patches", "10000000"],
+            "more than any bake can hold",
+        ),
+        (
+            vec!["check-rows", "MISSING", "--patches", "-1"],
+            "at least 1",
+        ),
+        (
+            vec!["solve", "GOOD", "--patches", "300"],
+            "--patches do not apply",
+        ),
+        (
+            vec!["solve", "GOOD", "--bounces", "2", "--format", "f32"],
+            "--bounces, --format do not apply",
+        ),
+        (
+            vec!["render", "GOOD", "--order", "none", "-o", "OUT/out.png"],
+            "--order do not apply",
+        ),
         (vec!["render", "GOOD", "-o", "OUT"], "is a directory"),
-        (vec!["render", "GOOD", "-o", "/nonexistent/x.png"], "cannot write /nonexistent/x.png: directory /nonexistent does not exist"),
-        (vec!["render", "GOOD", "-o", "FILE/x.png"], "is not a directory"),
+        (
+            vec!["render", "GOOD", "-o", "/nonexistent/x.png"],
+            "cannot write /nonexistent/x.png: directory /nonexistent does not exist",
+        ),
+        (
+            vec!["render", "GOOD", "-o", "FILE/x.png"],
+            "is not a directory",
+        ),
         (vec!["bake", "GOOD_OBJ", "-o", "OUT"], "is a directory"),
-        (vec!["pathtrace", "GOOD_OBJ", "-o", "/nonexistent/x.png"], "/nonexistent/x.png"),
+        (
+            vec!["pathtrace", "GOOD_OBJ", "-o", "/nonexistent/x.png"],
+            "/nonexistent/x.png",
+        ),
         (vec!["demo", "--out", "FILE"], "not a directory"),
-        (vec!["inspect", "GOOD", "--export-dds", "FILE"], "not a directory"),
+        (
+            vec!["inspect", "GOOD", "--export-dds", "FILE"],
+            "not a directory",
+        ),
     ];
     // A target too large for this machine's memory (when it has less than 250 GB, the
     // estimate of 57 000 patches): refused with the estimate and what fits.
@@ -542,8 +597,14 @@ fn bad_flags_and_output_paths_fail_at_once() {
     }
     // `--flag -N` says what `--flag=-N` says.
     for (spaced, joined) in [
-        ("bake GOOD_OBJ -o OUT/out.rad --bounces -1", "bake GOOD_OBJ -o OUT/out.rad --bounces=-1"),
-        ("bake GOOD_OBJ -o OUT/out.rad --patches -5", "bake GOOD_OBJ -o OUT/out.rad --patches=-5"),
+        (
+            "bake GOOD_OBJ -o OUT/out.rad --bounces -1",
+            "bake GOOD_OBJ -o OUT/out.rad --bounces=-1",
+        ),
+        (
+            "bake GOOD_OBJ -o OUT/out.rad --patches -5",
+            "bake GOOD_OBJ -o OUT/out.rad --patches=-5",
+        ),
     ] {
         assert_eq!(said[spaced], said[joined]);
     }
@@ -556,7 +617,12 @@ fn a_white_kd_names_max_reflectance() {
     for case in ["kd-one.obj", "kd-above-one.obj"] {
         let file = corpus_dir().join("obj").join(case);
         let out = run_limited(
-            &["bake".into(), file.into_os_string(), "-o".into(), work.path().join("x.rad").into_os_string()],
+            &[
+                "bake".into(),
+                file.into_os_string(),
+                "-o".into(),
+                work.path().join("x.rad").into_os_string(),
+            ],
             work.path(),
         );
         let stderr = String::from_utf8_lossy(&out.stderr);

@@ -119,7 +119,10 @@ fn demo_writes_its_pictures_and_the_readme_says_what_it_prints() {
     let gif = std::fs::read(out_dir.join("demo.gif")).unwrap();
     assert!(gif.starts_with(b"GIF89a"), "not a GIF");
     assert!(out_dir.join("demo.rad").exists());
-    assert!(!stderr.contains("/tmp") && !stderr.contains(".tmp"), "{stderr}");
+    assert!(
+        !stderr.contains("/tmp") && !stderr.contains(".tmp"),
+        "{stderr}"
+    );
 
     // Every output has the mode of a file created under the umask: 0666 & !022.
     #[cfg(unix)]
@@ -140,7 +143,11 @@ fn demo_writes_its_pictures_and_the_readme_says_what_it_prints() {
     let block = readme_block();
     let (backend, rest): (Vec<&String>, Vec<&String>) =
         block.iter().partition(|l| l.starts_with("backend: "));
-    assert_eq!(backend.len(), 1, "the block shows the backend line: {block:?}");
+    assert_eq!(
+        backend.len(),
+        1,
+        "the block shows the backend line: {block:?}"
+    );
     assert!(stderr.contains("backend: "), "{stderr}");
     assert_eq!(
         rest.len(),
@@ -158,7 +165,8 @@ fn demo_writes_its_pictures_and_the_readme_says_what_it_prints() {
 
 #[test]
 fn the_line_comparison_ignores_times_and_backends_only() {
-    let readme = "bake: 8.4 s, 1909 patches, bc1 paper order, \"infinite\" bounces, lighting error 0.72%";
+    let readme =
+        "bake: 8.4 s, 1909 patches, bc1 paper order, \"infinite\" bounces, lighting error 0.72%";
     same_line(
         readme,
         "bake: 31.0 s, 1909 patches, bc1 paper order, \"infinite\" bounces, lighting error 0.70%",
@@ -178,6 +186,7 @@ fn the_line_comparison_ignores_times_and_backends_only() {
     )
     .unwrap();
     assert!(same_line(gif, &gif.replace("256×256", "128×128")).is_err());
-    let file = "file: assets/demo.rad (2.34 MB; a dense f32 RGB matrix would be 43.7 MB, 18.7x more)";
+    let file =
+        "file: assets/demo.rad (2.34 MB; a dense f32 RGB matrix would be 43.7 MB, 18.7x more)";
     assert!(same_line(file, &file.replace("2.34", "2.31")).is_err());
 }

@@ -110,7 +110,10 @@ fn the_example_lights_and_camera_files_work_and_the_lights_change_the_result() {
         "1",
     ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!stderr.contains("note: camera file"), "it gives every field: {stderr}");
+    assert!(
+        !stderr.contains("note: camera file"),
+        "it gives every field: {stderr}"
+    );
     let img = image::open(&png).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (320, 240));
 
@@ -174,8 +177,7 @@ fn a_scene_nothing_lights_is_rendered_with_a_warning_saying_how_to_add_light() {
         let out = radiosity_ok(&args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(
-            stderr.contains("warning: nothing lights this scene")
-                && stderr.contains("--lights"),
+            stderr.contains("warning: nothing lights this scene") && stderr.contains("--lights"),
             "{}: {stderr}",
             args[0]
         );
@@ -212,7 +214,10 @@ fn inspect_says_the_lighting_error_as_bake_does() {
         "100",
     ]);
     let percent = |text: &str, after: &str| -> String {
-        let at = text.find(after).unwrap_or_else(|| panic!("{after:?} in {text}")) + after.len();
+        let at = text
+            .find(after)
+            .unwrap_or_else(|| panic!("{after:?} in {text}"))
+            + after.len();
         text[at..].split_whitespace().next().unwrap().to_owned()
     };
     let baked = String::from_utf8(out.stdout).unwrap();
