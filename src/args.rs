@@ -8,14 +8,15 @@ use radiosity_bake::transfer::BounceSpec;
 /// How to bake (`bake`, and `solve` on an OBJ).
 #[derive(Args, Clone, Debug)]
 pub(crate) struct BakeArgs {
-    /// Target patch count (hit within ±10%).
-    #[arg(long)]
+    /// Target patch count (hit within ±10%; refused at once above what this machine's memory
+    /// holds).
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = patch_count)]
     pub(crate) patches: Option<usize>,
     /// Voxel cell size in scene units (instead of --patches).
     #[arg(long, allow_negative_numbers = true)]
     pub(crate) voxel: Option<f64>,
     /// Bounces: a number K ≥ 1, `inf`, or `auto` (as few as the energy needs).
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value = "auto", allow_negative_numbers = true)]
     pub(crate) bounces: String,
     /// Storage format: auto, bc1, bc4, u8, f16, f32.
     #[arg(long, default_value = "auto")]
@@ -24,15 +25,15 @@ pub(crate) struct BakeArgs {
     #[arg(long, default_value = "best")]
     pub(crate) order: String,
     /// Fraction of the largest entries kept exactly in the sparse list (log formats).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub(crate) sparse: Option<f32>,
     /// Share of the 4×4 blocks given a block correction, sixteen 4-bit residuals per channel
     /// (BC1 and BC4; default: three quarters of the sparse budget, 2.5% of the blocks for BC1)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub(crate) corrections: Option<f32>,
     /// Largest tile side in patches (a multiple of 4); each tile has its own log scale per
     /// channel
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub(crate) tile: Option<u32>,
     /// Form factors: `draft` (centroid rule, coarse leaves: previews; on scenes of many small
     /// triangles the quicker knob than fewer patches: a third less time on the conference room),
@@ -46,8 +47,46 @@ pub(crate) struct BakeArgs {
     pub(crate) form_factors: String,
     /// Lower MTL reflectances (Kd) at or above R, in (0, 1), to R with a warning instead of
     /// refusing the scene (many exporters write Kd 1 1 1 for white)
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub(crate) max_reflectance: Option<f64>,
+    /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
+    /// `.rad` input refuses them, since they do not apply to a file already baked.
+    #[arg(skip)]
+    pub(crate) given: Vec<String>,
+}
+
+impl BakeArgs {
+    /// The long names of the bake flags given on the command line of `matches`.
+    pub(crate) fn given_in(matches: &clap::ArgMatches) -> Vec<String> {
+        use clap::parser::ValueSource;
+        let cmd = <Self as Args>::augment_args(clap::Command::new("bake flags"));
+        cmd.get_arguments()
+            .filter(|a| {
+                matches
+                    .try_get_raw(a.get_id().as_str())
+                    .is_ok_and(|v| v.is_some())
+                    && matches.value_source(a.get_id().as_str()) == Some(ValueSource::CommandLine)
+            })
+            .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
+            .collect()
+    }
+}
+
+/// `--patches N`: a whole number from 1 to [`crate::limits::MAX_PATCHES`] (a negative or
+/// zero count gets this message, not clap's "unexpected argument").
+pub(crate) fn patch_count(s: &str) -> Result<usize, String> {
+    let n: i128 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("a patch count is a whole number, not {s:?}"))?;
+    if n < 1 {
+        return Err(format!("the patch count must be at least 1, not {n}"));
+    }
+    let n = usize::try_from(n).unwrap_or(usize::MAX);
+    match crate::limits::above_ceiling(n) {
+        Some(why) => Err(why),
+        None => Ok(n),
+    }
 }
 
 /// The form-factor settings named by `--form-factors` (`FormFactorParams`'s presets).

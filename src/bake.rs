@@ -2,18 +2,22 @@
 
 use crate::args::{BakeArgs, form_factor_params, parse_bounces};
 use anyhow::{Context, bail};
+use radiosity_bake::error::BakeError;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::{LoadOptions, Scene};
 use radiosity_bake::voxel::VoxelParams;
 use radiosity_core::Format;
-use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
 /// Builds bake parameters from the shared flags (also used by `solve SCENE.obj`).
 pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
     let mut p = BakeParams::default();
+    if let Some(n) = args.patches {
+        // Before anything is loaded or allocated: the dense matrices must fit in memory.
+        crate::limits::check_patches(n)?;
+    }
     if let Some(v) = voxel_params(args.patches, args.voxel)? {
         p.voxel = v;
     }
@@ -60,7 +64,10 @@ pub(crate) fn voxel_params(
     Ok(match (patches, voxel) {
         (Some(_), Some(_)) => bail!("give --patches or --voxel, not both"),
         (Some(0), _) => bail!("--patches must be at least 1"),
-        (Some(n), None) => Some(VoxelParams::with_patches(n)),
+        (Some(n), None) => {
+            crate::limits::check_ceiling(n)?;
+            Some(VoxelParams::with_patches(n))
+        }
         (None, Some(s)) if !(s.is_finite() && s > 0.0) => {
             bail!("--voxel must be a positive size, not {s}")
         }
@@ -86,15 +93,92 @@ pub(crate) fn capped_loading(max_reflectance: Option<f64>) -> anyhow::Result<Loa
     Ok(o)
 }
 
-/// Loads and bakes with a progress bar on stderr.
+/// Loads an OBJ scene (`Scene::load_obj_with`), refusing first a file that is not text (a
+/// PNG renamed `.obj` is "not an OBJ file", not a scene without triangles), and naming
+/// `--max-reflectance` when a `Kd` at or above 1 is refused.
+pub(crate) fn load_scene(path: &Path, load: &LoadOptions) -> anyhow::Result<Scene> {
+    if let Some(why) = binary_data(path) {
+        bail!("cannot load the scene: {}: {why}", path.display());
+    }
+    Scene::load_obj_with(path, load)
+        .map_err(|e| {
+            let hint = load.validate_materials
+                && load.max_reflectance.is_none()
+                && matches!(&e, BakeError::Material { message, .. } if kd_at_or_above_one(message));
+            if hint {
+                anyhow::anyhow!(
+                    "{e}; --max-reflectance R (e.g. 0.95) lowers such Kd to R with a warning"
+                )
+            } else {
+                anyhow::Error::new(e)
+            }
+        })
+        .context("cannot load the scene")
+}
+
+/// Whether a material message is about a `Kd` with a channel at or above 1 (`Kd 1 1 1 is not
+/// a reflectance …`), which `--max-reflectance` would lower.
+fn kd_at_or_above_one(message: &str) -> bool {
+    let Some(rest) = message.strip_prefix("Kd ") else {
+        return false;
+    };
+    rest.split_whitespace()
+        .take(3)
+        .filter_map(|c| c.parse::<f64>().ok())
+        .any(|c| c.is_finite() && c >= 1.0)
+}
+
+/// Whether the first 64 KiB of `path` are binary data (`not an OBJ file: …`): a NUL byte, or
+/// more than 1% control bytes (an OBJ is text; a Latin-1 name is not binary). `None` for
+/// text, or a file that cannot be read (the loader says why).
+fn binary_data(path: &Path) -> Option<String> {
+    use std::io::Read;
+    let mut head = Vec::with_capacity(1 << 16);
+    std::fs::File::open(path)
+        .ok()?
+        .take(1 << 16)
+        .read_to_end(&mut head)
+        .ok()?;
+    let line_of = |at: usize| head[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+    if let Some(at) = head.iter().position(|&b| b == 0) {
+        return Some(format!(
+            "not an OBJ file: binary data (a NUL byte on line {})",
+            line_of(at)
+        ));
+    }
+    let control = |b: &u8| (*b < 0x20 && !b"\t\n\r\x0c".contains(b)) || *b == 0x7f;
+    let count = head.iter().filter(|b| control(b)).count();
+    (count * 100 > head.len()).then(|| {
+        format!(
+            "not an OBJ file: binary data ({count} control bytes in the first {})",
+            head.len()
+        )
+    })
+}
+
+/// Loads and bakes with a progress bar on stderr (stage lines when stderr is not a terminal).
+/// `shown` names a scene whose path the user never gave (the embedded one, written to a
+/// temporary directory): warnings and errors say it instead of that directory.
 pub(crate) fn bake_scene(
     path: &Path,
+    shown: Option<&str>,
     load: &LoadOptions,
     params: &BakeParams,
     quiet: bool,
 ) -> anyhow::Result<(BakeOutput, f64)> {
+    let rename = |text: String| match (shown, path.parent()) {
+        (Some(name), Some(dir)) if !dir.as_os_str().is_empty() => {
+            let dir = format!("{}{}", dir.display(), std::path::MAIN_SEPARATOR);
+            text.replace(&dir, &format!("{name} "))
+        }
+        _ => text,
+    };
+    let renamed = |e: anyhow::Error| match shown {
+        Some(_) => anyhow::anyhow!(rename(crate::error_line(&e))),
+        None => e,
+    };
     let t = Instant::now();
-    let scene = Scene::load_obj_with(path, load).context("cannot load the scene")?;
+    let scene = load_scene(path, load).map_err(renamed)?;
     let load_ms = t.elapsed().as_secs_f64() * 1e3;
     let bar = crate::progress::stage_bar(14, " ({eta})", quiet);
     let (stage, progress) = crate::progress::callbacks(&bar);
@@ -107,11 +191,13 @@ pub(crate) fn bake_scene(
         },
     );
     bar.finish_and_clear();
-    let out = out.with_context(|| format!("cannot bake {}", path.display()))?;
+    let out = out
+        .with_context(|| format!("cannot bake {}", path.display()))
+        .map_err(renamed)?;
     // Warnings only once the bake has succeeded: a failure stays the one `error:` line. The
     // report's list: the scene's and the simplification's (a missed patch target).
     for w in &out.report.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", rename(w.clone()));
     }
     Ok((out, load_ms))
 }
@@ -125,24 +211,14 @@ pub(crate) fn run(
     let params = params(args)?;
     let load = load_options(args)?;
     // Refuse an unwritable destination before spending minutes on the bake.
-    let dir = output
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    if !dir.is_dir() {
-        bail!(
-            "cannot write {}: directory {} does not exist",
-            output.display(),
-            dir.display()
-        );
-    }
-    let (mut out, load_ms) = bake_scene(scene, &load, &params, json_out)?;
+    crate::output::check_file(output)?;
+    let (mut out, load_ms) = bake_scene(scene, None, &load, &params, json_out)?;
     out.report.timings_ms.insert("load", load_ms);
     let bytes = out
         .file
         .to_bytes()
         .context("internal error: the bake produced an invalid file")?;
-    write_atomically(output, &bytes)?;
+    crate::output::write_bytes(output, &bytes)?;
     if json_out {
         outln!("{}", serde_json::to_string_pretty(&out.report)?);
     } else {
@@ -195,23 +271,5 @@ pub(crate) fn run(
             r.timings_ms.values().copied().fold(0.0, f64::max) / 1e3
         );
     }
-    Ok(())
-}
-
-/// Writes to a temporary file beside `path`, then renames: readers never see half a file, and
-/// a failure leaves nothing behind.
-pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    tmp.write_all(bytes)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    tmp.as_file().sync_all().ok();
-    tmp.persist(path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }

@@ -1,13 +1,16 @@
 //! The pinhole camera of `render` (and of the reference path tracer's images).
 //!
-//! Camera file (JSON), every field but `position` and `look_at` optional:
+//! Camera file (JSON; an example with every field: `docs/examples/camera.json`), every field
+//! but `position` and `look_at` optional:
 //!
 //! ```json
 //! {"position":[x,y,z], "look_at":[x,y,z], "up":[0,1,0], "fov_deg":40, "width":512, "height":512}
 //! ```
 //!
-//! `fov_deg` is the vertical field of view. Without a file, [`Camera::frame`] chooses one from
-//! the geometry.
+//! Positions in scene units; `up` need only not be along the view (the image's up is made
+//! perpendicular to it); `fov_deg` is the full vertical field of view in degrees, in (0, 180);
+//! `width` and `height` the image size in pixels, 1 to [`MAX_SIDE`]. Without a file,
+//! [`Camera::frame`] chooses one from the geometry.
 
 use anyhow::{Context, bail};
 use glam::DVec3;
@@ -55,6 +58,33 @@ fn default_side() -> u32 {
     512
 }
 
+/// Which optional fields a (valid) camera file leaves out, and the defaults they take:
+/// `"no up, fov_deg given: up [0, 1, 0], fov_deg 40 used"`. `None` when it gives them all.
+fn defaulted(text: &str) -> Option<String> {
+    let v: serde_json::Value = serde_json::from_str(text).ok()?;
+    let given = v.as_object()?;
+    let defaults = [
+        ("up", "[0, 1, 0]".to_owned()),
+        ("fov_deg", format!("{}", default_fov())),
+        ("width", format!("{}", default_side())),
+        ("height", format!("{}", default_side())),
+    ];
+    let missing: Vec<&(&str, String)> = defaults
+        .iter()
+        .filter(|(k, _)| !given.contains_key(*k))
+        .collect();
+    if missing.is_empty() {
+        return None;
+    }
+    let names: Vec<&str> = missing.iter().map(|(k, _)| *k).collect();
+    let values: Vec<String> = missing.iter().map(|(k, d)| format!("{k} {d}")).collect();
+    Some(format!(
+        "no {} given: {} used",
+        names.join(", "),
+        values.join(", ")
+    ))
+}
+
 /// A camera's orthonormal frame: right, up, and forward (the viewing direction).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Basis {
@@ -68,8 +98,12 @@ pub(crate) struct Basis {
 impl Camera {
     /// Parses and validates a camera file's text.
     pub(crate) fn parse(text: &str) -> anyhow::Result<Self> {
-        let f: CameraFile = serde_json::from_str(text)
-            .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace('\n', " ")))?;
+        crate::lights::refuse_bare_array(
+            text,
+            r#"{"position": [x, y, z], "look_at": [x, y, z], ...} (see docs/examples/camera.json)"#,
+        )?;
+        let f: CameraFile =
+            serde_json::from_str(text).map_err(|e| crate::lights::json_error(&e))?;
         let cam = Camera {
             position: DVec3::from(f.position),
             look_at: DVec3::from(f.look_at),
@@ -84,9 +118,18 @@ impl Camera {
 
     /// Reads, parses and validates a camera file.
     pub(crate) fn load(path: &Path) -> anyhow::Result<Self> {
+        Ok(Self::load_noting_defaults(path)?.0)
+    }
+
+    /// [`Camera::load`], with a note naming the fields the file leaves out and the defaults
+    /// they took (`None` when it gives them all), for the caller to print once it succeeds.
+    pub(crate) fn load_noting_defaults(path: &Path) -> anyhow::Result<(Self, Option<String>)> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read camera file {}", path.display()))?;
-        Self::parse(&text).with_context(|| format!("bad camera file {}", path.display()))
+        let cam =
+            Self::parse(&text).with_context(|| format!("bad camera file {}", path.display()))?;
+        let note = defaulted(&text).map(|d| format!("camera file {}: {d}", path.display()));
+        Ok((cam, note))
     }
 
     /// Checks the values: finite, a viewing direction, an up vector not along it, a field of
@@ -285,6 +328,19 @@ mod tests {
             let err = format!("{:#}", Camera::parse(text).unwrap_err());
             assert!(err.contains(needle), "{text}: {err}");
         }
+    }
+
+    #[test]
+    fn left_out_fields_are_named_with_their_defaults() {
+        let d = defaulted(r#"{"position":[0,0,1],"look_at":[0,0,0],"width":64}"#).unwrap();
+        assert_eq!(
+            d,
+            "no up, fov_deg, height given: up [0, 1, 0], fov_deg 40, height 512 used"
+        );
+        let all = r#"{"position":[0,0,1],"look_at":[0,0,0],"up":[0,1,0],"fov_deg":30,"width":8,"height":8}"#;
+        assert_eq!(defaulted(all), None);
+        let err = format!("{:#}", Camera::parse("[1, 2]").unwrap_err());
+        assert!(err.contains(r#"expected an object {"position""#), "{err}");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use clap::Args;
 use radiosity_bake::row_check::{RowCheckParams, RowGroup, SceneCheck, check_scene};
-use radiosity_bake::scene::{LoadOptions, Scene};
+use radiosity_bake::scene::LoadOptions;
 use radiosity_bake::voxel::VoxelParams;
 use std::path::PathBuf;
 
@@ -13,7 +13,7 @@ pub(crate) struct CheckRowsArgs {
     /// The OBJ file.
     scene: PathBuf,
     /// Target patch count (as `bake --patches`).
-    #[arg(long)]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = crate::args::patch_count)]
     patches: Option<usize>,
     /// Voxel cell size in scene units (as `bake --voxel`).
     #[arg(long, allow_negative_numbers = true)]
@@ -57,8 +57,7 @@ pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
     }
     let form_factors = crate::args::form_factor_params(&args.form_factors)?;
     // Geometry only: the check needs the patches, not valid reflectances.
-    let scene = Scene::load_obj_with(&args.scene, &LoadOptions::geometry_only())
-        .context("cannot load the scene")?;
+    let scene = crate::bake::load_scene(&args.scene, &LoadOptions::geometry_only())?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -68,7 +67,7 @@ pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
         ..RowCheckParams::default()
     };
     let bar = crate::progress::stage_bar(12, " rows ({eta})", args.json);
-    bar.set_message("form factors");
+    bar.stage("form factors");
     let (_, progress) = crate::progress::callbacks(&bar);
     let out = check_scene(
         &scene,

@@ -17,11 +17,6 @@ use std::time::Instant;
 const FRAMES: usize = 36;
 
 pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let scene_dir = tempfile::tempdir().context("cannot create a temporary directory")?;
-    crate::embedded::cornell_box_in(scene_dir.path())?;
-    let obj = scene_dir.path().join("CornellBox-Original.obj");
-
     let args = BakeArgs {
         patches: Some(patches),
         voxel: None,
@@ -33,15 +28,25 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         tile: None,
         form_factors: "default".into(),
         max_reflectance: None,
+        given: Vec::new(),
     };
     let params = crate::bake::params(&args)?;
+    crate::output::create_dir(out)?;
+    for name in ["demo.rad", "demo.png", "demo.gif"] {
+        crate::output::check_file(&out.join(name))?;
+    }
+    let scene_dir = tempfile::tempdir().context("cannot create a temporary directory")?;
+    crate::embedded::cornell_box_in(scene_dir.path())?;
+    let obj = scene_dir.path().join("CornellBox-Original.obj");
+
     eprintln!("baking the embedded Cornell box (about {patches} patches)…");
     let t = Instant::now();
-    let (baked, _) = crate::bake::bake_scene(&obj, &Default::default(), &params, false)?;
+    let (baked, _) =
+        crate::bake::bake_scene(&obj, Some("embedded"), &Default::default(), &params, false)?;
     let bake_s = t.elapsed().as_secs_f64();
     let bytes = baked.file.to_bytes()?;
     let rad = out.join("demo.rad");
-    crate::bake::write_atomically(&rad, &bytes)?;
+    crate::output::write_bytes(&rad, &bytes)?;
     let r = &baked.report;
     outln!(
         "bake: {:.1} s, {} patches, {} {} order, {} bounces, lighting error {}",
@@ -143,7 +148,7 @@ fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
 fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Result<()> {
     use image::codecs::gif::{GifEncoder, Repeat};
     use image::{Delay, Frame};
-    crate::picture::write_atomic(path, ".gif", |w| {
+    crate::output::write_atomic(path, |w| {
         let mut enc = GifEncoder::new_with_speed(w, 10);
         enc.set_repeat(Repeat::Infinite)?;
         for img in images {

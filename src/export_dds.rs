@@ -12,7 +12,7 @@ use serde_json::json;
 use std::path::Path;
 
 pub(crate) fn export(file: &RadFile<'_>, dir: &Path) -> anyhow::Result<usize> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    crate::output::create_dir(dir)?;
     let m = &file.matrix;
     let l = &m.layout;
     let bb = l.format().block_bytes();
@@ -64,10 +64,7 @@ pub(crate) fn export(file: &RadFile<'_>, dir: &Path) -> anyhow::Result<usize> {
             }
             let fname = format!("tile_{ty:03}_{tx:03}_{name}.dds");
             let path = dir.join(&fname);
-            let mut out = std::fs::File::create(&path)
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            dds.write(&mut out)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            crate::output::write_atomic(&path, |w| Ok(dds.write(w)?))?;
             let scale = l.format().is_log().then(|| {
                 let channel = if l.format() == Format::Bc1 {
                     None
@@ -90,7 +87,9 @@ pub(crate) fn export(file: &RadFile<'_>, dir: &Path) -> anyhow::Result<usize> {
     let n = index.len();
     let meta = json!({ "patches": file.n(), "tile_size": l.tile_size(), "tiles": index,
         "note": "rows/cols beyond `patches` are padding; sparse entries and block corrections are not in the textures" });
-    std::fs::write(dir.join("tiles.json"), serde_json::to_string_pretty(&meta)?)
-        .with_context(|| format!("cannot write {}", dir.join("tiles.json").display()))?;
+    crate::output::write_bytes(
+        &dir.join("tiles.json"),
+        serde_json::to_string_pretty(&meta)?.as_bytes(),
+    )?;
     Ok(n)
 }

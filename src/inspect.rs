@@ -6,6 +6,9 @@ use serde_json::{Value, json};
 use std::path::Path;
 
 pub(crate) fn run(path: &Path, json_out: bool, export_dds: Option<&Path>) -> anyhow::Result<()> {
+    if let Some(dir) = export_dds {
+        crate::output::check_dir_path(dir)?;
+    }
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let file = RadFile::parse(&bytes)
         .with_context(|| format!("{} is not a valid .rad file", path.display()))?;
@@ -25,7 +28,7 @@ pub(crate) fn run(path: &Path, json_out: bool, export_dds: Option<&Path>) -> any
     Ok(())
 }
 
-/// The `inspect --json` object (DESIGN.md): the file's own facts, merged over the bake's report
+/// The `inspect --json` object (`docs/contract.md`): the file's own facts, merged over the bake's report
 /// (rays cast, effects, timings, per-order errors) when the file carries one.
 fn summarise(file: &RadFile<'_>, total: usize) -> Value {
     let m = &file.matrix;
@@ -117,7 +120,11 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         (None, _) => outln!("  compression  error not measured"),
     }
     if let Some(v) = file.lighting_error {
-        outln!("  lighting     relative L2 error {v:.4} (scene's own emitters)");
+        // As `bake` prints it: a percentage (`--json` keeps the fraction).
+        outln!(
+            "  lighting     relative L2 error {:.3}% (scene's own emitters)",
+            v * 100.0
+        );
     }
     if let Some(d) = describe_form_factors(&s["form_factors"]) {
         outln!("  form factors {d}");
@@ -144,7 +151,7 @@ pub(crate) fn describe_form_factors(v: &Value) -> Option<String> {
         1 => "1 shadow ray per leaf".to_owned(),
         k => format!("{k} shadow rays per leaf"),
     };
-    // Files baked before session 14 have no `far_pieces`: every piece pair was exact.
+    // A file without `far_pieces` integrated every piece pair exactly.
     let far = match v["far_pieces"].as_f64() {
         Some(k) => format!("; piece pairs beyond {k} × their radii by the rule on both sides"),
         None => String::new(),

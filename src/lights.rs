@@ -1,4 +1,5 @@
-//! The lights file of DESIGN.md:
+//! The lights file (`docs/contract.md`; an example with every field:
+//! `docs/examples/lights.json`):
 //!
 //! ```json
 //! {"lights":[{"type":"point","position":[x,y,z],"intensity":[r,g,b]},
@@ -6,9 +7,12 @@
 //!            {"type":"directional","direction":[..],"irradiance":[r,g,b]}]}
 //! ```
 //!
-//! Intensity in W/sr, irradiance in W/m², all finite and non-negative, directions non-zero,
-//! `cone_deg` the cone's half-angle in (0, 180]. Unknown fields are refused (a misspelt
-//! `"intensty"` must not silently become a black light).
+//! Every field is required; none has a default. Positions in scene units; intensity in W/sr,
+//! irradiance in W/m² on a surface facing the light, all finite and non-negative; directions
+//! non-zero, need not be unit length: a spot's is the axis of its cone (from the light
+//! outwards), a directional light's the way its light travels. `cone_deg` is the cone's
+//! half-angle in degrees, in (0, 180], with a hard edge. Unknown fields are refused (a
+//! misspelt `"intensty"` must not silently become a black light).
 
 use anyhow::{Context, bail};
 use glam::Vec3;
@@ -74,12 +78,51 @@ impl From<&LightEntry> for Light {
     }
 }
 
+/// serde_json's message on one line (it carries the line and column), with the types it
+/// expected said as the file's shapes instead of the Rust names.
+pub(crate) fn json_error(e: &serde_json::Error) -> anyhow::Error {
+    let text = e
+        .to_string()
+        .replace('\n', " ")
+        .replace(
+            "expected struct LightsFile",
+            r#"expected an object {"lights": [...]} (see docs/examples/lights.json)"#,
+        )
+        .replace(
+            "expected internally tagged enum LightEntry",
+            r#"expected a light object {"type": "point", "spot" or "directional", ...}"#,
+        )
+        .replace(
+            "expected struct CameraFile",
+            r#"expected an object {"position": [x, y, z], "look_at": [x, y, z], ...} (see docs/examples/camera.json)"#,
+        );
+    anyhow::anyhow!("{text}")
+}
+
+/// Refuses a file that is a bare JSON array where an object is expected (serde would read
+/// the array as the object's fields in order and complain about the first one instead).
+pub(crate) fn refuse_bare_array(text: &str, expected: &str) -> anyhow::Result<()> {
+    if text.trim_start().starts_with('[') {
+        bail!("expected an object {expected} at the top level, not a bare array");
+    }
+    Ok(())
+}
+
 /// Parses and validates a lights file's text.
 pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
-    let file: LightsFile = serde_json::from_str(text).map_err(|e| {
-        // serde_json's messages carry the line and column; keep them on one line.
-        anyhow::anyhow!("{}", e.to_string().replace('\n', " "))
-    })?;
+    refuse_bare_array(text, r#"{"lights": [...]} (see docs/examples/lights.json)"#)?;
+    // A light given as an array would be read as its fields in order (the first one its
+    // type): say what a light is instead.
+    if let Ok(serde_json::Value::Object(top)) = serde_json::from_str::<serde_json::Value>(text)
+        && let Some(serde_json::Value::Array(lights)) = top.get("lights")
+        && let Some(i) = lights.iter().position(|l| !l.is_object())
+    {
+        bail!(
+            r#"light {i}: expected a light object {{"type": "point", "spot" or "directional", ...}}, not {}"#,
+            lights[i]
+        );
+    }
+    let file: LightsFile = serde_json::from_str(text).map_err(|e| json_error(&e))?;
     let mut lights = Vec::with_capacity(file.lights.len());
     for (i, e) in file.lights.iter().enumerate() {
         let light = Light::from(e);
@@ -151,6 +194,14 @@ mod tests {
                 "length",
             ),
             (r#"{"lights": NaN}"#, "expected value"),
+            (
+                r#"[{"type":"point","position":[0,0,0],"intensity":[1,1,1]}]"#,
+                r#"expected an object {"lights": [...]}"#,
+            ),
+            (
+                r#"{"lights":[[0,0,0]]}"#,
+                r#"expected a light object {"type""#,
+            ),
             ("", "EOF"),
         ] {
             let err = format!("{:#}", parse(text).unwrap_err());

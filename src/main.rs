@@ -1,4 +1,4 @@
-//! The `radiosity` command line (DESIGN.md, "Command line"). Thin: each subcommand parses its
+//! The `radiosity` command line (`docs/contract.md`, "Command line"). Thin: each subcommand parses its
 //! arguments and calls a library function; every error leaves as one `error: …` line on stderr
 //! and a non-zero exit status.
 
@@ -22,6 +22,8 @@ mod embedded;
 mod export_dds;
 mod inspect;
 mod lights;
+mod limits;
+mod output;
 mod pathtrace;
 mod picture;
 mod progress;
@@ -40,7 +42,8 @@ use std::process::ExitCode;
 #[command(
     name = "radiosity",
     version,
-    about = "Precomputed-transfer radiosity: bake once, light every frame with one mat-vec"
+    about = "Precomputed-transfer radiosity: bake once, light every frame with one mat-vec",
+    arg_required_else_help = true
 )]
 struct Cli {
     #[command(subcommand)]
@@ -58,7 +61,7 @@ enum Command {
         #[arg(long)]
         backend: Option<String>,
         /// Target patch count of the bake.
-        #[arg(long, default_value_t = 2048)]
+        #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
         patches: usize,
     },
     /// Bake an OBJ scene into a compressed transfer matrix (.rad).
@@ -80,7 +83,15 @@ enum Command {
         input: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
-        /// Analytic lights (JSON: point, spot, directional) added to the scene's emitters.
+        /// Analytic lights added to the scene's emitters (JSON; every field:
+        /// docs/examples/lights.json).
+        ///
+        /// {"lights": [...]}, each light one of {"type": "point", "position": [x,y,z],
+        /// "intensity": [r,g,b]}, {"type": "spot", "position", "direction": [x,y,z] (the cone's
+        /// axis), "cone_deg": the cone's half-angle in degrees, in (0, 180], "intensity"} or
+        /// {"type": "directional", "direction" (the way the light travels), "irradiance":
+        /// [r,g,b]}. Every field required; positions in scene units, intensity in W/sr,
+        /// irradiance in W/m² on a surface facing the light.
         #[arg(long, value_name = "LIGHTS.json")]
         lights: Option<PathBuf>,
         /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
@@ -96,23 +107,37 @@ enum Command {
         input: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
-        /// Analytic lights (JSON: point, spot, directional) added to the scene's emitters.
+        /// Analytic lights added to the scene's emitters (JSON; every field:
+        /// docs/examples/lights.json).
+        ///
+        /// {"lights": [...]}, each light one of {"type": "point", "position": [x,y,z],
+        /// "intensity": [r,g,b]}, {"type": "spot", "position", "direction": [x,y,z] (the cone's
+        /// axis), "cone_deg": the cone's half-angle in degrees, in (0, 180], "intensity"} or
+        /// {"type": "directional", "direction" (the way the light travels), "irradiance":
+        /// [r,g,b]}. Every field required; positions in scene units, intensity in W/sr,
+        /// irradiance in W/m² on a surface facing the light.
         #[arg(long, value_name = "LIGHTS.json")]
         lights: Option<PathBuf>,
-        /// Camera (JSON: position, look_at, up, fov_deg, width, height); default: framed automatically.
+        /// Camera (JSON; every field: docs/examples/camera.json); default: framed
+        /// automatically.
+        ///
+        /// {"position": [x,y,z], "look_at": [x,y,z]} (scene units), and optionally "up"
+        /// (default [0,1,0]), "fov_deg" (the vertical field of view in degrees, in (0, 180),
+        /// default 40), "width" and "height" (pixels, 1 to 8192, default 512 each: a camera
+        /// file sets the size, not --width and --height).
         #[arg(long, value_name = "CAMERA.json")]
         camera: Option<PathBuf>,
         /// Where to write the PNG (written atomically).
         #[arg(short, long)]
         output: PathBuf,
         /// Image width when the camera is framed automatically.
-        #[arg(long, default_value_t = 512)]
+        #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
         width: u32,
         /// Image height when the camera is framed automatically.
-        #[arg(long, default_value_t = 512)]
+        #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
         height: u32,
         /// Antialiasing: N×N camera samples per pixel (1 to 8).
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
         aa: u32,
         /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
         #[arg(long)]
@@ -135,7 +160,7 @@ enum Command {
     /// Cornell box, with errors and a roofline.
     Bench {
         /// Target patch count.
-        #[arg(long, default_value_t = 4096)]
+        #[arg(long, value_name = "N", default_value_t = 4096, allow_negative_numbers = true, value_parser = args::patch_count)]
         patches: usize,
         /// Timed calls per method (default: about 0.8 s of calls each, 7 to 201).
         #[arg(long)]
@@ -187,18 +212,37 @@ pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>, newline: bool) {
     }
 }
 
+/// Parses the command line, noting which bake flags `solve` and `render` were given (a `.rad`
+/// input refuses them: see [`BakeArgs::given`]).
+fn parse() -> Result<Cli, clap::Error> {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = Cli::command().try_get_matches()?;
+    let mut cli = Cli::from_arg_matches(&matches)?;
+    if let (Some((_, sub)), Command::Solve { bake, .. } | Command::Render { bake, .. }) =
+        (matches.subcommand(), &mut cli.command)
+    {
+        bake.given = BakeArgs::given_in(sub);
+    }
+    Ok(cli)
+}
+
 fn main() -> ExitCode {
     // Mesa's Vulkan device-select layer prints "error: XDG_RUNTIME_DIR is invalid…" to stderr
-    // whenever adapters are listed on a machine without a desktop session, which breaks the
+    // whenever adapters are listed on a machine without a desktop login, which breaks the
     // one-line error contract and alarms users for nothing; NODEVICE_SELECT=1 turns the layer
-    // off (it only reorders GPUs). Measured: shared/notes/wgpu-on-cpu.md.
+    // off (it only reorders GPUs).
     if std::env::var_os("NODEVICE_SELECT").is_none() {
         // SAFETY: first statement of main, before any thread (rayon, wgpu) exists, so no other
         // thread can read or write the environment concurrently.
         unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
-    let cli = match Cli::try_parse() {
+    let cli = match parse() {
         Ok(cli) => cli,
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            // `radiosity` alone: the help, on stderr, with clap's usage-error status.
+            let _ = e.print();
+            return ExitCode::from(2);
+        }
         Err(e) if !e.use_stderr() => {
             // --help and --version: clap prints them as usual.
             let _ = e.print();
@@ -265,7 +309,7 @@ fn main() -> ExitCode {
             patches,
             runs,
             json,
-        } => bench::run(patches, json, runs),
+        } => limits::check_patches(patches).and_then(|()| bench::run(patches, json, runs)),
         Command::Report { quick, output } => {
             report::output_dir(output).and_then(|dir| report::run(quick, &dir))
         }
@@ -280,16 +324,20 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line: the context chain joined, never a backtrace. A cause its parent already
-            // quotes (`{path}: {source}` errors) is not repeated.
-            let mut msg: Vec<String> = Vec::new();
-            for c in e.chain().map(|c| c.to_string()) {
-                if !msg.last().is_some_and(|m| m.ends_with(&c)) {
-                    msg.push(c);
-                }
-            }
-            eprintln!("error: {}", msg.join(": ").replace('\n', " "));
+            eprintln!("error: {}", error_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// An error as one line: the context chain joined, never a backtrace. A cause its parent
+/// already quotes (`{path}: {source}` errors) is not repeated.
+pub(crate) fn error_line(e: &anyhow::Error) -> String {
+    let mut msg: Vec<String> = Vec::new();
+    for c in e.chain().map(|c| c.to_string()) {
+        if !msg.last().is_some_and(|m| m.ends_with(&c)) {
+            msg.push(c);
+        }
+    }
+    msg.join(": ").replace('\n', " ")
 }

@@ -1,7 +1,7 @@
 //! The reference Monte-Carlo path tracer: an estimate of the true (continuous, full-detail)
 //! solution that a bake only approximates, with error bars.
 //!
-//! Physics (DESIGN.md, "Conventions"): the full-detail triangles, no patches; diffuse only;
+//! Physics (`docs/contract.md`, "Conventions"): the full-detail triangles, no patches; diffuse only;
 //! triangles one-sided for emitting and receiving (front = counter-clockwise), blocking from
 //! both sides; a material's stored emission is the exitance `E = π·Ke`, so an emitter's radiance
 //! is `E/π`; irradiance `H = ∫ L cosθ dω` over the front hemisphere; radiosity `B = E + ρ∘H`;

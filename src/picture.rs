@@ -1,7 +1,6 @@
 //! Linear-light images and their way to the screen: exposure, tone mapping, sRGB encoding,
 //! and writing PNG files atomically. Shared by `render`, `demo` and the path tracer.
 
-use anyhow::Context;
 use glam::Vec3;
 use std::path::Path;
 
@@ -79,39 +78,12 @@ pub(crate) fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// Writes an 8-bit image as PNG through a temporary file in the same directory.
+/// Writes an 8-bit image as PNG, atomically ([`crate::output::write_atomic`]).
 pub(crate) fn save_png_atomic(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
-    write_atomic(path, ".png", |w| {
+    crate::output::write_atomic(path, |w| {
         img.write_to(w, image::ImageFormat::Png)?;
         Ok(())
     })
-}
-
-/// Writes a file through a temporary file in the same directory, renamed into place once
-/// `write` succeeds: a failure never leaves a partial file at `path`.
-pub(crate) fn write_atomic(
-    path: &Path,
-    suffix: &str,
-    write: impl FnOnce(&mut std::io::BufWriter<&std::fs::File>) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let tmp = tempfile::Builder::new()
-        .prefix(".radiosity-")
-        .suffix(suffix)
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write in {}", dir.display()))?;
-    {
-        let mut w = std::io::BufWriter::new(tmp.as_file());
-        write(&mut w).with_context(|| format!("cannot encode {}", path.display()))?;
-        std::io::Write::flush(&mut w)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    tmp.persist(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,13 +1,113 @@
-//! The progress bar of the long commands (`bake`, `bench`): a stage name and a counter, on
+//! The progress of the long commands (`bake`, `bench`, …): a stage name and a counter, on
 //! stderr, fed by the bake's [`Hooks`](radiosity_bake::pipeline::Hooks) callbacks.
+//!
+//! On a terminal this is a bar, cleared at the end. When stderr is not a terminal (a log, a CI
+//! job, a pipe) a bar cannot be drawn, so each stage prints one line when it ends, with its
+//! time: `bake: form factors 12.3 s`. A run that is over within [`QUIET_FOR`] prints none of
+//! them (a small scene, or an input refused early, keeps stderr to its one warning or error).
 
 use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// How long a run goes before its stage lines are printed (those of earlier stages then too).
+const QUIET_FOR: Duration = Duration::from_secs(1);
+
+/// The stage lines of a run whose stderr is not a terminal.
+struct StageLog {
+    /// What the lines start with: the subcommand (`bake`, `solve`, `bench`, …).
+    label: String,
+    start: Instant,
+    current: Option<(String, Instant)>,
+    /// Lines of the stages ended within [`QUIET_FOR`], not printed yet.
+    held: Vec<String>,
+    printing: bool,
+}
+
+impl StageLog {
+    fn emit(&mut self, line: String) {
+        if !self.printing && self.start.elapsed() >= QUIET_FOR {
+            self.printing = true;
+            for l in self.held.drain(..) {
+                eprintln!("{l}");
+            }
+        }
+        if self.printing {
+            eprintln!("{line}");
+        } else {
+            self.held.push(line);
+        }
+    }
+
+    /// Ends the current stage (its line), and starts `next` if given.
+    fn next(&mut self, next: Option<&str>) {
+        if let Some((name, t)) = self.current.take() {
+            let line = format!("{}: {name} {:.1} s", self.label, t.elapsed().as_secs_f64());
+            self.emit(line);
+        }
+        self.current = next.map(|s| (s.to_owned(), Instant::now()));
+    }
+}
+
+/// A stage-and-counter bar on a terminal, stage lines elsewhere ([`StageBar::stage`]).
+pub(crate) struct StageBar {
+    bar: ProgressBar,
+    log: Option<Mutex<StageLog>>,
+}
+
+impl std::ops::Deref for StageBar {
+    type Target = ProgressBar;
+    fn deref(&self) -> &ProgressBar {
+        &self.bar
+    }
+}
+
+impl StageBar {
+    /// Starts a stage: names it on the bar, and ends the previous one's line.
+    pub(crate) fn stage(&self, s: &str) {
+        if let Some(log) = &self.log {
+            log.lock().unwrap_or_else(|e| e.into_inner()).next(Some(s));
+        }
+        self.bar.set_message(s.to_owned());
+        self.bar.tick();
+    }
+
+    /// Ends the last stage (its line, when lines are printed) and clears the bar.
+    pub(crate) fn finish_and_clear(&self) {
+        if let Some(log) = &self.log {
+            log.lock().unwrap_or_else(|e| e.into_inner()).next(None);
+        }
+        self.bar.finish_and_clear();
+    }
+}
+
+/// The subcommand the stage lines are labelled with.
+fn command_name() -> String {
+    std::env::args()
+        .nth(1)
+        .filter(|a| !a.starts_with('-'))
+        .unwrap_or_else(|| "radiosity".to_owned())
+}
 
 /// A stage-and-counter bar: `{spinner} stage [bar] done/total`, with `extra` after it (e.g.
-/// `" ({eta})"`), the stage name padded to `width`. Hidden when `quiet`.
-pub(crate) fn stage_bar(width: usize, extra: &str, quiet: bool) -> ProgressBar {
+/// `" ({eta})"`), the stage name padded to `width`. The bar is hidden when `quiet` (`--json`);
+/// the stage lines of a stderr that is not a terminal are printed either way.
+pub(crate) fn stage_bar(width: usize, extra: &str, quiet: bool) -> StageBar {
+    let log = (!std::io::stderr().is_terminal()).then(|| {
+        Mutex::new(StageLog {
+            label: command_name(),
+            start: Instant::now(),
+            current: None,
+            held: Vec::new(),
+            printing: false,
+        })
+    });
     if quiet {
-        return ProgressBar::hidden();
+        return StageBar {
+            bar: ProgressBar::hidden(),
+            log,
+        };
     }
     let bar = ProgressBar::new(1);
     bar.set_style(
@@ -16,21 +116,41 @@ pub(crate) fn stage_bar(width: usize, extra: &str, quiet: bool) -> ProgressBar {
         ))
         .expect("the template is well formed"),
     );
-    bar
+    StageBar { bar, log }
 }
 
 /// The two callbacks a bake reports through: a new stage (named on the bar) and rows done out
 /// of a total.
 pub(crate) fn callbacks(
-    bar: &ProgressBar,
+    bar: &StageBar,
 ) -> (impl Fn(&str) + Sync + '_, impl Fn(usize, usize) + Sync + '_) {
-    let stage = move |s: &str| {
-        bar.set_message(s.to_owned());
-        bar.tick();
-    };
+    let stage = move |s: &str| bar.stage(s);
     let progress = move |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
+        bar.bar.set_length(total as u64);
+        bar.bar.set_position(done as u64);
     };
     (stage, progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quick_runs_hold_their_lines_and_slow_ones_print_them_all() {
+        let mut log = StageLog {
+            label: "bake".into(),
+            start: Instant::now(),
+            current: None,
+            held: Vec::new(),
+            printing: false,
+        };
+        log.next(Some("simplify"));
+        log.next(Some("form factors"));
+        assert_eq!(log.held.len(), 1);
+        assert!(log.held[0].starts_with("bake: simplify ") && log.held[0].ends_with(" s"));
+        log.start -= QUIET_FOR;
+        log.next(None);
+        assert!(log.printing && log.held.is_empty());
+    }
 }

@@ -277,13 +277,18 @@ pub(crate) fn run(
             );
         }
     }
+    // An output that cannot be written is refused before any work.
+    crate::output::check_file(output)?;
     let lights = match lights {
         Some(p) => crate::lights::load(p)?,
         None => Vec::new(),
     };
-    let cam_from_file = match camera_file {
-        Some(p) => Some(Camera::load(p)?),
-        None => None,
+    let (cam_from_file, camera_note) = match camera_file {
+        Some(p) => {
+            let (cam, note) = Camera::load_noting_defaults(p)?;
+            (Some(cam), note)
+        }
+        None => (None, None),
     };
     let loaded = crate::runtime::load(input, args, false)?;
     let rt = &loaded.runtime;
@@ -313,5 +318,9 @@ pub(crate) fn run(
         cam.height,
         spp_side * spp_side
     );
+    if let Some(note) = camera_note {
+        eprintln!("note: {note}");
+    }
+    crate::runtime::warn_if_unlit(rt, &lights);
     Ok(())
 }

@@ -1,4 +1,4 @@
-//! Runtime lighting around the gather (DESIGN.md "Conventions", runtime per frame):
+//! Runtime lighting around the gather (`docs/contract.md`, "Conventions", runtime per frame):
 //! analytic lights → direct irradiance per patch with shadow rays through a BVH over the
 //! file's full-detail mesh → first exitance → gather → total irradiance and radiosity, and
 //! indirect light interpolated to any point of the mesh.
@@ -186,6 +186,21 @@ impl Runtime {
     }
 }
 
+/// Warns when nothing lights the scene: no patch emits and no lights file was given, so every
+/// irradiance is zero and an image is black. Says how to add light.
+pub(crate) fn warn_if_unlit(rt: &Runtime, lights: &[Light]) {
+    let emits = rt
+        .file
+        .patches
+        .iter()
+        .any(|p| p.emission.max_channel() > 0.0);
+    if lights.is_empty() && !emits {
+        eprintln!(
+            "warning: nothing lights this scene (no emitting material, no --lights): everything is black; add lights with --lights LIGHTS.json (see docs/examples/lights.json) or give a material Ke in the MTL file"
+        );
+    }
+}
+
 /// Refuses a frame whose irradiance or radiosity overflowed f32 (emission or light intensities
 /// near f32's limit, amplified by the bounces): an error, never `inf` or `null` in the output.
 pub(crate) fn ensure_finite(irradiance: &[Rgb], radiosity: &[Rgb]) -> anyhow::Result<()> {
@@ -225,6 +240,13 @@ pub(crate) fn load(
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("rad"));
     let (file, effects) = if is_rad {
+        if !args.given.is_empty() {
+            bail!(
+                "{} is already baked: the bake flag(s) {} do not apply to it (bake the OBJ scene again with them)",
+                input.display(),
+                args.given.join(", ")
+            );
+        }
         let bytes =
             std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
         let file = RadFile::parse(&bytes)
@@ -241,7 +263,7 @@ pub(crate) fn load(
     } else {
         let params = crate::bake::params(args)?;
         let load = crate::bake::load_options(args)?;
-        let (out, load_ms) = crate::bake::bake_scene(input, &load, &params, quiet)?;
+        let (out, load_ms) = crate::bake::bake_scene(input, None, &load, &params, quiet)?;
         timings.insert("load", load_ms);
         timings.insert(
             "bake",

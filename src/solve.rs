@@ -89,6 +89,8 @@ pub(crate) fn run(
             );
         }
     }
+    // After the results, as every warning: a failure stays the one `error:` line.
+    crate::runtime::warn_if_unlit(&runtime, &lights);
     Ok(())
 }
 

@@ -1,17 +1,15 @@
 //! `radiosity view-factors SCENE.obj [--json]`: object-to-object view factors from the
-//! full-detail geometry (DESIGN.md, "Command line").
+//! full-detail geometry (`docs/contract.md`, "Command line").
 
-use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use radiosity_bake::scene::{LoadOptions, Scene};
+use radiosity_bake::scene::LoadOptions;
 use radiosity_bake::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 use serde_json::json;
 use std::path::Path;
 
 pub(crate) fn run(scene_path: &Path, json_out: bool) -> anyhow::Result<()> {
     // Geometry only: a material the bake would refuse (Kd 1) is no reason to refuse view factors.
-    let scene = Scene::load_obj_with(scene_path, &LoadOptions::geometry_only())
-        .context("cannot load the scene")?;
+    let scene = crate::bake::load_scene(scene_path, &LoadOptions::geometry_only())?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }

@@ -4,9 +4,8 @@
 
 use super::{ObjectEstimate, PathTracer};
 use crate::camera::Camera;
-use anyhow::{Context, bail};
+use anyhow::bail;
 use clap::Args;
-use radiosity_bake::scene::Scene;
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -19,8 +18,9 @@ const MAX_SAMPLES: usize = 1 << 32;
 pub(crate) struct PathtraceArgs {
     /// The OBJ file.
     scene: PathBuf,
-    /// Analytic lights (JSON, see DESIGN.md); the scene's own emitters always shine.
-    #[arg(long)]
+    /// Analytic lights (JSON, as `solve --lights`: docs/examples/lights.json); the scene's own
+    /// emitters always shine.
+    #[arg(long, value_name = "LIGHTS.json")]
     lights: Option<PathBuf>,
     /// Sample points (one path each) per object; the standard error falls as 1/√N.
     #[arg(long, default_value_t = 16384)]
@@ -32,8 +32,9 @@ pub(crate) struct PathtraceArgs {
     /// "radiosity", "stderr", "radiosity_stderr"}], "image", "timings_ms"}.
     #[arg(long)]
     json: bool,
-    /// Camera file (JSON) for the image; without one the camera frames the scene (512×512).
-    #[arg(long)]
+    /// Camera file for the image (JSON, as `render --camera`: docs/examples/camera.json);
+    /// without one the camera frames the scene (512×512).
+    #[arg(long, value_name = "CAMERA.json")]
     camera: Option<PathBuf>,
     /// Also render an image (tone-mapped PNG, automatic exposure).
     #[arg(short, long)]
@@ -66,7 +67,16 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     if args.output.is_none() && (args.camera.is_some() || args.spp.is_some()) {
         bail!("--camera and --spp describe the image: give -o IMAGE.png too");
     }
-    let camera = args.camera.as_deref().map(Camera::load).transpose()?;
+    if let Some(out) = &args.output {
+        crate::output::check_file(out)?;
+    }
+    let (camera, camera_note) = match args.camera.as_deref() {
+        Some(p) => {
+            let (cam, note) = Camera::load_noting_defaults(p)?;
+            (Some(cam), note)
+        }
+        None => (None, None),
+    };
     let lights = match &args.lights {
         Some(p) => crate::lights::load(p)?,
         None => Vec::new(),
@@ -78,7 +88,7 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     };
     let t = Instant::now();
     let load = crate::bake::capped_loading(args.max_reflectance)?;
-    let scene = Scene::load_obj_with(&args.scene, &load).context("cannot load the scene")?;
+    let scene = crate::bake::load_scene(&args.scene, &load)?;
     for w in &scene.report.warnings {
         eprintln!("warning: {w}");
     }
@@ -149,6 +159,9 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
         if let Some(out) = &args.output {
             outln!("image: {}", out.display());
         }
+    }
+    if let Some(note) = camera_note {
+        eprintln!("note: {note}");
     }
     Ok(())
 }

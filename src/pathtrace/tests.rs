@@ -1,7 +1,7 @@
 //! The path tracer against closed forms that share nothing with the bake: the white furnace,
 //! Howell's view factors (tests/tests/data/viewfactors.csv), the inverse-square cosine law and
 //! its solid-angle integral, hard shadows, the energy identity of closed enclosures and the
-//! two-plate closed form of shared/reference/multibounce.md.
+//! two-plate closed form of multiple bounces between two facing plates.
 //!
 //! Monte-Carlo estimates are compared within `K_SIGMA` standard errors. The seeds are fixed, so
 //! every run is the same; the bound says how unlikely a failure would be for an unlucky seed:

@@ -1,4 +1,4 @@
-//! Bad input never panics, hangs or half-writes (issue #8).
+//! Bad input never panics, hangs or half-writes.
 //!
 //! Every file under `tests/bad/<kind>/` is run through the commands of its kind (the table in
 //! `tests/bad/README.md`), so a file dropped there is picked up without touching this code.
@@ -90,8 +90,15 @@ fn needles() -> BTreeMap<String, String> {
         .collect()
 }
 
-/// Runs one bad input through one command line and checks the whole contract.
-fn check(case: &str, args: Vec<OsString>, needle: Option<&str>, out_dir: &Path, input_dir: &Path) {
+/// Runs one bad input through one command line and checks the whole contract. Returns the
+/// stderr line and how long the command took.
+fn check(
+    case: &str,
+    args: Vec<OsString>,
+    needle: Option<&str>,
+    out_dir: &Path,
+    input_dir: &Path,
+) -> (String, Duration) {
     let before = listing(input_dir);
     let t = Instant::now();
     let out = run_limited(&args, out_dir);
@@ -149,6 +156,7 @@ fn check(case: &str, args: Vec<OsString>, needle: Option<&str>, out_dir: &Path, 
         took.as_secs_f64() * 1e3,
         stderr.trim()
     );
+    (stderr.into_owned(), took)
 }
 
 /// A small closed room with a lamp, written as OBJ + MTL into `dir`.
@@ -455,4 +463,172 @@ fn overflowing_emission_is_an_error_not_infinity() {
         "{stderr}"
     );
     assert!(out.stdout.is_empty(), "no partial JSON");
+}
+
+/// Flags and output paths refused at once, before any scene is loaded or any work done: one
+/// line naming the flag or the path the user gave (never a temporary file's), nothing
+/// written. `GOOD_OBJ`, `GOOD` and `OUT` as in [`commands`]; `MISSING` is a scene that does
+/// not exist, so that a refusal that names the flag proves nothing was loaded first.
+#[test]
+fn bad_flags_and_output_paths_fail_at_once() {
+    let work = tempfile::tempdir().unwrap();
+    let good = good_rad(work.path());
+    let good_obj = work.path().join("room.obj");
+    let a_file = work.path().join("room.mtl");
+    let missing = work.path().join("missing.obj");
+    let mut cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--patches", "-5"],
+            "at least 1",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--patches=-5"],
+            "at least 1",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--bounces", "-1"],
+            "--bounces must be a number",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--bounces=-1"],
+            "--bounces must be a number",
+        ),
+        (
+            vec!["bake", "GOOD_OBJ", "-o", "OUT/out.rad", "--sparse", "-0.5"],
+            "--sparse must be",
+        ),
+        (
+            vec![
+                "bake",
+                "MISSING",
+                "-o",
+                "OUT/out.rad",
+                "--patches",
+                "10000000",
+            ],
+            "more than any bake can hold",
+        ),
+        (
+            vec!["solve", "MISSING", "--patches", "10000000"],
+            "more than any bake can hold",
+        ),
+        (
+            vec!["demo", "--out", "OUT", "--patches", "10000000"],
+            "more than any bake can hold",
+        ),
+        (
+            vec!["check-rows", "MISSING", "--patches", "-1"],
+            "at least 1",
+        ),
+        (
+            vec!["solve", "GOOD", "--patches", "300"],
+            "--patches do not apply",
+        ),
+        (
+            vec!["solve", "GOOD", "--bounces", "2", "--format", "f32"],
+            "--bounces, --format do not apply",
+        ),
+        (
+            vec!["render", "GOOD", "--order", "none", "-o", "OUT/out.png"],
+            "--order do not apply",
+        ),
+        (vec!["render", "GOOD", "-o", "OUT"], "is a directory"),
+        (
+            vec!["render", "GOOD", "-o", "/nonexistent/x.png"],
+            "cannot write /nonexistent/x.png: directory /nonexistent does not exist",
+        ),
+        (
+            vec!["render", "GOOD", "-o", "FILE/x.png"],
+            "is not a directory",
+        ),
+        (vec!["bake", "GOOD_OBJ", "-o", "OUT"], "is a directory"),
+        (
+            vec!["pathtrace", "GOOD_OBJ", "-o", "/nonexistent/x.png"],
+            "/nonexistent/x.png",
+        ),
+        (vec!["demo", "--out", "FILE"], "not a directory"),
+        (
+            vec!["inspect", "GOOD", "--export-dds", "FILE"],
+            "not a directory",
+        ),
+    ];
+    // A target too large for this machine's memory (when it has less than 250 GB, the
+    // estimate of 57 000 patches): refused with the estimate and what fits.
+    let mem_kib: Option<f64> = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("MemTotal:"))?
+            .split_whitespace()
+            .nth(1)?
+            .parse()
+            .ok()
+    });
+    if mem_kib.is_some_and(|k| k * 1024.0 < 250e9) {
+        cases.push((
+            vec!["bake", "MISSING", "-o", "OUT/out.rad", "--patches", "57000"],
+            "GB at the bake's peak",
+        ));
+    }
+    let mut said: BTreeMap<String, String> = BTreeMap::new();
+    for (template, needle) in cases {
+        let out = tempfile::tempdir().unwrap();
+        let args: Vec<OsString> = template
+            .iter()
+            .map(|a| match *a {
+                "GOOD" => good.clone().into_os_string(),
+                "GOOD_OBJ" => good_obj.clone().into_os_string(),
+                "MISSING" => missing.clone().into_os_string(),
+                "OUT" => out.path().as_os_str().to_owned(),
+                "FILE" => a_file.clone().into_os_string(),
+                s if s.starts_with("OUT/") => out.path().join(&s[4..]).into_os_string(),
+                s if s.starts_with("FILE/") => a_file.join(&s[5..]).into_os_string(),
+                s => s.into(),
+            })
+            .collect();
+        let name = template.join(" ");
+        let (stderr, took) = check(&name, args, Some(needle), out.path(), work.path());
+        // At once: a refusal, not work (none of these loads a scene or bakes; a debug build
+        // on a loaded machine still answers in well under a second).
+        assert!(took < Duration::from_secs(10), "{name}: {took:?}");
+        assert!(
+            !stderr.contains(".radiosity-") && !stderr.contains("temporary file"),
+            "{name}: {stderr}"
+        );
+        said.insert(name, stderr);
+    }
+    // `--flag -N` says what `--flag=-N` says.
+    for (spaced, joined) in [
+        (
+            "bake GOOD_OBJ -o OUT/out.rad --bounces -1",
+            "bake GOOD_OBJ -o OUT/out.rad --bounces=-1",
+        ),
+        (
+            "bake GOOD_OBJ -o OUT/out.rad --patches -5",
+            "bake GOOD_OBJ -o OUT/out.rad --patches=-5",
+        ),
+    ] {
+        assert_eq!(said[spaced], said[joined]);
+    }
+}
+
+/// A `Kd` at or above 1 is refused with the way out: `--max-reflectance`.
+#[test]
+fn a_white_kd_names_max_reflectance() {
+    let work = tempfile::tempdir().unwrap();
+    for case in ["kd-one.obj", "kd-above-one.obj"] {
+        let file = corpus_dir().join("obj").join(case);
+        let out = run_limited(
+            &[
+                "bake".into(),
+                file.into_os_string(),
+                "-o".into(),
+                work.path().join("x.rad").into_os_string(),
+            ],
+            work.path(),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains("is not a reflectance") && stderr.contains("--max-reflectance"),
+            "{case}: {stderr}"
+        );
+    }
 }

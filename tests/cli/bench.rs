@@ -1,8 +1,8 @@
-//! `radiosity bench`: the JSON shape of DESIGN.md and sane values on a small Cornell box.
+//! `radiosity bench`: the JSON shape of `docs/contract.md` and sane values on a small Cornell box.
 
 use super::{assert_one_line_error, radiosity, radiosity_ok};
 
-/// The methods DESIGN.md names; a GPU row (`gpu-…`) may come on top where an adapter exists.
+/// The methods `docs/contract.md` names; a GPU row (`gpu-…`) may come on top where an adapter exists.
 const METHODS: [&str; 8] = [
     "cpu-bc1",
     "cpu-bc4",
@@ -117,7 +117,7 @@ fn bench_json_has_every_method_with_sane_values() {
     let e = num("jacobi-8", "rel_error");
     assert!((1e-4..0.1).contains(&e), "jacobi-8 rel_error {e:e}");
 
-    // The ratios of issue #5 are reported with their targets.
+    // The speed-up ratios are reported with their targets.
     let ratios = v["ratios"].as_array().unwrap();
     for (against, target) in [("faer-dense-f32", 4.0), ("jacobi-8", 10.0)] {
         let q = ratios

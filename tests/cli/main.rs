@@ -2,6 +2,8 @@
 
 mod bad_input;
 mod bench;
+mod demo;
+mod ux;
 
 mod pathtrace;
 mod runtime;

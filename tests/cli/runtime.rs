@@ -1,5 +1,5 @@
 //! Runtime lighting from the command line: `solve --lights` against closed-form irradiance,
-//! shadows, `render` and `demo` outputs.
+//! shadows, `render` outputs (`demo` has its own file).
 
 use super::{assert_one_line_error, radiosity, radiosity_ok};
 use radiosity_tests::scenes::{Material, Quad, write_scene};
@@ -237,30 +237,4 @@ fn render_writes_a_png_of_the_camera_size() {
         "equals its position",
     );
     assert!(!png2.exists());
-}
-
-#[test]
-fn demo_writes_its_pictures() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = radiosity(&[
-        "demo",
-        "--out",
-        dir.path().to_str().unwrap(),
-        "--patches",
-        "250",
-    ]);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    for word in ["bake:", "file:", "demo.png", "demo.gif", "gather"] {
-        assert!(stdout.contains(word), "{word} missing from {stdout}");
-    }
-    let png = image::open(dir.path().join("demo.png")).unwrap().to_rgb8();
-    assert_eq!(png.dimensions(), (512, 512));
-    let gif = std::fs::read(dir.path().join("demo.gif")).unwrap();
-    assert!(gif.starts_with(b"GIF89a"), "not a GIF");
-    assert!(dir.path().join("demo.rad").exists());
 }

@@ -1,4 +1,4 @@
-//! Known physics through `radiosity solve --json` (issue #8): the white furnace and the thin
+//! Known physics through `radiosity solve --json`: the white furnace and the thin
 //! wall, end to end with the default format and order, as a user (or a checker) runs them.
 
 use radiosity_tests::scenes::{Material, Quad, closed_box, resting_blocks_room, write_scene};
@@ -216,7 +216,7 @@ fn no_emitters_and_no_lights_give_darkness_not_an_error() {
 
 #[test]
 fn concentric_spheres_through_solve_json() {
-    // ../shared/reference/multibounce.md §3b: an emitting sphere (E1 = 1, outward faces) inside
+    // Concentric spheres: an emitting sphere (E1 = 1, outward faces) inside
     // a sphere twice its radius (inward faces), both of reflectance ρ. The inner surface is
     // convex, so it sees only the outer one (F12 = 1) and, by reciprocity, F21 = A1/A2 and
     // F22 = 1 − A1/A2 — exactly, for the tessellated spheres too, with their own areas (taken
@@ -269,7 +269,7 @@ fn concentric_spheres_through_solve_json() {
 
 #[test]
 fn inside_a_sphere_through_solve_json() {
-    // ../shared/reference/multibounce.md §3c: on the inside of a sphere F_ij = A_j / A for any
+    // Inside a sphere: on the inside of a sphere F_ij = A_j / A for any
     // two areas, so with reflectance ρ everywhere B_i = E_i + ρ B̄, B̄ = Σ A_j E_j / (A (1 − ρ)).
     // An icosphere of 1280 facets, split at y = 0 into an emitting top (E = 1) and a dark
     // bottom, solved at the default settings but 400 patches (394). Its facets are flat, so
