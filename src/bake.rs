@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::{LoadOptions, Scene};
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use radiosity_core::Format;
 use std::io::Write;
 use std::path::Path;

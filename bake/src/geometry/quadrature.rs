@@ -277,7 +277,7 @@ mod tests {
         let exact_calls = core::cell::Cell::new(0);
         let dist = |x: DVec3| {
             exact_calls.set(exact_calls.get() + 1);
-            crate::polygon::point_polygon_distance(x, &sq, n)
+            crate::geometry::polygon::point_polygon_distance(x, &sq, n)
         };
         let mut plain = Vec::new();
         integrate(tri, &params, &dist, &mut |q| plain.push((q.x, q.w)));

@@ -5,12 +5,14 @@
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
 
 use crate::error::BakeError;
-use crate::obj;
-use crate::texture::Texture;
+pub use texture::Texture;
 use glam::DVec3;
 use radiosity_core::Rgb;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
+
+mod obj;
+mod texture;
 
 /// Reflectance used where a face has no material (no MTL, unknown `usemtl`, no `Kd`).
 pub const DEFAULT_REFLECTANCE: f32 = 0.5;
