@@ -119,7 +119,7 @@ fn nearest_code(table: &[f32; 256], v: f32) -> u8 {
 /// NaN, a don't-care. The BC fits leave such texels out (so large entries do not distort their
 /// block), u8 writes code 0, and the sparse list stores the exact value *minus* whatever the
 /// block decodes there, so block + sparse is exact under the reference decoder.
-pub const SPARSE_TEXEL: f32 = f32::NAN;
+pub(crate) const SPARSE_TEXEL: f32 = f32::NAN;
 
 /// One [`LogScale`] per tile and channel ([`MatrixLayout::scale_index`] order), each from the
 /// values its tile holds in the blocks; empty for the float formats.
@@ -136,7 +136,7 @@ pub const SPARSE_TEXEL: f32 = f32::NAN;
 /// [`encode_dense`] uses this, and so can a caller that encodes single blocks with
 /// [`BlockEncoder`] (e.g. to estimate the compression error from a sample of blocks, with the
 /// same quantisation as the whole matrix).
-pub fn tile_scales<V>(layout: &MatrixLayout, params: &EncodeParams, value: &V) -> Vec<LogScale>
+pub(crate) fn tile_scales<V>(layout: &MatrixLayout, params: &EncodeParams, value: &V) -> Vec<LogScale>
 where
     V: Fn(usize, usize, usize) -> f32 + Sync,
 {
@@ -177,7 +177,7 @@ where
 /// code-space fit and value-space refinement, so a block is bit-identical on every texel that
 /// counts (sparse texels may get another index). Used to estimate compression errors from a
 /// sample of blocks (`order::ErrorMeter`).
-pub struct BlockEncoder<'a> {
+pub(crate) struct BlockEncoder<'a> {
     layout: &'a MatrixLayout,
     params: &'a EncodeParams,
     scales: &'a [LogScale],
@@ -289,7 +289,7 @@ pub fn encode_bc1_block(codes: &[[u8; 3]; 16], mask: u32, fit: Bc1Fit) -> Bc1Blo
 /// 3 for a texel in `mask`: with equal endpoints every palette entry but 3 is the same colour, so
 /// index 3 becomes 0; otherwise the endpoints are swapped into four-colour mode and every texel
 /// re-indexed to its nearest palette entry.
-pub fn guard_bc1(block: Bc1Block, intended: &[[u8; 3]; 16], mask: u32) -> Bc1Block {
+pub(crate) fn guard_bc1(block: Bc1Block, intended: &[[u8; 3]; 16], mask: u32) -> Bc1Block {
     if block.is_four_colour() {
         return block;
     }

@@ -19,11 +19,12 @@ mod source;
 mod tests;
 mod weights;
 
-pub use blocks::{
-    BlockEncoder, Bc1Fit, SPARSE_TEXEL, encode_bc1_block, encode_bc4_block, guard_bc1, tile_scales,
-};
-pub use select::{ROW_KEEP, SparseRule, SparseSelection, kept_sparse, sparse_threshold};
+pub use blocks::{Bc1Fit, encode_bc1_block, encode_bc4_block};
+pub use select::SparseSelection;
 pub use weights::ErrorWeights;
+
+pub(crate) use blocks::{BlockEncoder, SPARSE_TEXEL, guard_bc1, tile_scales};
+pub(crate) use select::{ROW_KEEP, SparseRule, kept_sparse, sparse_threshold};
 
 use radiosity_core::{
     BlockCorrections, BlockDecoder, DEFAULT_MAX_TILE, DEFAULT_SHIFT, DecodeMode, Format,
@@ -150,7 +151,7 @@ pub enum EncodeError {
 /// default: 1/8, which holds a 4096-patch BC1 Cornell box within 1/20 of the dense f32 RGB
 /// matrix. Spent all on sparse entries, a BC1 matrix (0.5 byte per entry) would keep 0.4% of
 /// its entries exact, a three-channel BC4 matrix 1.2%.
-pub const SPARSE_BUDGET: f32 = 0.128;
+pub(crate) const SPARSE_BUDGET: f32 = 0.128;
 
 /// Share of [`SPARSE_BUDGET`] spent on block corrections rather than sparse entries. A
 /// correction (31 bytes in RGB) fixes a whole block for the price of two sparse entries, which
@@ -158,7 +159,7 @@ pub const SPARSE_BUDGET: f32 = 0.128;
 /// the Cornell box at 4098 patches, BC1, paper order, the Frobenius error at shares 0 / 0.5 /
 /// 0.7 / 0.8 / 0.85: 2.54 / 1.96 / 1.76 / 1.70 / 1.67%, lighting error 0.15 / 0.17 / 0.23 /
 /// 0.26 / 0.27% (ARCHITECTURE.md, "Block corrections").
-pub const CORRECTION_SHARE: f32 = 0.75;
+pub(crate) const CORRECTION_SHARE: f32 = 0.75;
 
 /// Bytes of the block data per 4×4 block position for `format` with `channels`.
 fn block_position_bytes(format: Format, channels: usize) -> f32 {
@@ -167,7 +168,7 @@ fn block_position_bytes(format: Format, channels: usize) -> f32 {
 }
 
 /// Whether `format` takes block corrections (the block-compressed ones, BC1 and BC4).
-pub fn takes_corrections(format: Format) -> bool {
+pub(crate) fn takes_corrections(format: Format) -> bool {
     matches!(format, Format::Bc1 | Format::Bc4)
 }
 
@@ -314,6 +315,60 @@ pub fn encode_dense_with(
 
     let bb = params.format.block_bytes();
     let per_block = layout.planes() * bb;
+    let (mut encoded, masks) = first_encode(&source, first, selection, selecting, budget, side);
+
+    if weights.has_emitters() && matches!(params.format, Format::Bc1 | Format::Bc4) {
+        // The endpoint search of the coupled pass costs ≈ 35 µs per BC1 block (measured on
+        // the Cornell box), so it is reserved for scenes whose emitters fill few column blocks
+        // (a lamp, not a glowing room); the others get the coupled index choice alone (≈ 5 µs).
+        let emitting = (0..side)
+            .filter(|&bc| weights.emits_in_column_block(bc, n))
+            .count();
+        let search = emitting * COUPLED_SEARCH_SHARE <= side;
+        encoded
+            .par_chunks_exact_mut(side * per_block)
+            .enumerate()
+            .for_each(|(row, out)| source.couple_row(row, &masks, out, search));
+    }
+
+    // Scatter the blocks (global block order, planes together) into the layout's order (per
+    // tile, per plane, block-row-major).
+    let mut blocks = vec![0u8; layout.block_bytes() as usize];
+    for (b, raw) in encoded.chunks_exact(per_block).enumerate() {
+        let (tile, br, bc) = layout.locate(b / side * 4, b % side * 4);
+        for plane in 0..layout.planes() {
+            let off = layout.block_offset(&tile, plane, br, bc);
+            blocks[off..off + bb].copy_from_slice(&raw[plane * bb..(plane + 1) * bb]);
+        }
+    }
+    let mut matrix = TransferMatrix {
+        layout,
+        scales: Cow::Owned(scales.clone()),
+        blocks: Cow::Owned(blocks),
+        sparse: SparseRows::empty(n),
+        corrections: BlockCorrections::empty(n),
+    };
+    matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
+    let count = correct::count(params, side);
+    matrix.corrections = correct::choose(&matrix, dense, weights, count);
+    Ok(matrix)
+}
+
+/// Steps 2 and 3 of [`encode_dense_with`]: every block encoded with the `first` sparse masks
+/// (one per block of the `side × side` block grid), then, with
+/// [`SparseSelection::ErrorDriven`], scored, the worst BC1 blocks fitted again, and the sparse
+/// entries chosen by score (`budget` of them, when `selecting`). Returns the blocks (planes
+/// together, global block order) and the final masks.
+fn first_encode(
+    source: &Source<'_>,
+    first: Vec<u16>,
+    selection: SparseSelection,
+    selecting: bool,
+    budget: usize,
+    side: usize,
+) -> (Vec<u8>, Vec<u16>) {
+    let params = source.params;
+    let per_block = source.layout.planes() * params.format.block_bytes();
     let mut encoded = vec![0u8; side * side * per_block];
     let scoring = selection == SparseSelection::ErrorDriven;
     let masks = if scoring {
@@ -358,42 +413,7 @@ pub fn encode_dense_with(
             .for_each(|(b, out)| source.encode(b, first[b], out, None, false));
         first
     };
-
-    if weights.has_emitters() && matches!(params.format, Format::Bc1 | Format::Bc4) {
-        // The endpoint search of the coupled pass costs ≈ 35 µs per BC1 block (measured on
-        // the Cornell box), so it is reserved for scenes whose emitters fill few column blocks
-        // (a lamp, not a glowing room); the others get the coupled index choice alone (≈ 5 µs).
-        let emitting = (0..side)
-            .filter(|&bc| weights.emits_in_column_block(bc, n))
-            .count();
-        let search = emitting * COUPLED_SEARCH_SHARE <= side;
-        encoded
-            .par_chunks_exact_mut(side * per_block)
-            .enumerate()
-            .for_each(|(row, out)| source.couple_row(row, &masks, out, search));
-    }
-
-    // Scatter the blocks (global block order, planes together) into the layout's order (per
-    // tile, per plane, block-row-major).
-    let mut blocks = vec![0u8; layout.block_bytes() as usize];
-    for (b, raw) in encoded.chunks_exact(per_block).enumerate() {
-        let (tile, br, bc) = layout.locate(b / side * 4, b % side * 4);
-        for plane in 0..layout.planes() {
-            let off = layout.block_offset(&tile, plane, br, bc);
-            blocks[off..off + bb].copy_from_slice(&raw[plane * bb..(plane + 1) * bb]);
-        }
-    }
-    let mut matrix = TransferMatrix {
-        layout,
-        scales: Cow::Owned(scales.clone()),
-        blocks: Cow::Owned(blocks),
-        sparse: SparseRows::empty(n),
-        corrections: BlockCorrections::empty(n),
-    };
-    matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
-    let count = correct::count(params, side);
-    matrix.corrections = correct::choose(&matrix, dense, weights, count);
-    Ok(matrix)
+    (encoded, masks)
 }
 
 /// Which blocks get a second BC1 start: the `params.bc1_retry` share of blocks (rounded
@@ -429,7 +449,7 @@ fn retry_blocks(scores: &[[f32; 16]], params: &EncodeParams) -> Vec<bool> {
 /// (≈ 19 µs a block against ≈ 1 µs) and keep the better of the two. The blocks of a transfer
 /// matrix in a good order hold their error in few blocks, so few retries recover most of what
 /// the cluster fit gives.
-pub const BC1_RETRY: f32 = 0.05;
+pub(crate) const BC1_RETRY: f32 = 0.05;
 
 /// Share of the sparse budget the first pass of error-driven selection keeps by size
 /// ([`SparseRule`] at this share of the fraction); the scales come from what that leaves in the
@@ -439,17 +459,17 @@ pub const BC1_RETRY: f32 = 0.05;
 /// row-keep entries. Measured on the 4106-patch Cornell box (uniform weights, relative Frobenius
 /// error): 2.66% at 1, 2.57% at 0.75, 2.55% at 0.5, 2.56% at 0.25; BC4 0.79%, 0.70% (0.5),
 /// 0.71% (0.25).
-pub const FIRST_PASS_SHARE: f32 = 0.5;
+pub(crate) const FIRST_PASS_SHARE: f32 = 0.5;
 
 /// Rounds of error-driven selection: select, re-encode the blocks whose sparse texels changed,
 /// score again. Measured on the 4106-patch Cornell box (BC1, uniform weights): the first round
 /// changes ~16k blocks and gives 2.59% Frobenius error, the second changes ~5k more and gives
 /// 2.55% (BC4: 0.714%, 0.699%); four rounds give 2.54%.
-pub const SELECT_ROUNDS: usize = 2;
+pub(crate) const SELECT_ROUNDS: usize = 2;
 
 /// The coupled pass searches endpoints only when at most one column block in this many holds
 /// an emitter; see [`encode_dense_with`].
-pub const COUPLED_SEARCH_SHARE: usize = 8;
+pub(crate) const COUPLED_SEARCH_SHARE: usize = 8;
 
 /// Texels of global block `b` (`side` blocks per row) inside the `n × n` matrix: (bit, row,
 /// column).
@@ -462,7 +482,7 @@ fn block_texels(b: usize, side: usize, n: usize) -> impl Iterator<Item = (usize,
 
 /// Checks what [`encode_dense`] checks before encoding anything (length, parameters, layout,
 /// finite non-negative entries) and returns the layout the matrix will have.
-pub fn check_input(
+pub(crate) fn check_input(
     n: usize,
     channels: usize,
     dense: &[f32],

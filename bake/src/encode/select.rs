@@ -94,7 +94,7 @@ pub enum SparseSelection {
 /// Whether an entry (its `channels` values) goes to the sparse list under `threshold`: its
 /// largest channel exceeds it.
 #[inline]
-pub fn kept_sparse(entry: &[f32], threshold: f32) -> bool {
+pub(crate) fn kept_sparse(entry: &[f32], threshold: f32) -> bool {
     entry.iter().copied().fold(0f32, f32::max) > threshold
 }
 
@@ -104,13 +104,13 @@ pub fn kept_sparse(entry: &[f32], threshold: f32) -> bool {
 /// error-driven selection they are part of the first pass only: the selection keeps them when
 /// their error says so (forcing them into the final list cost the Cornell box's BC1 Frobenius
 /// error 2.61% → 2.65% and gained no lighting accuracy).
-pub const ROW_KEEP: usize = 4;
+pub(crate) const ROW_KEEP: usize = 4;
 
 /// Which entries the sparse list keeps: those whose largest channel exceeds a global threshold
 /// (about `fraction` of the non-zero entries, [`sparse_threshold`]), plus each row's
 /// [`ROW_KEEP`] largest. Depends only on the matrix, not on the patch order.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SparseRule {
+pub(crate) struct SparseRule {
     /// The global threshold.
     pub threshold: f32,
     /// Per row (matrix numbering as given), the [`ROW_KEEP`]-th largest non-zero entry; rows
@@ -181,7 +181,7 @@ impl SparseRule {
 /// The value above which an entry (its largest channel) goes to the sparse list, so that about
 /// `fraction` of the non-zero entries do. `f32::INFINITY` keeps none. Independent of the patch
 /// order. `dense` holds `channels` values per entry.
-pub fn sparse_threshold(dense: &[f32], channels: usize, fraction: f32) -> f32 {
+pub(crate) fn sparse_threshold(dense: &[f32], channels: usize, fraction: f32) -> f32 {
     if fraction <= 0.0 {
         return f32::INFINITY;
     }

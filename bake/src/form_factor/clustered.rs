@@ -4,7 +4,11 @@
 
 use super::flat::{SITE, SITE_SOURCE_OFFSET};
 use super::sampling::{Systematic, front_point, in_front, ray_end};
-use super::{Pairs, Scratch, Visibility, facing, fan, pair_depth, sphere_distance};
+use super::{
+    FormFactorParams, Pairs, Scratch, Visibility, centre_radius, facing, fan, pair_depth,
+    sphere_distance,
+};
+use crate::geometry::Occluders;
 use crate::geometry::point_polygon::point_to_polygon;
 use crate::geometry::polygon::point_polygon_distance;
 use crate::geometry::quadrature::{Adaptive, Sample, integrate_bounded};
@@ -43,64 +47,14 @@ impl Pairs<'_> {
         // near piece pair.
         targets.extend(dst.iter().map(centre_radius));
         sources.extend(src.iter().map(centre_radius));
-        let (targets, sources) = (&*targets, &*sources);
-        // The near contributions of source piece `s` and target piece `t`: each near target
-        // gets its own adaptive quadrature of the source, so that a source piece that touches
-        // one target is refined next to that one only.
-        // The exchange is symmetric, so each piece pair is integrated over the smaller of its
-        // two pieces (`integrate_over_target`): a piece the size of a wall against a chair's
-        // facet a hand away from it was refined to the depth limit once per facet.
-        let near_contributions = |si: usize, ti: usize, out: &mut dyn FnMut([DVec3; 3], f64)| {
-            let (s, t) = (&src[si], &dst[ti]);
-            let (s, t, t_sphere) = if integrate_over_target(sources[si].1, targets[ti].1) {
-                (t, s, sources[si])
-            } else {
-                (s, t, targets[ti])
-            };
-            let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
-            let bound = sphere_distance(t_sphere);
-            let quadrature = Adaptive {
-                rule: self.params.clustered_rule,
-                max_depth: pair_depth(self.params.quadrature.max_depth, s.normal, t.normal),
-                ..self.params.quadrature
-            };
-            for tri in fan(s.polygon.vertices()) {
-                integrate_bounded(tri, &quadrature, &bound, &dist, &mut |q| {
-                    let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
-                    if f > 0.0 {
-                        out(q.leaf, q.w * f);
-                    }
-                });
-            }
+        let near = Near {
+            src,
+            dst,
+            sources,
+            targets,
+            params: self.params,
         };
-        // The contributions come in a fixed order (per source piece: its centre-to-centre
-        // pairs in target order, then the quadrature of each near target), and visibility is
-        // drawn along their running sum. None is kept: they are about `|src|·|dst|` many, and
-        // a touching pair of pieces has hundreds of quadrature points (48 bytes each: with
-        // patches of up to 25 000 pieces, the conference room's bake was killed at 21–24 GB
-        // keeping them). This pass sums them and records the running sum where each source
-        // piece and each near piece pair starts; the drawing pass recomputes them, in the same
-        // order and to the same bits, only where a ray falls.
-        let mut total = 0.0;
-        for (si, s) in src.iter().enumerate() {
-            let sv = s.polygon.vertices();
-            let (cs, rs) = sources[si];
-            starts.push((total, blocks.len()));
-            live.clear();
-            for (ti, t) in dst.iter().enumerate() {
-                if near(cs, rs, targets[ti]) {
-                    if facing(sv, s.normal, t.polygon.vertices(), t.normal, self.tol) {
-                        live.push((ti, true));
-                    }
-                } else if let Some(g) = centre_to_centre(s, cs, t, targets[ti].0) {
-                    total += g;
-                }
-            }
-            for &(k, _) in live.iter() {
-                blocks.push((total, k as u32));
-                near_contributions(si, k, &mut |_, g| total += g);
-            }
-        }
+        let total = near.sum(live, starts, blocks, self.tol);
         let (per_sample, occ) = match (self.params.visibility, self.occ) {
             (Visibility::Rays { per_sample, .. }, Some(o)) => (per_sample.max(1) as usize, o),
             _ => return total,
@@ -115,43 +69,117 @@ impl Pairs<'_> {
         };
         let budget = per_sample * share.max(if far { FAR_RAYS } else { NEAR_RAYS });
         let base = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 24;
-        let scramble = Sample::leaf_scramble(base);
-        let visible = |e: &Entry, k: u64| {
-            let (s, t) = (&src[e.s as usize], &dst[e.t as usize]);
-            // A near pair integrated over its target piece has its leaves there: its rays run
-            // from the target to the source (visibility is symmetric).
-            let (s, t) = if e.turned { (t, s) } else { (s, t) };
-            // Ray ends in front of the other piece (a piece seen edge-on has points behind the
-            // other's plane, and a segment to one of those leaves through the surface it
-            // starts on: on a sphere, rows 0.5% low on average), at the target where the
-            // kernel from the source point puts them (`ray_end`).
-            let x = if e.centre || s.triangle == SITE {
-                front_point(s, t, base + k + SITE_SOURCE_OFFSET)
-            } else {
-                let x = Sample::leaf_point(&e.leaf, k, scramble);
-                if !in_front(x, t) {
-                    return false;
-                }
-                x
-            };
-            let y = if t.triangle == SITE {
-                front_point(t, s, base + k)
-            } else {
-                ray_end(x, s, t, base + k)
-            };
-            if s.triangle == SITE || t.triangle == SITE {
-                // A site's points lie off its triangles: a segment, lifted, its own skipped.
-                let lift = LIFT * occ.extent();
-                occ.segment_visible_skipping(x + s.normal * lift, y + t.normal * lift, skip)
-            } else {
-                occ.reaches(x, y, t.triangle)
-            }
+        let ends = RayEnds {
+            src,
+            dst,
+            occ,
+            skip,
+            base,
+            scramble: Sample::leaf_scramble(base),
         };
         if !(total > 0.0) {
             return 0.0;
         }
         let mut sampler = Systematic::new(total, budget, base);
-        for (si, s) in src.iter().enumerate() {
+        near.draw(&mut sampler, &ends, starts, blocks, total);
+        *rays += sampler.drawn;
+        sampler.estimate(total)
+    }
+}
+
+/// The pieces of a clustered pair, with their centres and radii ([`centre_radius`]).
+struct Near<'a> {
+    src: &'a [Piece],
+    dst: &'a [Piece],
+    sources: &'a [(DVec3, f64)],
+    targets: &'a [(DVec3, f64)],
+    params: &'a FormFactorParams,
+}
+
+impl Near<'_> {
+    /// The near contributions of source piece `si` and target piece `ti`: each near target
+    /// gets its own adaptive quadrature of the source, so that a source piece that touches
+    /// one target is refined next to that one only. The exchange is symmetric, so each piece
+    /// pair is integrated over the smaller of its two pieces (`integrate_over_target`): a
+    /// piece the size of a wall against a chair's facet a hand away from it was refined to the
+    /// depth limit once per facet.
+    fn contributions(&self, si: usize, ti: usize, out: &mut dyn FnMut([DVec3; 3], f64)) {
+        let (sources, targets) = (self.sources, self.targets);
+        let (s, t) = (&self.src[si], &self.dst[ti]);
+        let (s, t, t_sphere) = if integrate_over_target(sources[si].1, targets[ti].1) {
+            (t, s, sources[si])
+        } else {
+            (s, t, targets[ti])
+        };
+        let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
+        let bound = sphere_distance(t_sphere);
+        let quadrature = Adaptive {
+            rule: self.params.clustered_rule,
+            max_depth: pair_depth(self.params.quadrature.max_depth, s.normal, t.normal),
+            ..self.params.quadrature
+        };
+        for tri in fan(s.polygon.vertices()) {
+            integrate_bounded(tri, &quadrature, &bound, &dist, &mut |q| {
+                let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
+                if f > 0.0 {
+                    out(q.leaf, q.w * f);
+                }
+            });
+        }
+    }
+
+    /// The unoccluded exchange of the pair. The contributions come in a fixed order (per
+    /// source piece: its centre-to-centre pairs in target order, then the quadrature of each
+    /// near target), and visibility is drawn along their running sum. None is kept: they are
+    /// about `|src|·|dst|` many, and a touching pair of pieces has hundreds of quadrature
+    /// points (48 bytes each: with patches of up to 25 000 pieces, the conference room's bake
+    /// needed 21–24 GB to keep them). This pass sums them and records the running sum where
+    /// each source piece (`starts`) and each near piece pair (`blocks`) starts; the drawing
+    /// pass ([`Self::draw`]) recomputes them, in the same order and to the same bits, only
+    /// where a ray falls.
+    fn sum(
+        &self,
+        live: &mut Vec<(usize, bool)>,
+        starts: &mut Vec<(f64, usize)>,
+        blocks: &mut Vec<(f64, u32)>,
+        tol: f64,
+    ) -> f64 {
+        let mut total = 0.0;
+        for (si, s) in self.src.iter().enumerate() {
+            let sv = s.polygon.vertices();
+            let (cs, rs) = self.sources[si];
+            starts.push((total, blocks.len()));
+            live.clear();
+            for (ti, t) in self.dst.iter().enumerate() {
+                if near(cs, rs, self.targets[ti]) {
+                    if facing(sv, s.normal, t.polygon.vertices(), t.normal, tol) {
+                        live.push((ti, true));
+                    }
+                } else if let Some(g) = centre_to_centre(s, cs, t, self.targets[ti].0) {
+                    total += g;
+                }
+            }
+            for &(k, _) in live.iter() {
+                blocks.push((total, k as u32));
+                self.contributions(si, k, &mut |_, g| total += g);
+            }
+        }
+        total
+    }
+
+    /// The drawing pass: feeds the contributions to `sampler` in the order [`Self::sum`]
+    /// summed them, recomputing only the stretches (source pieces' centre-to-centre pairs,
+    /// near piece pairs) where a position falls.
+    fn draw(
+        &self,
+        sampler: &mut Systematic,
+        ends: &RayEnds<'_>,
+        starts: &[(f64, usize)],
+        blocks: &[(f64, u32)],
+        total: f64,
+    ) {
+        let (sources, targets) = (self.sources, self.targets);
+        for (si, s) in self.src.iter().enumerate() {
             let (end, blocks_end) = starts.get(si + 1).copied().unwrap_or((total, blocks.len()));
             let own_blocks = starts[si].1..blocks_end;
             // Where this source piece's centre-to-centre pairs end and its near ones begin.
@@ -164,7 +192,7 @@ impl Pairs<'_> {
                 sampler.skip_to(far_end);
             } else {
                 let (cs, rs) = sources[si];
-                for (ti, t) in dst.iter().enumerate() {
+                for (ti, t) in self.dst.iter().enumerate() {
                     if near(cs, rs, targets[ti]) {
                         continue;
                     }
@@ -176,7 +204,7 @@ impl Pairs<'_> {
                             centre: true,
                             turned: false,
                         };
-                        sampler.feed(g, false, |k| visible(&e, k));
+                        sampler.feed(g, false, |k| ends.visible(&e, k));
                     }
                 }
             }
@@ -191,9 +219,9 @@ impl Pairs<'_> {
                     continue;
                 }
                 let k = blocks[b].1;
-                // Decided once per piece pair, as `near_contributions` decides it.
+                // Decided once per piece pair, as `contributions` decides it.
                 let turned = integrate_over_target(sources[si].1, targets[k as usize].1);
-                near_contributions(si, k as usize, &mut |leaf, g| {
+                self.contributions(si, k as usize, &mut |leaf, g| {
                     let e = Entry {
                         leaf,
                         s: si as u32,
@@ -201,12 +229,56 @@ impl Pairs<'_> {
                         centre: false,
                         turned,
                     };
-                    sampler.feed(g, false, |k| visible(&e, k));
+                    sampler.feed(g, false, |k| ends.visible(&e, k));
                 });
             }
         }
-        *rays += sampler.drawn;
-        sampler.estimate(total)
+    }
+}
+
+/// Where the shadow rays of a clustered pair start and end, and what they test.
+struct RayEnds<'a> {
+    src: &'a [Piece],
+    dst: &'a [Piece],
+    occ: &'a Occluders,
+    skip: &'a dyn Fn(u32) -> bool,
+    base: u64,
+    scramble: [u32; 2],
+}
+
+impl RayEnds<'_> {
+    /// Whether draw `k`'s ray for contribution `e` is unblocked.
+    fn visible(&self, e: &Entry, k: u64) -> bool {
+        let (base, occ) = (self.base, self.occ);
+        let (s, t) = (&self.src[e.s as usize], &self.dst[e.t as usize]);
+        // A near pair integrated over its target piece has its leaves there: its rays run
+        // from the target to the source (visibility is symmetric).
+        let (s, t) = if e.turned { (t, s) } else { (s, t) };
+        // Ray ends in front of the other piece (a piece seen edge-on has points behind the
+        // other's plane, and a segment to one of those leaves through the surface it
+        // starts on: on a sphere, rows 0.5% low on average), at the target where the
+        // kernel from the source point puts them (`ray_end`).
+        let x = if e.centre || s.triangle == SITE {
+            front_point(s, t, base + k + SITE_SOURCE_OFFSET)
+        } else {
+            let x = Sample::leaf_point(&e.leaf, k, self.scramble);
+            if !in_front(x, t) {
+                return false;
+            }
+            x
+        };
+        let y = if t.triangle == SITE {
+            front_point(t, s, base + k)
+        } else {
+            ray_end(x, s, t, base + k)
+        };
+        if s.triangle == SITE || t.triangle == SITE {
+            // A site's points lie off its triangles: a segment, lifted, its own skipped.
+            let lift = LIFT * occ.extent();
+            occ.segment_visible_skipping(x + s.normal * lift, y + t.normal * lift, self.skip)
+        } else {
+            occ.reaches(x, y, t.triangle)
+        }
     }
 }
 
@@ -218,7 +290,7 @@ const POINT_RATIO: f64 = 4.0;
 /// Shadow rays per far clustered pair (times `per_sample`), drawn in proportion to the
 /// unoccluded contributions of its piece pairs. 16 left the wall rows of the sphere-in-a-box
 /// test in [0.9841, 1.0071], 32 in [0.9877, 1.0046] (exact pairs: [0.9874, 1.0109]).
-pub const FAR_RAYS: usize = 32;
+pub(crate) const FAR_RAYS: usize = 32;
 
 /// Shadow rays per near clustered pair (times `per_sample`): neighbours, where contact shadows
 /// vary faster.
@@ -236,7 +308,7 @@ pub const NEAR_RAYS: usize = 64;
 pub const PAIR_RAYS_PER_FORM_FACTOR: f64 = 512.0;
 
 /// The most shadow rays one clustered pair gets from [`PAIR_RAYS_PER_FORM_FACTOR`].
-pub const MAX_PAIR_RAYS: usize = 4096;
+pub(crate) const MAX_PAIR_RAYS: usize = 4096;
 
 /// Whether a near piece pair of a clustered pair is integrated over its target piece instead
 /// of its source, from their radii ([`centre_radius`]): when the target is less than half as

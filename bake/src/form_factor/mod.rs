@@ -57,9 +57,11 @@ mod flat;
 mod params;
 mod sampling;
 
-pub use clustered::{FAR_RAYS, MAX_PAIR_RAYS, NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
+pub use clustered::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
 pub use exact::EXACT_PAIR_RAYS;
-pub use params::{EXACT_PIECES, FAR_PIECES, FormFactorParams, FormFactorSummary, Visibility};
+pub use params::{FormFactorParams, FormFactorSummary, Visibility};
+
+pub(crate) use clustered::{FAR_RAYS, MAX_PAIR_RAYS};
 
 use crate::geometry::bvh::{CONTACT_GAP, Occluders};
 use crate::simplify::{Patches, Piece};
@@ -114,7 +116,7 @@ pub(crate) fn facing(s: &[DVec3], ns: DVec3, t: &[DVec3], nt: DVec3, tol: f64) -
 /// Flat patches of more pieces than this are integrated through flat sites (`Sites`). A plane
 /// wall cut by the grid gives one to four pieces per patch, a box corner up to a dozen; a
 /// curved or finely tessellated surface gives many more, and the exact pair costs their product.
-pub const MAX_EXACT_PIECES: usize = 16;
+pub(crate) const MAX_EXACT_PIECES: usize = 16;
 
 /// The lowest depth limit [`pair_depth`] gives a nearly coplanar pair. Measured on an
 /// icosphere of 1280 triangles at 398 patches (3668 pieces): rows of F differ from the full

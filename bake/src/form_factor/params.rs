@@ -155,10 +155,10 @@ pub struct FormFactorSummary {
 /// piece count (nested spheres of 2 × 1280 triangles take 8 s on 2 cores at any patch count),
 /// and flat sites cost accuracy on coarse curved patches (row sums of F off by up to 6% at 58
 /// patches on those spheres, where the exact pairs are within 0.3%).
-pub const EXACT_PIECES: usize = 20_000;
+pub(crate) const EXACT_PIECES: usize = 20_000;
 
 /// Default of [`FormFactorParams::far_pieces`]. Against every piece pair exact, on an
 /// icosphere of 1280 facets at 398 patches (3668 pieces; a throwaway probe): rows of F 1.7e-6
 /// / 4.5e-6 / 8.2e-6 / 1.6e-5 apart (L1, worst row) at 8 / 5 / 4 / 3, the form factors 7.6 s
 /// exact and 4.8 s at 5; on a closed box of 1494 pieces, 2.8e-6 at 5.
-pub const FAR_PIECES: f64 = 5.0;
+pub(crate) const FAR_PIECES: f64 = 5.0;

@@ -12,7 +12,7 @@ use super::DenseMatrix;
 use rayon::prelude::*;
 
 /// Per-patch signatures, `dim` values each, patch after patch.
-pub struct Signatures {
+pub(crate) struct Signatures {
     /// Values per patch (`2·samples`).
     pub dim: usize,
     /// `n · dim` values.
@@ -97,7 +97,7 @@ const PARALLEL_SCAN: usize = 2048;
 /// The paper's neighbour sort (§4.2): a greedy chain that starts at the patch whose signature
 /// is farthest from the mean (an end of the data, not its middle) and always appends the
 /// unvisited patch nearest the last one. Ties go to the lower index. O(n²·dim).
-pub fn greedy_chain(sig: &Signatures) -> Vec<u32> {
+pub(crate) fn greedy_chain(sig: &Signatures) -> Vec<u32> {
     let (n, dim) = (sig.len(), sig.dim);
     if n == 0 {
         return Vec::new();

@@ -13,7 +13,9 @@ mod report;
 pub use closure::Exposure;
 pub use dark::{DarkCheck, check_dark};
 pub use params::{BakeParams, FormatChoice, Hooks};
-pub use report::{BakeReport, Bytes, ClosureReport, lighting_error, relative_frobenius};
+pub use report::{BakeReport, Bytes, ClosureReport};
+
+use report::{BakeSummary, Measured};
 
 use crate::BakeError;
 use crate::bounce::{BounceSpec, Dense, TransferError, transfer_matrix};
@@ -23,7 +25,8 @@ use crate::encode::{
     default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
-    FAR_RAYS, FormFactorSummary, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors,
+    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
+    form_factors,
 };
 use crate::geometry::Occluders;
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
@@ -140,32 +143,7 @@ pub fn discretise(
     stage("form factors");
     let ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
     lap("form_factors", &mut timings);
-    let (pieces, budget) = (ff.pieces, ffp.exact_pieces);
-    let why = if ff.sites > 0 {
-        format!(
-            "{pieces} pieces in all (over {budget}): {} flat patches of more than {MAX_EXACT_PIECES} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
-            ff.sites,
-            (pieces as f64).powi(2) / 2.0
-        )
-    } else if pieces > budget {
-        format!(
-            "{pieces} pieces in all (over {budget}), but no patch of more than {MAX_EXACT_PIECES} pieces is flat: every pair integrated piece by piece"
-        )
-    } else {
-        format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
-    };
-    effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
-    let why = if ff.clustered_pairs > 0 {
-        format!(
-            "{pieces} pieces in all (over {budget}): all {} patch pairs integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
-            ff.clustered_pairs
-        )
-    } else {
-        format!(
-            "{pieces} pieces in all (at most {budget}): every pair integrated piece by piece, one shadow ray per quadrature leaf and piece"
-        )
-    };
-    effects.insert("clustered_pairs", Effect::new(ff.clustered_pairs > 0, why));
+    form_factor_effects(&ff, ffp.exact_pieces, &mut effects);
 
     let n_all = patches.len();
     let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());
@@ -240,6 +218,36 @@ pub fn discretise(
     })
 }
 
+/// The `flat_sites` and `clustered_pairs` decisions the form factors made, with their reasons.
+fn form_factor_effects(ff: &FormFactors, budget: usize, effects: &mut Effects) {
+    let pieces = ff.pieces;
+    let why = if ff.sites > 0 {
+        format!(
+            "{pieces} pieces in all (over {budget}): {} flat patches of more than {MAX_EXACT_PIECES} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
+            ff.sites,
+            (pieces as f64).powi(2) / 2.0
+        )
+    } else if pieces > budget {
+        format!(
+            "{pieces} pieces in all (over {budget}), but no patch of more than {MAX_EXACT_PIECES} pieces is flat: every pair integrated piece by piece"
+        )
+    } else {
+        format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
+    };
+    effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
+    let why = if ff.clustered_pairs > 0 {
+        format!(
+            "{pieces} pieces in all (over {budget}): all {} patch pairs integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
+            ff.clustered_pairs
+        )
+    } else {
+        format!(
+            "{pieces} pieces in all (at most {budget}): every pair integrated piece by piece, one shadow ray per quadrature leaf and piece"
+        )
+    };
+    effects.insert("clustered_pairs", Effect::new(ff.clustered_pairs > 0, why));
+}
+
 /// The second half of [`bake`]: transfer, order, encode, measure, for a system from
 /// [`discretise`] (its `voxel`, `form_factors` and `closure_tolerance` params are not looked
 /// at again). Timings include the discretisation's, and `total` is theirs plus this half's.
@@ -263,17 +271,96 @@ pub fn bake_discretised(
     };
     let mut effects = system.effects.clone();
     let channels = system.channels;
-    let live = &system.live;
-    let n = live.len();
-    let f_live = &system.f;
-    let reflectance = &system.reflectance;
+    let n = system.live.len();
 
     stage("transfer");
-    let (m, transfer) =
-        transfer_matrix(f_live, reflectance, channels, params.bounces).map_err(|e| match e {
-            TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
-            other => BakeError::InvalidParams(other.to_string()),
-        })?;
+    let (m, transfer) = transfer_step(system, params, &mut effects)?;
+    lap("transfer", &mut timings);
+
+    let (format, encode_params) = encode_params_for(params, channels);
+
+    stage("order");
+    let (candidates, chosen) = choose_order(system, &m, params, encode_params)?;
+    let m = order::permute(&m, n, channels, &chosen.perm);
+    lap("order", &mut timings);
+
+    stage("encode");
+    // Errors are weighed for the scene's own emitters and for runtime lights alike
+    // (`ErrorWeights`), and the sparse entries chosen by that weighted error.
+    let file_patches: Vec<Patch> = order::permute_rows(&system.core_patches, &chosen.perm);
+    let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
+    let matrix = encode_dense_with(
+        n,
+        channels,
+        &m,
+        &encode_params,
+        &ErrorWeights::for_emitters(&emission),
+        SparseSelection::ErrorDriven,
+    )
+    .map_err(encode_error)?;
+    lap("encode", &mut timings);
+
+    stage("measure");
+    let measured = Measured::new(&m, n, channels, &matrix, &emission, &candidates, &chosen);
+    lap("measure", &mut timings);
+
+    let patch_source: Vec<u32> = chosen
+        .perm
+        .iter()
+        .map(|&k| system.live[k as usize] as u32)
+        .collect();
+    let mut file = RadFile {
+        patches: Cow::Owned(file_patches),
+        order: Cow::Owned(chosen.perm.clone()),
+        matrix,
+        objects: scene
+            .objects
+            .iter()
+            .map(|o| Cow::Owned(o.clone()))
+            .collect(),
+        bounces: transfer.bounces,
+        patch_order: chosen.kind.patch_order().expect("a concrete order"),
+        compression_rmse: Some(measured.rmse as f32),
+        lighting_error: measured.lighting_error.map(|e| e as f32),
+        report: None,
+        mesh: Some(file_mesh(scene, system, &patch_source)),
+    };
+    let discretise_ms: f64 = system.timings_ms.values().sum();
+    timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
+    let summary = BakeSummary {
+        format,
+        chosen: &chosen,
+        bounces: transfer.bounces,
+        measured,
+        effects,
+        timings,
+    };
+    let report = report::report(scene, system, &file, summary);
+    let report = report::store(&mut file, report)?;
+    Ok(BakeOutput {
+        file,
+        report,
+        patch_source,
+    })
+}
+
+/// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,
+/// and the `bounces` decision in `effects`.
+fn transfer_step(
+    system: &Discretised,
+    params: &BakeParams,
+    effects: &mut Effects,
+) -> Result<(Vec<f32>, crate::bounce::TransferReport), BakeError> {
+    let (m, transfer) = transfer_matrix(
+        &system.f,
+        &system.reflectance,
+        system.channels,
+        params.bounces,
+    )
+    .map_err(|e| match e {
+        TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
+        other => BakeError::InvalidParams(other.to_string()),
+    })?;
     effects.insert(
         "bounces",
         Effect::new(
@@ -291,8 +378,13 @@ pub fn bake_discretised(
             },
         ),
     );
-    lap("transfer", &mut timings);
+    Ok((m, transfer))
+}
 
+/// The storage format (`params.format`, or the automatic choice for `channels`) and the
+/// encode parameters with the format's default sparse and correction shares where `params`
+/// leaves them open.
+fn encode_params_for(params: &BakeParams, channels: usize) -> (Format, EncodeParams) {
     let format = match params.format {
         FormatChoice::Auto if channels == 1 => Format::Bc4,
         FormatChoice::Auto => Format::Bc1,
@@ -308,19 +400,31 @@ pub fn bake_discretised(
             .unwrap_or_else(|| default_correction_fraction(format, channels)),
         ..params.encode
     };
+    (format, encode_params)
+}
 
-    stage("order");
-    // Every concrete order is computed and its compression error estimated on sampled blocks
-    // (the report lists them all); `best` then picks among none/paper/spatial.
-    let live_patches = &system.core_patches;
-    let dense = DenseMatrix::new(n, channels, &m);
+/// The order stage: every concrete order is computed and its compression error estimated on
+/// sampled blocks (the report lists them all); `best` then picks among none/paper/spatial.
+/// Returns every candidate and the chosen one.
+fn choose_order(
+    system: &Discretised,
+    m: &[f32],
+    params: &BakeParams,
+    encode_params: EncodeParams,
+) -> Result<(Vec<Candidate>, Candidate), BakeError> {
+    let dense = DenseMatrix::new(system.len(), system.channels, m);
     let order_params = OrderParams {
         seed: params.seed,
         encode: encode_params,
         ..OrderParams::default()
     };
-    let candidates = order::evaluate(&OrderKind::CONCRETE, live_patches, dense, &order_params)
-        .map_err(encode_error)?;
+    let candidates = order::evaluate(
+        &OrderKind::CONCRETE,
+        &system.core_patches,
+        dense,
+        &order_params,
+    )
+    .map_err(encode_error)?;
     let chosen = match params.order {
         OrderKind::Best => {
             let eligible: Vec<Candidate> = candidates
@@ -336,143 +440,26 @@ pub fn bake_discretised(
             .expect("every concrete order evaluated")
             .clone(),
     };
-    let m = order::permute(&m, n, channels, &chosen.perm);
-    lap("order", &mut timings);
+    Ok((candidates, chosen))
+}
 
-    stage("encode");
-    // Errors are weighed for the scene's own emitters and for runtime lights alike
-    // (`ErrorWeights`), and the sparse entries chosen by that weighted error.
-    let file_patches: Vec<Patch> = order::permute_rows(live_patches, &chosen.perm);
-    let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
-    let matrix = encode_dense_with(
-        n,
-        channels,
-        &m,
-        &encode_params,
-        &ErrorWeights::for_emitters(&emission),
-        SparseSelection::ErrorDriven,
-    )
-    .map_err(encode_error)?;
-    lap("encode", &mut timings);
-
-    stage("measure");
-    let decoded = matrix.decode_dense(DecodeMode::D3d10);
-    let rmse = relative_frobenius(&m, &decoded);
-    let code_rmse = order::code_rms(&matrix, &m, &decoded);
-    drop(decoded);
-    let lighting_error = lighting_error(&m, n, channels, &matrix, &emission);
-    let mut compression_rmse: BTreeMap<String, f64> = candidates
-        .iter()
-        .map(|c| (c.kind.name().to_owned(), c.error.relative))
-        .collect();
-    compression_rmse.insert(chosen.kind.name().to_owned(), rmse);
-    let mut compression_code_rmse: BTreeMap<String, f64> = candidates
-        .iter()
-        .filter_map(|c| Some((c.kind.name().to_owned(), c.error.code_rms?)))
-        .collect();
-    if let Some(e) = code_rmse {
-        compression_code_rmse.insert(chosen.kind.name().to_owned(), e);
-    }
-    lap("measure", &mut timings);
-
-    let patch_source: Vec<u32> = chosen
-        .perm
-        .iter()
-        .map(|&k| live[k as usize] as u32)
-        .collect();
-    // The runtime mesh: full-detail triangles, corner weights and direct-light samples, in
-    // the file's patch numbering.
+/// The runtime mesh: full-detail triangles, corner weights and direct-light samples, in the
+/// file's patch numbering (`patch_source[i]`: the simplification patch of file patch `i`).
+fn file_mesh(
+    scene: &Scene,
+    system: &Discretised,
+    patch_source: &[u32],
+) -> radiosity_core::Mesh<'static> {
     let mut file_index = vec![None; system.patches.len()];
     for (i, &k) in patch_source.iter().enumerate() {
         file_index[k as usize] = Some(i as u32);
     }
-    let mesh = crate::simplify::runtime_mesh::runtime_mesh(
+    crate::simplify::runtime_mesh::runtime_mesh(
         scene,
         &system.patches,
         &file_index,
         &system.exposure.buried_pieces,
-    );
-    let mut file = RadFile {
-        patches: Cow::Owned(file_patches),
-        order: Cow::Owned(chosen.perm.clone()),
-        matrix,
-        objects: scene
-            .objects
-            .iter()
-            .map(|o| Cow::Owned(o.clone()))
-            .collect(),
-        bounces: transfer.bounces,
-        patch_order: chosen.kind.patch_order().expect("a concrete order"),
-        compression_rmse: Some(rmse as f32),
-        lighting_error: lighting_error.map(|e| e as f32),
-        report: None,
-        mesh: Some(mesh),
-    };
-    let blocks = file.matrix.blocks.len();
-    let sparse = file.matrix.sparse.bytes();
-    let corrections = file.matrix.corrections.bytes();
-    let corrected_blocks = file.matrix.corrections.count();
-    let discretise_ms: f64 = system.timings_ms.values().sum();
-    timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
-    let mut report = BakeReport {
-        patches: n,
-        channels,
-        format: format.name(),
-        order: chosen.kind.name(),
-        bounces: match transfer.bounces {
-            Bounces::Finite(k) => serde_json::json!(k),
-            Bounces::Infinite => serde_json::json!("infinite"),
-        },
-        bytes: Bytes {
-            total: 0,
-            blocks,
-            sparse,
-            corrections,
-            corrected_blocks,
-        },
-        rays_cast: system.rays_cast,
-        form_factors: system.form_factors,
-        compression_rmse,
-        compression_code_rmse,
-        lighting_error,
-        effects,
-        closure: system.closure.clone(),
-        reciprocity_error: system.reciprocity_error,
-        timings_ms: timings,
-        warnings: scene
-            .report
-            .warnings
-            .iter()
-            .chain(&system.patches.warnings)
-            .cloned()
-            .collect(),
-        object_areas: scene
-            .object_areas()
-            .iter()
-            .enumerate()
-            .map(|(o, a)| a - system.exposure.buried_area.get(o).copied().unwrap_or(0.0))
-            .collect(),
-    };
-    // The report stores the file size, which depends on the report: write twice (the size
-    // field has the same width both times only by luck, so measure until it is stable).
-    for _ in 0..3 {
-        file.report = Some(Cow::Owned(
-            serde_json::to_string(&report).expect("report serialises"),
-        ));
-        let total = file
-            .to_bytes()
-            .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?
-            .len();
-        if total == report.bytes.total {
-            break;
-        }
-        report.bytes.total = total;
-    }
-    Ok(BakeOutput {
-        file,
-        report,
-        patch_source,
-    })
+    )
 }
 
 fn encode_error(e: EncodeError) -> BakeError {

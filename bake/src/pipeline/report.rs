@@ -1,10 +1,17 @@
 //! What the bake reports: the `bake --json` object ([`BakeReport`], `docs/contract.md`), also
 //! stored in the file's REPORT section for `inspect`, and the error measures it holds.
 
+use super::Discretised;
+use crate::BakeError;
 use crate::effects::Effects;
 use crate::form_factor::FormFactorSummary;
-use radiosity_core::{DecodeMode, Gather, ReferenceGather, Rgb, TransferMatrix};
+use crate::order::{self, Candidate};
+use crate::scene::Scene;
+use radiosity_core::{
+    Bounces, DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, TransferMatrix,
+};
 use serde::Serialize;
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 /// Sizes in bytes.
@@ -22,7 +29,7 @@ pub struct Bytes {
     pub corrected_blocks: usize,
 }
 
-/// What the bake did and measured: the `bake --json` object (DESIGN.md), also stored in the
+/// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
 /// file's REPORT section for `inspect`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BakeReport {
@@ -89,7 +96,7 @@ pub struct ClosureReport {
     pub escaped: Option<f64>,
 }
 /// `‖a − b‖ / ‖a‖` over all entries (0 for an all-zero `a` equal to `b`).
-pub fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
+pub(crate) fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
     let num: f64 = a
         .iter()
         .zip(b)
@@ -105,7 +112,7 @@ pub fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
 
 /// Relative L2 error of `y = M·E` (the scene's own emitters) between the exact dense `m` and
 /// the encoded matrix; `None` when nothing emits.
-pub fn lighting_error(
+pub(crate) fn lighting_error(
     m: &[f32],
     n: usize,
     channels: usize,
@@ -150,4 +157,142 @@ pub fn lighting_error(
         .map(|a| a.iter().map(|v| v * v).sum::<f64>())
         .sum();
     (den > 0.0).then(|| (num / den).sqrt())
+}
+
+/// The compression errors of a bake: measured on the encoded matrix for the chosen order,
+/// estimated on sampled blocks for the others.
+pub(super) struct Measured {
+    /// Relative Frobenius error of the decoded matrix.
+    pub(super) rmse: f64,
+    /// [`lighting_error`] of the encoded matrix.
+    pub(super) lighting_error: Option<f64>,
+    /// Per order, the relative Frobenius error (the chosen one's measured).
+    pub(super) compression_rmse: BTreeMap<String, f64>,
+    /// Per order, the RMS error in 8-bit codes (the chosen one's measured; log formats only).
+    pub(super) compression_code_rmse: BTreeMap<String, f64>,
+}
+
+impl Measured {
+    /// Measures `matrix`, the encode of the dense `m` (`n × n × channels`, file numbering)
+    /// whose patches emit `emission`, with `candidates`' estimates for the other orders.
+    pub(super) fn new(
+        m: &[f32],
+        n: usize,
+        channels: usize,
+        matrix: &TransferMatrix<'_>,
+        emission: &[Rgb],
+        candidates: &[Candidate],
+        chosen: &Candidate,
+    ) -> Self {
+        let decoded = matrix.decode_dense(DecodeMode::D3d10);
+        let rmse = relative_frobenius(m, &decoded);
+        let code_rmse = order::code_rms(matrix, m, &decoded);
+        drop(decoded);
+        let lighting_error = lighting_error(m, n, channels, matrix, emission);
+        let mut compression_rmse: BTreeMap<String, f64> = candidates
+            .iter()
+            .map(|c| (c.kind.name().to_owned(), c.error.relative))
+            .collect();
+        compression_rmse.insert(chosen.kind.name().to_owned(), rmse);
+        let mut compression_code_rmse: BTreeMap<String, f64> = candidates
+            .iter()
+            .filter_map(|c| Some((c.kind.name().to_owned(), c.error.code_rms?)))
+            .collect();
+        if let Some(e) = code_rmse {
+            compression_code_rmse.insert(chosen.kind.name().to_owned(), e);
+        }
+        Self {
+            rmse,
+            lighting_error,
+            compression_rmse,
+            compression_code_rmse,
+        }
+    }
+}
+
+/// What the second half of the bake decided, for its report.
+pub(super) struct BakeSummary<'a> {
+    /// Storage format.
+    pub(super) format: Format,
+    /// The order used.
+    pub(super) chosen: &'a Candidate,
+    /// Bounces carried by M.
+    pub(super) bounces: Bounces,
+    /// The compression errors.
+    pub(super) measured: Measured,
+    /// Every effect decision.
+    pub(super) effects: Effects,
+    /// Milliseconds per stage.
+    pub(super) timings: BTreeMap<&'static str, f64>,
+}
+
+/// The report of a bake of `scene` from `system` into `file` (its size still 0: [`store`]).
+pub(super) fn report(
+    scene: &Scene,
+    system: &Discretised,
+    file: &RadFile<'_>,
+    summary: BakeSummary<'_>,
+) -> BakeReport {
+    BakeReport {
+        patches: system.len(),
+        channels: system.channels,
+        format: summary.format.name(),
+        order: summary.chosen.kind.name(),
+        bounces: match summary.bounces {
+            Bounces::Finite(k) => serde_json::json!(k),
+            Bounces::Infinite => serde_json::json!("infinite"),
+        },
+        bytes: Bytes {
+            total: 0,
+            blocks: file.matrix.blocks.len(),
+            sparse: file.matrix.sparse.bytes(),
+            corrections: file.matrix.corrections.bytes(),
+            corrected_blocks: file.matrix.corrections.count(),
+        },
+        rays_cast: system.rays_cast,
+        form_factors: system.form_factors,
+        compression_rmse: summary.measured.compression_rmse,
+        compression_code_rmse: summary.measured.compression_code_rmse,
+        lighting_error: summary.measured.lighting_error,
+        effects: summary.effects,
+        closure: system.closure.clone(),
+        reciprocity_error: system.reciprocity_error,
+        timings_ms: summary.timings,
+        warnings: scene
+            .report
+            .warnings
+            .iter()
+            .chain(&system.patches.warnings)
+            .cloned()
+            .collect(),
+        object_areas: scene
+            .object_areas()
+            .iter()
+            .enumerate()
+            .map(|(o, a)| a - system.exposure.buried_area.get(o).copied().unwrap_or(0.0))
+            .collect(),
+    }
+}
+
+/// Stores `report` in `file`'s REPORT section with the file's size in it, and returns it.
+pub(super) fn store(
+    file: &mut RadFile<'static>,
+    mut report: BakeReport,
+) -> Result<BakeReport, BakeError> {
+    // The report stores the file size, which depends on the report: write twice (the size
+    // field has the same width both times only by luck, so measure until it is stable).
+    for _ in 0..3 {
+        file.report = Some(Cow::Owned(
+            serde_json::to_string(&report).expect("report serialises"),
+        ));
+        let total = file
+            .to_bytes()
+            .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?
+            .len();
+        if total == report.bytes.total {
+            break;
+        }
+        report.bytes.total = total;
+    }
+    Ok(report)
 }

@@ -264,77 +264,122 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
             (h, group(scene, &component, &loose, h, cos_max))
         }
         Resolution::TargetPatches(n) => {
-            if n == 0 || n > 1 << 24 {
-                return Err(BakeError::InvalidParams(format!(
-                    "target patch count {n} must be in 1..=2^24"
-                )));
-            }
-            let target = n as f64;
-            let total_area: f64 = (0..scene.triangles.len())
-                .map(|t| scene.triangle_area(t))
-                .sum();
-            // Bisection on log(h): the count falls as h grows (about area/h² for flat surfaces).
-            let mut h_small = (total_area / target).sqrt() / 8.0;
-            let mut h_large = extent * 2.0;
-            let mut best: Option<(f64, Grouping, f64)> = None;
-            let mut h = (total_area / target).sqrt();
-            for _ in 0..48 {
-                let g = group(scene, &component, &loose, h, cos_max);
-                let count = g.groups.len() as f64;
-                let miss = (count - target).abs() / target;
-                let better = best.as_ref().is_none_or(|b| miss < b.2);
-                let done = miss <= params.tolerance;
-                if count > target {
-                    h_small = h;
-                } else {
-                    h_large = h;
-                }
-                if better {
-                    best = Some((h, g, miss));
-                }
-                if done || h_large / h_small < 1.0 + 1e-6 {
-                    break;
-                }
-                h = (h_small * h_large).sqrt();
-            }
-            let (h, g, miss) = best.expect("one evaluation at least");
-            if miss > params.tolerance {
-                // Too many patches even at the coarsest cells: say why when a count of things
-                // a patch never spans (object-and-material pairs, large separate surfaces) is
-                // what holds the count up.
-                let mut pairs: Vec<(u32, u32)> = scene
-                    .triangles
-                    .iter()
-                    .map(|t| (t.object, t.material))
-                    .collect();
-                pairs.sort_unstable();
-                pairs.dedup();
-                let mut roots = component.clone();
-                roots.sort_unstable();
-                roots.dedup();
-                let held = |k: usize| g.groups.len() > n && k as f64 > 0.5 * target;
-                let why = if held(pairs.len()) {
-                    format!(
-                        "; the scene has {} object and material pairs, and a patch never spans two",
-                        pairs.len()
-                    )
-                } else if held(roots.len()) {
-                    format!(
-                        "; the scene has {} separate connected surfaces, and a patch joins two only when both are small and see each other",
-                        roots.len()
-                    )
-                } else {
-                    String::new()
-                };
-                warnings.push(format!(
-                    "asked for {n} patches, the nearest the grid gives is {} (cell size {h:.6}){why}",
-                    g.groups.len()
-                ));
-            }
-            (h, g)
+            fit_patch_count(scene, &component, &loose, n, params, extent, cos_max, &mut warnings)?
         }
     };
 
+    let (patches, pieces) = build_patches(scene, grouping);
+    // The file stores patches in f32: a scene so large (or small) that a patch's area or centre
+    // leaves the f32 range would be refused when writing, or light nothing.
+    if let Some((i, p)) = patches.iter().enumerate().find(|(_, p)| {
+        let area = p.area as f32;
+        !(area.is_finite() && area >= f32::MIN_POSITIVE && p.centre.as_vec3().is_finite())
+    }) {
+        return Err(BakeError::Unbakeable(format!(
+            "the scene's scale is out of range: patch {i} has area {:e} at ({:e}, {:e}, {:e}); areas must be normal f32 numbers (about 1.2e-38 to 3.4e38: coordinates within about ±1e18)",
+            p.area, p.centre.x, p.centre.y, p.centre.z
+        )));
+    }
+    let vertex_weights = vertex_weights(scene, &patches, &pieces, h);
+    let triangles = (0..scene.triangles.len())
+        .map(|t| scene.corners(t))
+        .collect();
+    Ok(Patches {
+        patches,
+        pieces,
+        triangles,
+        cell_size: h,
+        vertex_weights,
+        warnings,
+    })
+}
+
+/// The cell size whose grouping comes nearest `n` patches (bisection on the cell size), with
+/// its grouping; a warning in `warnings` when the nearest misses by more than the tolerance.
+#[allow(clippy::too_many_arguments)] // one step of `simplify`, sharing its locals
+fn fit_patch_count(
+    scene: &Scene,
+    component: &[u32],
+    loose: &Loose<'_>,
+    n: usize,
+    params: &VoxelParams,
+    extent: f64,
+    cos_max: f64,
+    warnings: &mut Vec<String>,
+) -> Result<(f64, Grouping), BakeError> {
+    if n == 0 || n > 1 << 24 {
+        return Err(BakeError::InvalidParams(format!(
+            "target patch count {n} must be in 1..=2^24"
+        )));
+    }
+    let target = n as f64;
+    let total_area: f64 = (0..scene.triangles.len())
+        .map(|t| scene.triangle_area(t))
+        .sum();
+    // Bisection on log(h): the count falls as h grows (about area/h² for flat surfaces).
+    let mut h_small = (total_area / target).sqrt() / 8.0;
+    let mut h_large = extent * 2.0;
+    let mut best: Option<(f64, Grouping, f64)> = None;
+    let mut h = (total_area / target).sqrt();
+    for _ in 0..48 {
+        let g = group(scene, component, loose, h, cos_max);
+        let count = g.groups.len() as f64;
+        let miss = (count - target).abs() / target;
+        let better = best.as_ref().is_none_or(|b| miss < b.2);
+        let done = miss <= params.tolerance;
+        if count > target {
+            h_small = h;
+        } else {
+            h_large = h;
+        }
+        if better {
+            best = Some((h, g, miss));
+        }
+        if done || h_large / h_small < 1.0 + 1e-6 {
+            break;
+        }
+        h = (h_small * h_large).sqrt();
+    }
+    let (h, g, miss) = best.expect("one evaluation at least");
+    if miss > params.tolerance {
+        // Too many patches even at the coarsest cells: say why when a count of things
+        // a patch never spans (object-and-material pairs, large separate surfaces) is
+        // what holds the count up.
+        let mut pairs: Vec<(u32, u32)> = scene
+            .triangles
+            .iter()
+            .map(|t| (t.object, t.material))
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut roots = component.to_vec();
+        roots.sort_unstable();
+        roots.dedup();
+        let held = |k: usize| g.groups.len() > n && k as f64 > 0.5 * target;
+        let why = if held(pairs.len()) {
+            format!(
+                "; the scene has {} object and material pairs, and a patch never spans two",
+                pairs.len()
+            )
+        } else if held(roots.len()) {
+            format!(
+                "; the scene has {} separate connected surfaces, and a patch joins two only when both are small and see each other",
+                roots.len()
+            )
+        } else {
+            String::new()
+        };
+        warnings.push(format!(
+            "asked for {n} patches, the nearest the grid gives is {} (cell size {h:.6}){why}",
+            g.groups.len()
+        ));
+    }
+    Ok((h, g))
+}
+
+/// The patches of `grouping` (area-weighted centre, normal and reflectance of their pieces)
+/// and every piece, each patch's pieces contiguous.
+fn build_patches(scene: &Scene, grouping: Grouping) -> (Vec<BakePatch>, Vec<Piece>) {
     let mut patches = Vec::with_capacity(grouping.groups.len());
     let mut pieces = Vec::new();
     for (object, material, group) in grouping.groups {
@@ -369,29 +414,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
             pieces: start..pieces.len(),
         });
     }
-    // The file stores patches in f32: a scene so large (or small) that a patch's area or centre
-    // leaves the f32 range would be refused when writing, or light nothing.
-    if let Some((i, p)) = patches.iter().enumerate().find(|(_, p)| {
-        let area = p.area as f32;
-        !(area.is_finite() && area >= f32::MIN_POSITIVE && p.centre.as_vec3().is_finite())
-    }) {
-        return Err(BakeError::Unbakeable(format!(
-            "the scene's scale is out of range: patch {i} has area {:e} at ({:e}, {:e}, {:e}); areas must be normal f32 numbers (about 1.2e-38 to 3.4e38: coordinates within about ±1e18)",
-            p.area, p.centre.x, p.centre.y, p.centre.z
-        )));
-    }
-    let vertex_weights = vertex_weights(scene, &patches, &pieces, h);
-    let triangles = (0..scene.triangles.len())
-        .map(|t| scene.corners(t))
-        .collect();
-    Ok(Patches {
-        patches,
-        pieces,
-        triangles,
-        cell_size: h,
-        vertex_weights,
-        warnings,
-    })
+    (patches, pieces)
 }
 
 /// Interpolation weights: every vertex over the patches cut from its own triangles, whose

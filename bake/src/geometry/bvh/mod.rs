@@ -148,12 +148,12 @@ impl RayTriangle {
 /// seen across: `hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets`; the
 /// conference room's chair parts, 4e-10 to 5e-9 apart, were seen across by some rays and
 /// passed through by others.)
-pub const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
+pub(crate) const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
 
 /// Two sheets this close along a ray (relative to its distance) count as one panel: a ray meeting
 /// the back of one and then the front of the other sees that front ([`Occluders::reaches`],
 /// [`Occluders::first_surface`]).
-pub const SHEET_GAP: f64 = 1e-4;
+pub(crate) const SHEET_GAP: f64 = 1e-4;
 
 /// Where a ray first meets a triangle ([`Occluders::closest_hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
