@@ -1,4 +1,4 @@
-//! The multi-bounce transfer matrix `M = Σ_{b<K} (F^C)^b · F` (DESIGN.md), in f64.
+//! The multi-bounce transfer matrix `M = Σ_{b<K} (F^C)^b · F` (`docs/contract.md`), in f64.
 //!
 //! - K = ∞ solves `(I − F^C) M = F` with an LU factorisation (faer, partial pivoting): about
 //!   2.7 n³ flops for all bounces at once.
@@ -119,6 +119,7 @@ pub(crate) struct Closure {
 
 /// Measures the row sums of `f`; `closed` when every row that sees anything sums to
 /// `1 ± tolerance`. Rows that see nothing (sum 0) do not count: they are dropped, not open.
+#[cfg(test)]
 pub(crate) fn analyse_closure(f: &Dense, tolerance: f64) -> Closure {
     closure_of_sums((0..f.n).map(|i| f.row(i).iter().sum()), tolerance)
 }

@@ -10,7 +10,7 @@
 //!    point-to-polygon kernel and adaptive quadrature.
 //! 4. [`form_factor`]: the n × n form-factor matrix ([`form_factor::form_factors`]): exact,
 //!    clustered and flat-site pairs with ray-sampled visibility.
-//! 5. [`hemisphere`]: cosine-weighted hemisphere rays from patches, shared by the bake's
+//! 5. `hemisphere`: cosine-weighted hemisphere rays from patches, shared by the bake's
 //!    burial, escape and dark-patch checks and by [`check::row_check`].
 //! 6. [`effects`]: which effects a scene needs (colour, occlusion, emission), each with a
 //!    reason.

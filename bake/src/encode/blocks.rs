@@ -187,7 +187,7 @@ pub(crate) struct BlockEncoder<'a> {
 
 impl<'a> BlockEncoder<'a> {
     /// An encoder for `layout` under `params` with `scales` from [`tile_scales`].
-    pub fn new(layout: &'a MatrixLayout, params: &'a EncodeParams, scales: &'a [LogScale]) -> Self {
+    pub(crate) fn new(layout: &'a MatrixLayout, params: &'a EncodeParams, scales: &'a [LogScale]) -> Self {
         Self {
             layout,
             params,
@@ -200,7 +200,7 @@ impl<'a> BlockEncoder<'a> {
     /// (`params.format.block_bytes()` bytes): `value` as in [`tile_scales`], the scales from
     /// [`tile_scales`] with the same `value`. Texels beyond the last patch and sparse texels
     /// (NaN) are don't-cares.
-    pub fn encode<V>(
+    pub(crate) fn encode<V>(
         &self,
         tile: &Tile,
         plane: usize,

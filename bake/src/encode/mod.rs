@@ -23,8 +23,8 @@ pub use blocks::{Bc1Fit, encode_bc1_block, encode_bc4_block};
 pub use select::SparseSelection;
 pub use weights::ErrorWeights;
 
-pub(crate) use blocks::{BlockEncoder, SPARSE_TEXEL, guard_bc1, tile_scales};
-pub(crate) use select::{ROW_KEEP, SparseRule, kept_sparse, sparse_threshold};
+pub(crate) use blocks::{BlockEncoder, SPARSE_TEXEL, tile_scales};
+pub(crate) use select::{SparseRule, sparse_threshold};
 
 use radiosity_core::{
     BlockCorrections, BlockDecoder, DEFAULT_MAX_TILE, DEFAULT_SHIFT, DecodeMode, Format,

@@ -91,13 +91,6 @@ pub enum SparseSelection {
     ErrorDriven,
 }
 
-/// Whether an entry (its `channels` values) goes to the sparse list under `threshold`: its
-/// largest channel exceeds it.
-#[inline]
-pub(crate) fn kept_sparse(entry: &[f32], threshold: f32) -> bool {
-    entry.iter().copied().fold(0f32, f32::max) > threshold
-}
-
 /// Entries of each row kept exact whatever the global threshold: a row's irradiance is often
 /// dominated by its few nearest neighbours, whose block errors do not average out (measured: a
 /// 96-patch furnace at ρ = 0.5 was 1.1% off in BC4 with a global threshold alone). With
@@ -120,7 +113,7 @@ pub(crate) struct SparseRule {
 
 impl SparseRule {
     /// The rule for a dense matrix (`n · n · channels`); `fraction` 0 keeps nothing.
-    pub fn new(dense: &[f32], n: usize, channels: usize, fraction: f32) -> Self {
+    pub(crate) fn new(dense: &[f32], n: usize, channels: usize, fraction: f32) -> Self {
         if fraction <= 0.0 {
             return Self {
                 threshold: f32::INFINITY,
@@ -158,7 +151,7 @@ impl SparseRule {
     }
 
     /// How many entries of the dense matrix (`n · n · channels`) the rule keeps.
-    pub fn count(&self, dense: &[f32], n: usize, channels: usize) -> usize {
+    pub(crate) fn count(&self, dense: &[f32], n: usize, channels: usize) -> usize {
         (0..n)
             .into_par_iter()
             .map(|r| {
@@ -172,7 +165,7 @@ impl SparseRule {
 
     /// Whether entry `entry` of row `row` is kept.
     #[inline]
-    pub fn keeps(&self, row: usize, entry: &[f32]) -> bool {
+    pub(crate) fn keeps(&self, row: usize, entry: &[f32]) -> bool {
         let v = entry.iter().copied().fold(0f32, f32::max);
         v > self.threshold || (v > 0.0 && v >= self.row_floor[row])
     }

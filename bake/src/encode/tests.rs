@@ -1,6 +1,8 @@
 //! Unit tests of the encoders.
 
 use super::*;
+use super::blocks::guard_bc1;
+use radiosity_core::{Bc1Block, Rgb};
 
 /// The retried blocks are the given share of all blocks, rounded down, those of largest
 /// summed score, never an all-zero block, and none for formats other than BC1.

@@ -12,7 +12,7 @@ use radiosity_core::Rgb;
 /// `σ²·Σ_ij ΔM_ij² + Σ_i (Σ_j ΔM_ij·E_j)²` per channel (with `s = 1`). [`ErrorWeights::for_emitters`]
 /// takes σ² = the mean of `E_j²` over patches and channels, so the scene's own lighting and
 /// lighting added later get equal total weight: a bake is judged both by its own emitters (the
-/// issue's "lighting error") and by runtime lights (the Frobenius norm). Without emitters
+/// report's `lighting_error`) and by runtime lights (the Frobenius norm). Without emitters
 /// ([`ErrorWeights::uniform`]) the objective is the Frobenius norm.
 ///
 /// The second term couples all entries of a row. Block fits and the sparse selection use its

@@ -46,7 +46,7 @@
 //!   [`NEAR_RAYS`] rays drawn systematically in proportion to the unoccluded contributions
 //!   (unbiased for `Σ g·V`), each ending at a kernel-distributed point of its target piece. A
 //!   large piece carrying much of a pair gets many rays to different points of it (a
-//!   1000-unit floor triangle seen through furniture had been all or nothing).
+//!   1000-unit floor triangle seen through furniture is otherwise all or nothing).
 //!
 //! On Greg Ward's conference room (330 000 triangles, 4410 patches) this took the form factors
 //! from an estimated 4 h to minutes on 2 cores (ARCHITECTURE.md has the measurements).

@@ -1,7 +1,6 @@
 //! What [`super::form_factors`] can be told: the quadrature, the visibility rays, where
 //! exact pairs give way to flat sites and clustered pairs, and the presets.
 
-use super::MAX_EXACT_PIECES;
 use crate::geometry::quadrature::{Adaptive, Rule};
 
 /// How visibility between a source point and a target piece is found.
@@ -31,7 +30,7 @@ pub struct FormFactorParams {
     /// Shadow rays.
     pub visibility: Visibility,
     /// Pieces in all up to which every pair is integrated exactly, piece by piece. Above it,
-    /// patches of more than [`MAX_EXACT_PIECES`] pieces are integrated through flat sites
+    /// patches of more than [`MAX_EXACT_PIECES`](super::MAX_EXACT_PIECES) pieces are integrated through flat sites
     /// (module doc): a scene of 300 000 triangles becomes feasible at all.
     pub exact_pieces: usize,
     /// The rule of clustered pairs' per-target quadratures (`Pairs::clustered`, scenes above

@@ -1,4 +1,4 @@
-//! Patch reordering before compression (paper §4.2, DESIGN.md "Encoding").
+//! Patch reordering before compression (paper §4.2; `docs/contract.md`, "Encoding").
 //!
 //! BC1/BC4 compress each 4×4 block on its own, so the error depends on which patches share a
 //! block: renumbering patches (rows and columns of M together, `P M Pᵀ`) so that patches with
@@ -46,7 +46,7 @@ pub use error::{ErrorEstimate, ErrorMeter, ErrorSampling, code_rms};
 pub use spatial::orientation;
 
 pub(crate) use similarity::{Signatures, greedy_chain};
-pub(crate) use spatial::{Curve, hilbert_3d, morton_3d, spatial_order};
+pub(crate) use spatial::{Curve, spatial_order};
 
 use crate::encode::{EncodeError, EncodeParams, SparseRule};
 use crate::rng::SplitMix64;
@@ -368,6 +368,7 @@ pub fn permute_rows<T: Clone>(items: &[T], perm: &[u32]) -> Vec<T> {
 }
 
 /// The inverse: `inv[old] = new`.
+#[cfg(test)]
 pub(crate) fn inverse(perm: &[u32]) -> Vec<u32> {
     check_permutation(perm, perm.len());
     let mut inv = vec![0u32; perm.len()];

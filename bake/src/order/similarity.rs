@@ -23,7 +23,7 @@ impl Signatures {
     /// Signatures of every patch of `m` from `samples` sampled rows and columns (clamped to
     /// `1..=n`). Entries the sparse `rule` keeps count as 0 (the sparse
     /// list holds them); `shift` is the quantiser's log range.
-    pub fn new(
+    pub(crate) fn new(
         m: DenseMatrix<'_>,
         samples: usize,
         shift: f32,
@@ -70,17 +70,12 @@ impl Signatures {
     }
 
     /// Number of patches.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.values.len().checked_div(self.dim).unwrap_or(0)
     }
 
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Signature of patch `i`.
-    pub fn of(&self, i: usize) -> &[f32] {
+    pub(crate) fn of(&self, i: usize) -> &[f32] {
         &self.values[i * self.dim..(i + 1) * self.dim]
     }
 }

@@ -34,7 +34,7 @@ use crate::scene::Scene;
 use crate::simplify::{Patches, simplify};
 use closure::{closure_effect, escape_check, expose};
 use dark::dark_patches;
-use radiosity_core::{Bounces, DecodeMode, Format, Patch, RadFile, Rgb};
+use radiosity_core::{Bounces, Format, Patch, RadFile, Rgb};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::time::Instant;

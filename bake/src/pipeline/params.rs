@@ -2,7 +2,7 @@
 //! the front end's [`Hooks`].
 
 use crate::bounce::BounceSpec;
-use crate::encode::{EncodeParams, default_correction_fraction, default_sparse_fraction};
+use crate::encode::EncodeParams;
 use crate::form_factor::{FormFactorParams, Progress};
 use crate::order::OrderKind;
 use crate::simplify::VoxelParams;
@@ -36,11 +36,11 @@ pub struct BakeParams {
     /// Quantiser range, tile size, BC1 fit (its `format` and `sparse_fraction` are ignored: see
     /// `format` and `sparse_fraction`).
     pub encode: EncodeParams,
-    /// Fraction of entries kept exact; `None` for [`default_sparse_fraction`] of the format
+    /// Fraction of entries kept exact; `None` for [`default_sparse_fraction`](crate::encode::default_sparse_fraction) of the format
     /// (a fixed share of the block bytes).
     pub sparse_fraction: Option<f32>,
     /// Share of block positions given a block correction; `None` for
-    /// [`default_correction_fraction`] of the format (a fixed share of the block bytes).
+    /// [`default_correction_fraction`](crate::encode::default_correction_fraction) of the format (a fixed share of the block bytes).
     pub corrections: Option<f32>,
     /// A scene is treated as closed when every row of F sums to 1 within this; its rows are then
     /// rebalanced to sum to exactly 1 (the correction is reported).

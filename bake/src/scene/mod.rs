@@ -1,6 +1,6 @@
 //! Scenes: OBJ + MTL loaded into full-detail triangles with materials and objects.
 //!
-//! Conventions (DESIGN.md): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
+//! Conventions (`docs/contract.md`): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
 //! multiplied by the mean of `map_Kd` where one is given; `Ke` is emitted radiance L and the
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
 

@@ -16,9 +16,8 @@ use crate::error::BakeError;
 use crate::geometry::polygon::Polygon;
 use crate::scene::Scene;
 use glam::DVec3;
-use grouping::{Grouping, Loose, absorb_small_groups, component_areas, components, cut, group};
+use grouping::{Grouping, Loose, component_areas, components, group};
 use radiosity_core::Rgb;
-use std::collections::HashMap;
 use std::ops::Range;
 
 /// How the grid's cell size is chosen.

@@ -2,10 +2,7 @@
 //! exact row objective, each leaning against the row errors of the blocks before it
 //! ([`Coupling`]).
 
-use super::{
-    BlockTarget, Bc1State, bc1_eval, bc1_order, bc1_palette_values, bc4_eval, pack_565,
-    unpack_565,
-};
+use super::{BlockTarget, MAX_SWEEPS, bc1_order, bc1_palette_values, pack_565, unpack_565};
 use radiosity_core::{Bc1Block, Bc4Block, DecodeMode};
 
 /// The scene's own emitters in a block's objective. With `x = E + r` (see

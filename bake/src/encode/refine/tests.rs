@@ -73,7 +73,7 @@ fn a_second_bc1_start_never_loses_to_either_start() {
         let error = |b: Bc1Block| value_error(bc1_values(b, &table), &t, &[0, 1, 2]);
         let encode = |thorough: bool| {
             let mut out = [0u8; 8];
-            crate::encode::encode_target(&params, 0, &t, &mut out, thorough);
+            crate::encode::blocks::encode_target(&params, 0, &t, &mut out, thorough);
             error(Bc1Block(out))
         };
         let (range, both) = (encode(false), encode(true));
@@ -130,7 +130,7 @@ fn refinement_never_loses_and_usually_wins_in_value_space() {
         let best_start = candidates
             .iter()
             .map(|&(r0, r1)| {
-                let raw = crate::encode::bc4_with_best_indices(r0, r1, &t.codes[1], t.fit).0;
+                let raw = crate::encode::blocks::bc4_with_best_indices(r0, r1, &t.codes[1], t.fit).0;
                 value_error(bc4(raw), &t, &[1])
             })
             .fold(f64::INFINITY, f64::min);

@@ -2,7 +2,7 @@
 //! (shadow-ray) and closest-hit queries, and a BVH2 for the box queries that find which
 //! triangles could possibly block light between two surfaces.
 //!
-//! Every triangle blocks from both sides (DESIGN.md): the intersection test does not cull back
+//! Every triangle blocks from both sides (`docs/contract.md`): the intersection test does not cull back
 //! faces. Coordinates are stored in f32 relative to the scene centre and scaled to one extent
 //! ([`LOCAL_EXTENT`]), so a scene far from the origin loses no precision and one of any size
 //! looks the same to obvhs, whose CWBVH has an absolute epsilon.
@@ -10,7 +10,6 @@
 use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
-use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::cwbvh::CwBvh;
