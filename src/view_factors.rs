@@ -3,8 +3,8 @@
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use radiosity_bake::scene::{LoadOptions, Scene};
 use radiosity_bake::check::view_factors::{ViewFactorParams, ViewFactors, view_factors};
+use radiosity_bake::scene::{LoadOptions, Scene};
 use serde_json::json;
 use std::path::Path;
 

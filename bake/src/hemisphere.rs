@@ -43,7 +43,11 @@ impl Owners {
             .take_while(|e| e.0 == triangle)
             .map(|e| {
                 let p = &pieces[e.1 as usize];
-                let d = crate::geometry::polygon::point_polygon_distance(x, p.polygon.vertices(), p.normal);
+                let d = crate::geometry::polygon::point_polygon_distance(
+                    x,
+                    p.polygon.vertices(),
+                    p.normal,
+                );
                 (d, e.1)
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))

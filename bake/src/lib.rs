@@ -24,18 +24,18 @@
 //! factors) and [`rng`] (the deterministic random streams).
 #![deny(missing_docs)]
 
+pub mod bounce;
+pub mod check;
+pub mod effects;
+pub mod encode;
 pub mod error;
+pub mod form_factor;
+pub mod geometry;
+pub(crate) mod hemisphere;
+pub mod order;
+pub mod pipeline;
+pub mod rng;
 pub mod scene;
 pub mod simplify;
-pub mod geometry;
-pub mod form_factor;
-pub(crate) mod hemisphere;
-pub mod effects;
-pub mod bounce;
-pub mod order;
-pub mod encode;
-pub mod pipeline;
-pub mod check;
-pub mod rng;
 
 pub use error::BakeError;

@@ -4,10 +4,10 @@
 mod bake_support;
 
 use bake_support::*;
-use radiosity_bake::geometry::Occluders;
 use radiosity_bake::form_factor::{
     EXACT_PAIR_RAYS, FormFactorParams, FormFactors, Visibility, form_factor_rows, form_factors,
 };
+use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
 
@@ -598,8 +598,8 @@ fn cornell_box_rows_agree_with_hemisphere_rays() {
 #[test]
 fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
     use glam::DVec3;
-    use radiosity_bake::form_factor::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
     use radiosity_bake::check::row_check::{RowCheckParams, check_rows};
+    use radiosity_bake::form_factor::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
     // Two 1 × 1 plates 0.05 apart facing each other (unoccluded F 0.90) with a 0.5 × 0.5
     // blocker between them, facing the upper plate: each plate's row is one pair, half hidden.
     // A fixed 64 rays left such a pair's F about 0.06 off (the conference room: 0.74 against

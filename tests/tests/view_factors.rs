@@ -7,8 +7,8 @@ mod bake_support;
 
 use bake_support::*;
 use glam::{DVec3, dvec3};
-use radiosity_bake::scene::Scene;
 use radiosity_bake::check::view_factors::{ViewFactorParams, ViewFactors, view_factors};
+use radiosity_bake::scene::Scene;
 
 /// The accuracy target for unoccluded configurations: 0.5% relative.
 const TARGET: f64 = 5e-3;

@@ -11,8 +11,8 @@
 //!   wholly or not at all by its shadow rays (or a depth limit is reached), and the kernel
 //!   of the visible parts is summed. The kernel stays analytic; rays only decide visibility.
 
-use crate::geometry::bvh::Occluders;
 use crate::form_factor::{Progress, facing};
+use crate::geometry::bvh::Occluders;
 use crate::geometry::point_polygon::point_to_polygon;
 use crate::geometry::polygon::{Polygon, point_polygon_distance};
 use crate::geometry::quadrature::{Adaptive, Rule, integrate};

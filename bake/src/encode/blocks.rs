@@ -136,7 +136,11 @@ pub(crate) const SPARSE_TEXEL: f32 = f32::NAN;
 /// [`encode_dense`] uses this, and so can a caller that encodes single blocks with
 /// [`BlockEncoder`] (e.g. to estimate the compression error from a sample of blocks, with the
 /// same quantisation as the whole matrix).
-pub(crate) fn tile_scales<V>(layout: &MatrixLayout, params: &EncodeParams, value: &V) -> Vec<LogScale>
+pub(crate) fn tile_scales<V>(
+    layout: &MatrixLayout,
+    params: &EncodeParams,
+    value: &V,
+) -> Vec<LogScale>
 where
     V: Fn(usize, usize, usize) -> f32 + Sync,
 {
@@ -187,7 +191,11 @@ pub(crate) struct BlockEncoder<'a> {
 
 impl<'a> BlockEncoder<'a> {
     /// An encoder for `layout` under `params` with `scales` from [`tile_scales`].
-    pub(crate) fn new(layout: &'a MatrixLayout, params: &'a EncodeParams, scales: &'a [LogScale]) -> Self {
+    pub(crate) fn new(
+        layout: &'a MatrixLayout,
+        params: &'a EncodeParams,
+        scales: &'a [LogScale],
+    ) -> Self {
         Self {
             layout,
             params,

@@ -1,7 +1,7 @@
 //! Unit tests of the encoders.
 
-use super::*;
 use super::blocks::guard_bc1;
+use super::*;
 use radiosity_core::{Bc1Block, Rgb};
 
 /// The retried blocks are the given share of all blocks, rounded down, those of largest
@@ -168,8 +168,7 @@ fn error_driven_selection_beats_the_largest_entries() {
         let (m, _) = scene(n, 0, 7);
         let run = |selection| {
             let p = EncodeParams::for_format(format);
-            let t =
-                encode_dense_with(n, 3, &m, &p, &ErrorWeights::uniform(), selection).unwrap();
+            let t = encode_dense_with(n, 3, &m, &p, &ErrorWeights::uniform(), selection).unwrap();
             (
                 squared_error(&t.decode_dense(DecodeMode::D3d10), &m),
                 t.sparse.nnz(),
@@ -201,8 +200,7 @@ fn coupled_pass_cancels_the_lamps_row_errors() {
         let (m, e) = scene(n, 12, 9);
         let run = |weights: &ErrorWeights| {
             let p = EncodeParams::for_format(format);
-            let t =
-                encode_dense_with(n, 3, &m, &p, weights, SparseSelection::ErrorDriven).unwrap();
+            let t = encode_dense_with(n, 3, &m, &p, weights, SparseSelection::ErrorDriven).unwrap();
             let d = t.decode_dense(DecodeMode::D3d10);
             let zero = vec![0f32; m.len()];
             (
@@ -248,8 +246,7 @@ fn weighted_error_driven_encode_keeps_the_format_promises() {
                 .build()
                 .unwrap()
                 .install(|| {
-                    encode_dense_with(n, 3, &m, &p, &weights, SparseSelection::ErrorDriven)
-                        .unwrap()
+                    encode_dense_with(n, 3, &m, &p, &weights, SparseSelection::ErrorDriven).unwrap()
                 })
         };
         let t = encode(1);
@@ -279,8 +276,7 @@ fn weighted_error_driven_encode_keeps_the_format_promises() {
                         let half = (scale.shift / 510.0).exp() * (1.0 + 1e-5);
                         let floor = scale.v_max * (-scale.shift).exp() * half;
                         assert!(
-                            (v <= floor && got <= floor)
-                                || (got / v <= half && v / got <= half),
+                            (v <= floor && got <= floor) || (got / v <= half && v / got <= half),
                             "{format} ({r}, {c}) ch {k}: {v} decoded {got}"
                         );
                     } else {

@@ -40,7 +40,9 @@ pub(super) fn exchange(
     let mut total = 0.0;
     scratch.samples.clear();
     for (si, s) in src.iter().enumerate() {
-        source_contributions(si, s, dst, occ, cache, params, tol, whole, scratch, &mut total);
+        source_contributions(
+            si, s, dst, occ, cache, params, tol, whole, scratch, &mut total,
+        );
     }
     if scratch.samples.is_empty() {
         return total;
@@ -288,7 +290,6 @@ impl RayContext<'_> {
         total
     }
 }
-
 
 /// Shadow rays per pair of pieces in exact pairs, at least (times `per_sample`); more when the
 /// source quadrature has more points against the target. Rows of F on the Cornell box at 256

@@ -36,7 +36,12 @@ pub struct Exposure {
 /// "Buried surface": a closed room at ρ = 0.999 with 1% of its area buried gave a quarter of
 /// the furnace's light). A wholly buried patch's row and column are zeroed (it is dropped as
 /// dark). Nothing is done where nothing occludes (`occ` is `None`).
-pub(super) fn expose(patches: &mut Patches, occ: Option<&Occluders>, f: &mut Dense, seed: u64) -> Exposure {
+pub(super) fn expose(
+    patches: &mut Patches,
+    occ: Option<&Occluders>,
+    f: &mut Dense,
+    seed: u64,
+) -> Exposure {
     let objects = patches
         .patches
         .iter()

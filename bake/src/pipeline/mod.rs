@@ -25,8 +25,7 @@ use crate::encode::{
     default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
-    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
-    form_factors,
+    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors,
 };
 use crate::geometry::Occluders;
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};

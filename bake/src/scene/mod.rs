@@ -5,11 +5,11 @@
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
 
 use crate::error::BakeError;
-pub use texture::Texture;
 use glam::DVec3;
 use radiosity_core::Rgb;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
+pub use texture::Texture;
 
 mod obj;
 mod texture;

@@ -133,7 +133,13 @@ impl Loose<'_> {
 /// ([`components`]), with normals within the angle; loose parts ([`LOOSE_PART`]) of different
 /// components may share a group when they see each other. Small groups then merge whatever
 /// their orientation ([`absorb_small_groups`]).
-pub(super) fn group(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f64) -> Grouping {
+pub(super) fn group(
+    scene: &Scene,
+    component: &[u32],
+    loose: &Loose<'_>,
+    h: f64,
+    cos_max: f64,
+) -> Grouping {
     /// Stands for every loose part in the grouping key.
     const LOOSE: u32 = u32::MAX;
     let (lo, _) = scene.bounds();

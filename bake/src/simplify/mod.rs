@@ -262,9 +262,16 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
             }
             (h, group(scene, &component, &loose, h, cos_max))
         }
-        Resolution::TargetPatches(n) => {
-            fit_patch_count(scene, &component, &loose, n, params, extent, cos_max, &mut warnings)?
-        }
+        Resolution::TargetPatches(n) => fit_patch_count(
+            scene,
+            &component,
+            &loose,
+            n,
+            params,
+            extent,
+            cos_max,
+            &mut warnings,
+        )?,
     };
 
     let (patches, pieces) = build_patches(scene, grouping);

@@ -130,7 +130,8 @@ fn refinement_never_loses_and_usually_wins_in_value_space() {
         let best_start = candidates
             .iter()
             .map(|&(r0, r1)| {
-                let raw = crate::encode::blocks::bc4_with_best_indices(r0, r1, &t.codes[1], t.fit).0;
+                let raw =
+                    crate::encode::blocks::bc4_with_best_indices(r0, r1, &t.codes[1], t.fit).0;
                 value_error(bc4(raw), &t, &[1])
             })
             .fold(f64::INFINITY, f64::min);
