@@ -6,7 +6,7 @@ use radiosity_bake::error::BakeError;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::{LoadOptions, Scene};
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use radiosity_core::Format;
 use std::path::Path;
 use std::time::Instant;

@@ -20,14 +20,14 @@
 use crate::embedded;
 use anyhow::{Context, bail};
 use radiosity_backend_cpu::CpuGather;
+use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
 use radiosity_bake::encode::{
     EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
 };
 use radiosity_bake::order::{self, DenseMatrix, OrderKind, OrderParams};
 use radiosity_bake::pipeline::{BakeParams, Hooks, discretise};
 use radiosity_bake::rng::SplitMix64;
-use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use radiosity_benches::peers::{Cost, FaerDense, JacobiBounces, LuSolve, gather_cost};
 use radiosity_benches::roofline::Roofline;
 use radiosity_benches::timing::{interleaved_medians, ms, runs_for};

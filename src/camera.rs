@@ -14,7 +14,7 @@
 
 use anyhow::{Context, bail};
 use glam::DVec3;
-use radiosity_bake::bvh::Occluders;
+use radiosity_bake::geometry::Occluders;
 use serde::Deserialize;
 use std::path::Path;
 

@@ -1,11 +1,11 @@
 //! `radiosity check-rows SCENE.obj`: sampled rows of the form-factor matrix against hemisphere
-//! rays (`radiosity_bake::row_check`), without computing the whole matrix.
+//! rays (`radiosity_bake::check::row_check`), without computing the whole matrix.
 
 use anyhow::{Context, bail};
 use clap::Args;
-use radiosity_bake::row_check::{RowCheckParams, RowGroup, SceneCheck, check_scene};
+use radiosity_bake::check::row_check::{RowCheckParams, RowGroup, SceneCheck, check_scene};
 use radiosity_bake::scene::LoadOptions;
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use std::path::PathBuf;
 
 #[derive(Args)]

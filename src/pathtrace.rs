@@ -43,7 +43,7 @@ use crate::camera::Camera;
 use crate::picture::LinearImage;
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
-use radiosity_bake::bvh::Occluders;
+use radiosity_bake::geometry::Occluders;
 use radiosity_bake::rng::SplitMix64;
 use radiosity_bake::scene::Scene;
 use radiosity_core::Light;

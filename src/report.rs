@@ -22,13 +22,13 @@ use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use plots::{Chart, Series};
 use radiosity_backend_cpu::CpuGather;
+use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
 use radiosity_bake::order::{self, OrderKind};
 use radiosity_bake::pipeline::{
     BakeOutput, BakeParams, Discretised, FormatChoice, Hooks, bake_discretised, discretise,
 };
 use radiosity_bake::scene::Scene;
-use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use radiosity_benches::peers::{FaerDense, JacobiBounces, LuSolve};
 use radiosity_benches::timing::{interleaved_medians, median, ms, runs_for};
 use radiosity_core::{DecodeMode, Format, Gather, Rgb};

@@ -5,7 +5,7 @@
 
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
-use radiosity_bake::bvh::Occluders;
+use radiosity_bake::geometry::Occluders;
 use radiosity_core::{Gather, Light, Mesh, RadFile, Rgb, finish_frame, first_exitance};
 
 /// A baked scene ready to light: the file, and the BVH over its mesh when it has one.

@@ -2,8 +2,8 @@
 //! full-detail geometry (`docs/contract.md`, "Command line").
 
 use indicatif::{ProgressBar, ProgressStyle};
+use radiosity_bake::check::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 use radiosity_bake::scene::LoadOptions;
-use radiosity_bake::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 use serde_json::json;
 use std::path::Path;
 

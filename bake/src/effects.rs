@@ -3,7 +3,7 @@
 //! patches kept), and is reported under `effects` in `bake --json`.
 
 use crate::scene::Scene;
-use crate::voxel::Patches;
+use crate::simplify::Patches;
 use glam::DVec3;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -32,7 +32,7 @@ impl Effect {
 pub type Effects = BTreeMap<&'static str, Effect>;
 
 /// Whether every patch is grey (R = G = B to 1e-6): then one channel carries all colours.
-pub fn plan_colour(patches: &Patches) -> Effect {
+pub(crate) fn plan_colour(patches: &Patches) -> Effect {
     let coloured = patches.patches.iter().position(|p| {
         let r = p.reflectance;
         (r.max_channel() - r.min_channel()).abs() > 1e-6
@@ -117,7 +117,7 @@ pub fn plan_occlusion(scene: &Scene) -> Effect {
 const MAX_CONVEXITY_TESTS: f64 = 4e9;
 
 /// Whether the scene emits light itself.
-pub fn plan_emission(patches: &Patches) -> Effect {
+pub(crate) fn plan_emission(patches: &Patches) -> Effect {
     let emitters = patches
         .patches
         .iter()

@@ -1,41 +1,41 @@
 //! `radiosity-bake`: from an OBJ scene to a compressed transfer matrix.
 //!
-//! Pipeline (DESIGN.md): load → voxel simplification → form factors (BVH visibility) → effect
-//! planning → multi-bounce transfer → encode. This crate grows one stage at a time; what is here
-//! works and is tested:
+//! The stages in pipeline order (the user-facing contract is `docs/contract.md`):
 //!
-//! - [`encode`]: BC1/BC4 (texpresso), u8-log, f16 and f32 encoders from a dense matrix to a
-//!   [`radiosity_core::TransferMatrix`], with the three-colour guard for BC1.
-//! - [`scene`]: OBJ + MTL loading ([`scene::Scene::load_obj`]): objects, reflectance, emission,
-//!   `map_Kd` textures, line-numbered errors.
-//! - [`voxel`]: the paper's voxel simplification into patches ([`voxel::simplify`]) with
-//!   per-vertex interpolation weights.
-//! - [`bvh`]: the occlusion structure over the full-detail triangles (obvhs).
-//! - [`form_factor`]: the n × n form-factor matrix ([`form_factor::form_factors`]) with an
-//!   analytic point-to-polygon kernel, adaptive quadrature and ray-sampled visibility.
-//! - [`view_factors`]: object-to-object view factors from the full-detail geometry.
-//! - [`row_check`]: rows of F against hemisphere rays, an independent check of the form factors.
+//! 1. [`scene`]: OBJ + MTL loading ([`scene::Scene::load_obj`]): objects, reflectance,
+//!    emission, `map_Kd` textures, line-numbered errors.
+//! 2. [`simplify`]: the paper's voxel simplification into patches ([`simplify::simplify`]),
+//!    with per-vertex interpolation weights and the runtime mesh.
+//! 3. [`geometry`]: the occlusion BVH over the full-detail triangles, polygons, the exact
+//!    point-to-polygon kernel and adaptive quadrature.
+//! 4. [`form_factor`]: the n × n form-factor matrix ([`form_factor::form_factors`]): exact,
+//!    clustered and flat-site pairs with ray-sampled visibility.
+//! 5. `hemisphere`: cosine-weighted hemisphere rays from patches, shared by the bake's
+//!    burial, escape and dark-patch checks and by [`check::row_check`].
+//! 6. [`effects`]: which effects a scene needs (colour, occlusion, emission), each with a
+//!    reason.
+//! 7. [`bounce`]: the multi-bounce transfer matrix `M = Σ (F^C)^b · F` and F's closure.
+//! 8. [`order`]: patch reordering before compression, with estimated errors.
+//! 9. [`encode`]: BC1/BC4, u8-log, f16 and f32 encoders from a dense matrix to a
+//!    [`radiosity_core::TransferMatrix`].
+//! 10. [`pipeline`]: the whole bake ([`pipeline::bake`]) with its report.
+//!
+//! Beside the pipeline: [`check`] (rows of F against hemisphere rays, object-to-object view
+//! factors) and [`rng`] (the deterministic random streams).
 #![deny(missing_docs)]
 
+pub mod bounce;
+pub mod check;
 pub mod effects;
 pub mod encode;
-
-pub mod bvh;
 pub mod error;
 pub mod form_factor;
-pub mod kernel;
-pub mod mesh;
-mod obj;
+pub mod geometry;
+pub(crate) mod hemisphere;
 pub mod order;
 pub mod pipeline;
-pub mod polygon;
-pub mod quadrature;
 pub mod rng;
-pub mod row_check;
 pub mod scene;
-pub mod texture;
-pub mod transfer;
-pub mod view_factors;
-pub mod voxel;
+pub mod simplify;
 
 pub use error::BakeError;

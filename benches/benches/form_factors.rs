@@ -5,11 +5,11 @@
 //! Run with `cargo bench -p radiosity-benches --bench form_factors`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use radiosity_bake::bvh::Occluders;
+use radiosity_bake::check::view_factors::{ViewFactorParams, view_factors};
 use radiosity_bake::form_factor::{FormFactorParams, form_factors};
+use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;
-use radiosity_bake::view_factors::{ViewFactorParams, view_factors};
-use radiosity_bake::voxel::{VoxelParams, simplify};
+use radiosity_bake::simplify::{VoxelParams, simplify};
 use std::hint::black_box;
 use std::path::Path;
 

@@ -151,11 +151,11 @@ pub fn sample_mesh(n: usize) -> radiosity_core::Mesh<'static> {
 /// transfer matrix (`n·n·3`, natural order). For order tests and benches that need a real M
 /// before any reordering or encoding.
 pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
-    use radiosity_bake::bvh::Occluders;
+    use radiosity_bake::bounce::{BounceSpec, Dense, transfer_matrix};
     use radiosity_bake::form_factor::{FormFactorParams, form_factors};
+    use radiosity_bake::geometry::Occluders;
     use radiosity_bake::scene::Scene;
-    use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
-    use radiosity_bake::voxel::{VoxelParams, simplify};
+    use radiosity_bake::simplify::{VoxelParams, simplify};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes/cornell-box/CornellBox-Original.obj");
     let scene = Scene::load_obj(&path).expect("Cornell box loads");

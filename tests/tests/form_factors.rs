@@ -4,12 +4,12 @@
 mod bake_support;
 
 use bake_support::*;
-use radiosity_bake::bvh::Occluders;
 use radiosity_bake::form_factor::{
     EXACT_PAIR_RAYS, FormFactorParams, FormFactors, Visibility, form_factor_rows, form_factors,
 };
+use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;
-use radiosity_bake::voxel::{Patches, VoxelParams, simplify};
+use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
 
 /// The Cornell box of `scenes/cornell-box`.
 fn cornell_box() -> Scene {
@@ -471,7 +471,7 @@ fn sampled_rows_are_the_rows_of_the_whole_matrix() {
         let p = simplify(scene, &VoxelParams::with_patches(patches)).unwrap();
         let occ = Occluders::new(scene);
         let whole = form_factors(&p, Some(&occ), &params, None);
-        let rows = radiosity_bake::row_check::sample_rows(p.len(), 12, 3);
+        let rows = radiosity_bake::check::row_check::sample_rows(p.len(), 12, 3);
         let (f, rays) = form_factor_rows(&p, Some(&occ), &params, &rows, None);
         assert!(rays > 0);
         for (k, &i) in rows.iter().enumerate() {
@@ -485,7 +485,7 @@ fn sampled_rows_are_the_rows_of_the_whole_matrix() {
 #[test]
 fn hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets() {
     use glam::DVec3;
-    use radiosity_bake::row_check::{RowCheckParams, check_rows};
+    use radiosity_bake::check::row_check::{RowCheckParams, check_rows};
     // Three modelling habits of real scenes, 141 units across: two 1 × 1 plates facing each
     // other 2e-5 apart (parts in contact; less than the 1.4e-4 that a ray lifted by 1e-6 of
     // the extent would step over), a two-sided panel modelled as two coincident sheets back
@@ -575,7 +575,7 @@ fn cornell_box_rows_agree_with_hemisphere_rays() {
     // 1024 patches against 4000 hemisphere rays each. Measured RMS 0.0069, of which the
     // estimate's own noise is 0.0059; 0.015 leaves room for the noise and flags a real
     // regression (a 1% row error on every row would already give 0.012).
-    use radiosity_bake::row_check::{RowCheckParams, check_scene};
+    use radiosity_bake::check::row_check::{RowCheckParams, check_scene};
     let s = cornell_box();
     let out = check_scene(
         &s,
@@ -598,8 +598,8 @@ fn cornell_box_rows_agree_with_hemisphere_rays() {
 #[test]
 fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
     use glam::DVec3;
+    use radiosity_bake::check::row_check::{RowCheckParams, check_rows};
     use radiosity_bake::form_factor::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
-    use radiosity_bake::row_check::{RowCheckParams, check_rows};
     // Two 1 × 1 plates 0.05 apart facing each other (unoccluded F 0.90) with a 0.5 × 0.5
     // blocker between them, facing the upper plate: each plate's row is one pair, half hidden.
     // A fixed 64 rays left such a pair's F about 0.06 off (the conference room: 0.74 against

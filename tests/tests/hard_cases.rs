@@ -21,11 +21,11 @@
 //! the furnace), which `assert_energy` checks too.
 
 use glam::DVec3;
+use radiosity_bake::bounce::BounceSpec;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::Scene;
-use radiosity_bake::transfer::BounceSpec;
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use radiosity_core::{
     DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
 };

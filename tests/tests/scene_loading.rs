@@ -266,9 +266,9 @@ fn texture_is_averaged() {
     );
     let text = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl tex\nf 1/1 2/2 3/3 4/4\n";
     let s = Scene::load_obj(&write(dir.path(), "t.obj", text)).unwrap();
-    let p = radiosity_bake::voxel::simplify(
+    let p = radiosity_bake::simplify::simplify(
         &s,
-        &radiosity_bake::voxel::VoxelParams::with_cell_size(10.0),
+        &radiosity_bake::simplify::VoxelParams::with_cell_size(10.0),
     )
     .unwrap();
     assert_eq!(p.len(), 1);

@@ -1,4 +1,4 @@
-//! Object-to-object view factors (`radiosity_bake::view_factors`) against Howell's catalogue
+//! Object-to-object view factors (`radiosity_bake::check::view_factors`) against Howell's catalogue
 //! (`tests/data/viewfactors.csv`), sum rules, scale invariance, and a brute-force Monte-Carlo
 //! oracle for occluded scenes. Every scene goes through the OBJ loader, most in general position
 //! (rotated about a skew axis, scaled, moved off the origin).
@@ -7,8 +7,8 @@ mod bake_support;
 
 use bake_support::*;
 use glam::{DVec3, dvec3};
+use radiosity_bake::check::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 use radiosity_bake::scene::Scene;
-use radiosity_bake::view_factors::{ViewFactorParams, ViewFactors, view_factors};
 
 /// The accuracy target for unoccluded configurations: 0.5% relative.
 const TARGET: f64 = 5e-3;

@@ -6,7 +6,7 @@ mod bake_support;
 use bake_support::*;
 use glam::{DVec3, dvec3};
 use radiosity_bake::scene::Scene;
-use radiosity_bake::voxel::{VoxelParams, simplify};
+use radiosity_bake::simplify::{VoxelParams, simplify};
 use std::path::Path;
 
 fn cornell() -> Scene {

@@ -12,7 +12,7 @@ use super::DenseMatrix;
 use rayon::prelude::*;
 
 /// Per-patch signatures, `dim` values each, patch after patch.
-pub struct Signatures {
+pub(crate) struct Signatures {
     /// Values per patch (`2·samples`).
     pub dim: usize,
     /// `n · dim` values.
@@ -23,7 +23,7 @@ impl Signatures {
     /// Signatures of every patch of `m` from `samples` sampled rows and columns (clamped to
     /// `1..=n`). Entries the sparse `rule` keeps count as 0 (the sparse
     /// list holds them); `shift` is the quantiser's log range.
-    pub fn new(
+    pub(crate) fn new(
         m: DenseMatrix<'_>,
         samples: usize,
         shift: f32,
@@ -70,17 +70,12 @@ impl Signatures {
     }
 
     /// Number of patches.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.values.len().checked_div(self.dim).unwrap_or(0)
     }
 
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Signature of patch `i`.
-    pub fn of(&self, i: usize) -> &[f32] {
+    pub(crate) fn of(&self, i: usize) -> &[f32] {
         &self.values[i * self.dim..(i + 1) * self.dim]
     }
 }
@@ -97,7 +92,7 @@ const PARALLEL_SCAN: usize = 2048;
 /// The paper's neighbour sort (§4.2): a greedy chain that starts at the patch whose signature
 /// is farthest from the mean (an end of the data, not its middle) and always appends the
 /// unvisited patch nearest the last one. Ties go to the lower index. O(n²·dim).
-pub fn greedy_chain(sig: &Signatures) -> Vec<u32> {
+pub(crate) fn greedy_chain(sig: &Signatures) -> Vec<u32> {
     let (n, dim) = (sig.len(), sig.dim);
     if n == 0 {
         return Vec::new();

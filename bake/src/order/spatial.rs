@@ -11,10 +11,12 @@ use radiosity_core::Patch;
 
 /// Which space-filling curve orders the centres within an orientation group.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Curve {
+pub(crate) enum Curve {
     /// 3-D Hilbert curve (Skilling 2004): consecutive cells always share a face.
     Hilbert,
     /// 3-D Morton (Z-order): bit interleaving; cheaper, with jumps at power-of-two boundaries.
+    /// No order picks it (Hilbert is the default, module doc); it stays as the comparison.
+    #[allow(dead_code)]
     Morton,
 }
 
@@ -37,7 +39,7 @@ pub fn orientation(normal: [f32; 3]) -> u8 {
 /// The permutation (`perm[new] = old`) sorting patches by orientation group, then by `curve`
 /// over their centres in the bounding cube of all centres. Ties (equal keys) keep the given
 /// order, so the result is deterministic.
-pub fn spatial_order(patches: &[Patch], curve: Curve) -> Vec<u32> {
+pub(crate) fn spatial_order(patches: &[Patch], curve: Curve) -> Vec<u32> {
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for p in patches {
@@ -76,7 +78,7 @@ pub fn spatial_order(patches: &[Patch], curve: Curve) -> Vec<u32> {
 /// Position of cell `x` (each coordinate below `2^bits`, `3·bits ≤ 64`) along the 3-D Hilbert
 /// curve. J. Skilling, "Programming the Hilbert curve", AIP Conf. Proc. 707 (2004): axes to
 /// transposed index, then the transpose's bits interleaved, most significant first.
-pub fn hilbert_3d(mut x: [u32; 3], bits: u32) -> u64 {
+pub(crate) fn hilbert_3d(mut x: [u32; 3], bits: u32) -> u64 {
     debug_assert!(bits >= 1 && 3 * bits <= 64);
     let top = 1u32 << (bits - 1);
     // Inverse undo of the excess work.
@@ -113,7 +115,7 @@ pub fn hilbert_3d(mut x: [u32; 3], bits: u32) -> u64 {
 }
 
 /// Position of cell `x` along the 3-D Morton (Z-order) curve.
-pub fn morton_3d(x: [u32; 3], bits: u32) -> u64 {
+pub(crate) fn morton_3d(x: [u32; 3], bits: u32) -> u64 {
     interleave(x, bits)
 }
 

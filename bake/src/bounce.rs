@@ -1,4 +1,4 @@
-//! The multi-bounce transfer matrix `M = Σ_{b<K} (F^C)^b · F` (DESIGN.md), in f64.
+//! The multi-bounce transfer matrix `M = Σ_{b<K} (F^C)^b · F` (`docs/contract.md`), in f64.
 //!
 //! - K = ∞ solves `(I − F^C) M = F` with an LU factorisation (faer, partial pivoting): about
 //!   2.7 n³ flops for all bounces at once.
@@ -108,7 +108,7 @@ impl Dense {
 
 /// Whether the form factors describe a closed enclosure, and how far from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Closure {
+pub(crate) struct Closure {
     /// Smallest row sum of F over patches that see anything.
     pub min_row_sum: f64,
     /// Largest row sum of F.
@@ -119,12 +119,13 @@ pub struct Closure {
 
 /// Measures the row sums of `f`; `closed` when every row that sees anything sums to
 /// `1 ± tolerance`. Rows that see nothing (sum 0) do not count: they are dropped, not open.
-pub fn analyse_closure(f: &Dense, tolerance: f64) -> Closure {
+#[cfg(test)]
+pub(crate) fn analyse_closure(f: &Dense, tolerance: f64) -> Closure {
     closure_of_sums((0..f.n).map(|i| f.row(i).iter().sum()), tolerance)
 }
 
 /// [`analyse_closure`] from the row sums themselves (those of the rows that should count).
-pub fn closure_of_sums(sums: impl Iterator<Item = f64>, tolerance: f64) -> Closure {
+pub(crate) fn closure_of_sums(sums: impl Iterator<Item = f64>, tolerance: f64) -> Closure {
     let (mut min_row_sum, mut max_row_sum) = (f64::INFINITY, 0f64);
     for s in sums.filter(|s| *s > 0.0) {
         min_row_sum = min_row_sum.min(s);
@@ -160,7 +161,7 @@ fn reciprocal_exchange(f: &Dense, areas: &[f64]) -> Vec<f64> {
 /// Symmetric Sinkhorn balancing: with `W = (diag(A) F + (diag(A) F)ᵀ) / 2` (reciprocity made
 /// exact), find `d > 0` such that `D W D` has row sums `A`, by `d_i ← sqrt(d_i · A_i / (W d)_i)`
 /// until row sums agree to 1e-13; then `F' = diag(A)⁻¹ D W D`. Rows that see nothing stay zero.
-pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
+pub(crate) fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
     let n = f.n;
     let w = reciprocal_exchange(f, areas);
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
@@ -214,7 +215,7 @@ pub fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
 /// other). With `W = (diag(A) F + (diag(A) F)ᵀ) / 2`, find `d ≤ 1` such that the rows of
 /// `diag(A)⁻¹ D W D` are at most 1, by `d_i ← d_i / sqrt(r_i)` for every row sum `r_i > 1`;
 /// `d` only decreases, so rows at or below 1 stay there. Rows that see nothing stay zero.
-pub fn cap_row_sums(f: &mut Dense, areas: &[f64]) -> f64 {
+pub(crate) fn cap_row_sums(f: &mut Dense, areas: &[f64]) -> f64 {
     let n = f.n;
     let w = reciprocal_exchange(f, areas);
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();

@@ -1,7 +1,7 @@
 //! Object-to-object view factors from the full-detail geometry (`radiosity view-factors`).
 //!
 //! `F_ab = (1/A_a) Σ_{S ⊂ a} Σ_{T ⊂ b} ∫_S F(x → T) V(x, T) dA(x)` over the scene's triangles:
-//! - `F(x → T)`: the exact point-to-triangle kernel ([`crate::kernel`]);
+//! - `F(x → T)`: the exact point-to-triangle kernel ([`crate::geometry::point_polygon`]);
 //! - `∫_S`: adaptive quadrature over the smaller triangle of each pair (degree-5 rule, halving
 //!   until a leaf is small against its distance to the other triangle), so pairs sharing an edge
 //!   are resolved down to the edge; each unordered pair is integrated once, which makes
@@ -11,11 +11,11 @@
 //!   wholly or not at all by its shadow rays (or a depth limit is reached), and the kernel
 //!   of the visible parts is summed. The kernel stays analytic; rays only decide visibility.
 
-use crate::bvh::Occluders;
 use crate::form_factor::{Progress, facing};
-use crate::kernel::point_to_polygon;
-use crate::polygon::{Polygon, point_polygon_distance};
-use crate::quadrature::{Adaptive, Rule, integrate};
+use crate::geometry::bvh::Occluders;
+use crate::geometry::point_polygon::point_to_polygon;
+use crate::geometry::polygon::{Polygon, point_polygon_distance};
+use crate::geometry::quadrature::{Adaptive, Rule, integrate};
 use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;

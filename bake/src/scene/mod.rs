@@ -1,16 +1,18 @@
 //! Scenes: OBJ + MTL loaded into full-detail triangles with materials and objects.
 //!
-//! Conventions (DESIGN.md): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
+//! Conventions (`docs/contract.md`): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
 //! multiplied by the mean of `map_Kd` where one is given; `Ke` is emitted radiance L and the
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
 
 use crate::error::BakeError;
-use crate::obj;
-use crate::texture::Texture;
 use glam::DVec3;
 use radiosity_core::Rgb;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
+pub use texture::Texture;
+
+mod obj;
+mod texture;
 
 /// Reflectance used where a face has no material (no MTL, unknown `usemtl`, no `Kd`).
 pub const DEFAULT_REFLECTANCE: f32 = 0.5;

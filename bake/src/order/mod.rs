@@ -1,4 +1,4 @@
-//! Patch reordering before compression (paper §4.2, DESIGN.md "Encoding").
+//! Patch reordering before compression (paper §4.2; `docs/contract.md`, "Encoding").
 //!
 //! BC1/BC4 compress each 4×4 block on its own, so the error depends on which patches share a
 //! block: renumbering patches (rows and columns of M together, `P M Pᵀ`) so that patches with
@@ -43,8 +43,10 @@ mod similarity;
 mod spatial;
 
 pub use error::{ErrorEstimate, ErrorMeter, ErrorSampling, code_rms};
-pub use similarity::{Signatures, greedy_chain};
-pub use spatial::{Curve, hilbert_3d, morton_3d, orientation, spatial_order};
+pub use spatial::orientation;
+
+pub(crate) use similarity::{Signatures, greedy_chain};
+pub(crate) use spatial::{Curve, spatial_order};
 
 use crate::encode::{EncodeError, EncodeParams, SparseRule};
 use crate::rng::SplitMix64;
@@ -225,7 +227,7 @@ pub fn random_order(n: usize, seed: u64) -> Vec<u32> {
 }
 
 /// The paper's neighbour sort over signatures of `m` ([`Signatures`], [`greedy_chain`]).
-pub fn paper_order(m: DenseMatrix<'_>, params: &OrderParams) -> Vec<u32> {
+pub(crate) fn paper_order(m: DenseMatrix<'_>, params: &OrderParams) -> Vec<u32> {
     let rule = SparseRule::new(m.values, m.n, m.channels, sparse_fraction(&params.encode));
     let sig = Signatures::new(m, params.signature_samples, params.encode.shift, &rule);
     greedy_chain(&sig)
@@ -311,7 +313,7 @@ pub fn evaluate(
 /// Standard errors by which a candidate must beat `none` to be chosen over it when errors are
 /// sampled. The estimates of different orders are independent, so "better by 3σ of the
 /// difference" is wrong about once in 700 comparisons; exact measurements need no margin.
-pub const BEST_MARGIN_SIGMAS: f64 = 3.0;
+pub(crate) const BEST_MARGIN_SIGMAS: f64 = 3.0;
 
 /// Index of the candidate with the smallest measured error. When `none` is among them, another
 /// order replaces it only if its squared error is smaller by more than [`BEST_MARGIN_SIGMAS`]
@@ -366,7 +368,8 @@ pub fn permute_rows<T: Clone>(items: &[T], perm: &[u32]) -> Vec<T> {
 }
 
 /// The inverse: `inv[old] = new`.
-pub fn inverse(perm: &[u32]) -> Vec<u32> {
+#[cfg(test)]
+pub(crate) fn inverse(perm: &[u32]) -> Vec<u32> {
     check_permutation(perm, perm.len());
     let mut inv = vec![0u32; perm.len()];
     for (new, &old) in perm.iter().enumerate() {

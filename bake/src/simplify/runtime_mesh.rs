@@ -3,7 +3,7 @@
 //! patches, and the points where direct light on each patch is sampled.
 
 use crate::scene::Scene;
-use crate::voxel::Patches;
+use crate::simplify::Patches;
 use glam::DVec3;
 use radiosity_core::{CornerWeight, Mesh, MeshTriangle, PatchSample, Rgb};
 use std::borrow::Cow;
@@ -17,7 +17,7 @@ const SAME_SURFACE_COS: f64 = 0.8;
 /// `k`, or `None` for a patch left out of the matrix (one that sees nothing); `buried_pieces`
 /// (per piece, may be empty) marks pieces whose centroid is buried under another object, which
 /// lend no direct-light sample.
-pub fn runtime_mesh(
+pub(crate) fn runtime_mesh(
     scene: &Scene,
     patches: &Patches,
     file_index: &[Option<u32>],

@@ -2,7 +2,7 @@
 //! (shadow-ray) and closest-hit queries, and a BVH2 for the box queries that find which
 //! triangles could possibly block light between two surfaces.
 //!
-//! Every triangle blocks from both sides (DESIGN.md): the intersection test does not cull back
+//! Every triangle blocks from both sides (`docs/contract.md`): the intersection test does not cull back
 //! faces. Coordinates are stored in f32 relative to the scene centre and scaled to one extent
 //! ([`LOCAL_EXTENT`]), so a scene far from the origin loses no precision and one of any size
 //! looks the same to obvhs, whose CWBVH has an absolute epsilon.
@@ -10,7 +10,6 @@
 use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
-use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::cwbvh::CwBvh;
@@ -18,6 +17,8 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
 use std::time::Duration;
+
+mod blockers;
 
 /// The triangles that block light, with a BVH over them.
 pub struct Occluders {
@@ -77,10 +78,6 @@ fn to_local(p: DVec3, origin: DVec3, scale: f64) -> Vec3A {
 fn ray_direction(d: DVec3) -> Vec3A {
     Vec3A::from(d.as_vec3()) + Vec3A::ZERO
 }
-
-/// Relative (to the scene extent) tolerance of the plane tests in [`Occluders::may_block`]:
-/// above f64 rounding of any coordinate, far below any feature a form factor resolves.
-const PLANE_TOL: f64 = 1e-9;
 
 /// A triangle prepared for the Möller–Trumbore test.
 #[derive(Clone, Copy, Debug)]
@@ -150,12 +147,12 @@ impl RayTriangle {
 /// seen across: `hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets`; the
 /// conference room's chair parts, 4e-10 to 5e-9 apart, were seen across by some rays and
 /// passed through by others.)
-pub const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
+pub(crate) const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
 
 /// Two sheets this close along a ray (relative to its distance) count as one panel: a ray meeting
 /// the back of one and then the front of the other sees that front ([`Occluders::reaches`],
 /// [`Occluders::first_surface`]).
-pub const SHEET_GAP: f64 = 1e-4;
+pub(crate) const SHEET_GAP: f64 = 1e-4;
 
 /// Where a ray first meets a triangle ([`Occluders::closest_hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -545,395 +542,7 @@ impl Occluders {
         let c = self.given(t);
         (c[1] - c[0]).cross(c[2] - c[0])
     }
-
-    /// Whether any triangle could block some segment from a point of polygon `s` (unit normal
-    /// `ns`, light leaving its front) to a point of polygon `t` (normal `nt`, receiving on its
-    /// front). Conservative: `false` is a proof that nothing blocks (so no ray is needed);
-    /// `true` only means a candidate exists.
-    ///
-    /// A triangle is ruled out when its box misses the box of `s ∪ t`, or it lies on or behind
-    /// the plane of `s` or of `t` (segments run in front of both), or `s` and `t` lie on one
-    /// side of its plane (segments between them cannot cross it), or an axis separates it from
-    /// the convex hull of `s ∪ t` (see [`Occluders::may_block_hull`]).
-    pub fn may_block(&self, s: &[DVec3], ns: DVec3, t: &[DVec3], nt: DVec3) -> bool {
-        self.candidate(s, t, Some((ns, nt)))
-    }
-
-    /// Whether any triangle could block some segment between the convex hull of the points
-    /// `s` and that of the points `t` (two whole patches, curved or not, with no one normal
-    /// each). Conservative like [`Occluders::may_block`], with the tests that need no normal
-    /// of `s` or `t`: every such segment lies in the convex hull of `s ∪ t`, so a triangle is
-    /// ruled out when its box misses that hull's box, when the hull lies on one side of the
-    /// triangle's plane, or when the hull and the triangle are apart along the axis from the
-    /// segment between the two centroids to the triangle's centroid (two disjoint convex sets
-    /// separated along one axis: a one-axis separating-axis test, the axis chosen per
-    /// triangle). A patch's own triangles are ruled out by their planes where the patch is flat
-    /// or curves towards the other (the inside of an enclosure); on a patch curving away they
-    /// stay candidates, and the answer is `true`.
-    pub fn may_block_hull(&self, s: &[DVec3], t: &[DVec3]) -> bool {
-        self.candidate(s, t, None)
-    }
-
-    fn candidate(&self, s: &[DVec3], t: &[DVec3], planes: Option<(DVec3, DVec3)>) -> bool {
-        if self.rt.is_empty() || s.is_empty() || t.is_empty() {
-            return false;
-        }
-        let tol = PLANE_TOL * self.extent;
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for p in s.iter().chain(t) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        let (lo, hi) = (lo - tol, hi + tol);
-        let bx = Aabb::new(
-            self.local(lo) - Vec3A::splat((1e-6 * LOCAL_EXTENT) as f32),
-            self.local(hi) + Vec3A::splat((1e-6 * LOCAL_EXTENT) as f32),
-        );
-        let planes = planes.map(|(ns, nt)| (ns, ns.dot(s[0]), nt, nt.dot(t[0])));
-        let mean = |v: &[DVec3]| v.iter().copied().sum::<DVec3>() / v.len() as f64;
-        let (cs, ct) = (mean(s), mean(t));
-        let radius =
-            |v: &[DVec3], c: DVec3| v.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
-        let (rs, rt) = (radius(s, cs), radius(t, ct));
-        let d = ct - cs;
-        let dd = d.length_squared();
-        let mut found = false;
-        self.bvh.aabb_traverse(bx, |bvh, node_index| {
-            let node = &bvh.nodes[node_index as usize];
-            for k in node.first_index..node.first_index + node.prim_count {
-                let c = &self.corners[k as usize];
-                // Box test in f64 (the node boxes are f32 and padded).
-                let (clo, chi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-                if clo.cmpgt(hi).any() || chi.cmplt(lo).any() {
-                    continue;
-                }
-                if let Some((ns, ds, nt, dt)) = planes
-                    && (c.iter().all(|p| ns.dot(*p) - ds <= tol)
-                        || c.iter().all(|p| nt.dot(*p) - dt <= tol))
-                {
-                    continue;
-                }
-                // Both tests below first on the bounding spheres of `s` and `t` (O(1) per
-                // triangle; a whole patch has dozens of corners), then on the points where the
-                // spheres leave it open.
-                let nc = (c[1] - c[0]).cross(c[2] - c[0]);
-                let ncl = nc.length();
-                if ncl > 0.0 {
-                    let nc = nc / ncl;
-                    let dc = nc.dot(c[0]);
-                    let side = |p: &DVec3| nc.dot(*p) - dc;
-                    let (ss, st) = (side(&cs), side(&ct));
-                    if (ss - rs >= -tol && st - rt >= -tol) || (ss + rs <= tol && st + rt <= tol) {
-                        continue;
-                    }
-                    let all_pos = s.iter().chain(t).all(|p| side(p) >= -tol);
-                    let all_neg = s.iter().chain(t).all(|p| side(p) <= tol);
-                    if all_pos || all_neg {
-                        continue;
-                    }
-                }
-                // One separating axis: from the nearest point of the centroids' segment
-                // towards the triangle's centroid.
-                let cc = (c[0] + c[1] + c[2]) / 3.0;
-                let u = if dd > 0.0 {
-                    ((cc - cs).dot(d) / dd).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let axis = cc - (cs + d * u);
-                let len = axis.length();
-                if planes.is_none() && len > 0.0 {
-                    let near = c.iter().map(|p| axis.dot(*p)).fold(f64::INFINITY, f64::min);
-                    let spheres = (axis.dot(cs) + rs * len).max(axis.dot(ct) + rt * len);
-                    if near > spheres + tol * len {
-                        continue;
-                    }
-                    let hull = s
-                        .iter()
-                        .chain(t)
-                        .map(|p| axis.dot(*p))
-                        .fold(f64::NEG_INFINITY, f64::max);
-                    if near > hull + tol * len {
-                        continue;
-                    }
-                }
-                found = true;
-                return false;
-            }
-            true
-        });
-        found
-    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::dvec3;
-
-    fn quad(z: f64, up: bool) -> Vec<[DVec3; 3]> {
-        let (a, b, c, d) = (
-            dvec3(0.0, 0.0, z),
-            dvec3(1.0, 0.0, z),
-            dvec3(1.0, 1.0, z),
-            dvec3(0.0, 1.0, z),
-        );
-        if up {
-            vec![[a, b, c], [a, c, d]]
-        } else {
-            vec![[a, c, b], [a, d, c]]
-        }
-    }
-
-    #[test]
-    fn blocks_from_both_sides() {
-        let occ = Occluders::from_triangles(&quad(0.5, true));
-        assert!(!occ.segment_visible(dvec3(0.5, 0.5, 0.0), dvec3(0.5, 0.5, 1.0)));
-        assert!(!occ.segment_visible(dvec3(0.5, 0.5, 1.0), dvec3(0.5, 0.5, 0.0)));
-        assert!(occ.segment_visible(dvec3(1.5, 0.5, 0.0), dvec3(1.5, 0.5, 1.0)));
-    }
-
-    #[test]
-    fn may_block_rules_out_the_two_surfaces_themselves() {
-        let mut tris = quad(0.0, true);
-        tris.extend(quad(1.0, false));
-        let occ = Occluders::from_triangles(&tris);
-        let s = [
-            dvec3(0.0, 0.0, 0.0),
-            dvec3(1.0, 0.0, 0.0),
-            dvec3(1.0, 1.0, 0.0),
-        ];
-        let t = [
-            dvec3(0.0, 0.0, 1.0),
-            dvec3(1.0, 1.0, 1.0),
-            dvec3(1.0, 0.0, 1.0),
-        ];
-        assert!(!occ.may_block(&s, DVec3::Z, &t, -DVec3::Z));
-        // A plate between them is a candidate.
-        tris.extend(quad(0.5, true));
-        let occ = Occluders::from_triangles(&tris);
-        assert!(occ.may_block(&s, DVec3::Z, &t, -DVec3::Z));
-    }
-
-    /// Two patches at right angles, facing each other, and a small triangle in the plane
-    /// x = y between them: the boxes overlap and the patches lie on both sides of its plane,
-    /// so only the axis from the centres' segment towards the triangle proves it clear, while
-    /// it sits near the origin; moved onto the segment, it is a candidate either way.
-    #[test]
-    fn may_block_hull_separates_what_boxes_and_planes_cannot() {
-        let quad = |c: DVec3, u: DVec3, v: DVec3| [c - u - v, c + u - v, c + u + v, c - u + v];
-        let s = quad(
-            dvec3(1.0, 0.0, 0.0),
-            dvec3(0.0, 0.05, 0.0),
-            dvec3(0.0, 0.0, 0.05),
-        );
-        let t = quad(
-            dvec3(0.0, 1.0, 0.0),
-            dvec3(0.0, 0.0, 0.05),
-            dvec3(0.05, 0.0, 0.0),
-        );
-        let (ns, nt) = (-DVec3::X, -DVec3::Y);
-        let near_origin = [
-            dvec3(0.1, 0.1, -0.1),
-            dvec3(0.2, 0.2, -0.1),
-            dvec3(0.15, 0.15, 0.1),
-        ];
-        let occ = Occluders::from_triangles(&[near_origin]);
-        assert!(
-            occ.may_block(&s, ns, &t, nt),
-            "boxes and planes leave it open"
-        );
-        assert!(!occ.may_block_hull(&s, &t), "the axis proves it clear");
-        let on_segment = near_origin.map(|p| p + dvec3(0.35, 0.35, 0.0));
-        let occ = Occluders::from_triangles(&[on_segment]);
-        assert!(occ.may_block(&s, ns, &t, nt));
-        assert!(occ.may_block_hull(&s, &t));
-        // The patches' own corners give no candidate: nothing else is there.
-        let occ = Occluders::from_triangles(&[[s[0], s[1], s[2]], [t[0], t[2], t[1]]]);
-        assert!(!occ.may_block_hull(&s, &t));
-    }
-
-    #[test]
-    fn closest_hit_finds_the_nearest_triangle_and_where() {
-        // Two plates at z = 0.5 and z = 1; a ray down from z = 2 meets z = 1 first.
-        let mut tris = quad(0.5, true);
-        tris.extend(quad(1.0, false));
-        let occ = Occluders::from_triangles(&tris);
-        let o = dvec3(0.3, 0.6, 2.0);
-        let hit = occ
-            .closest_hit(o, dvec3(0.0, 0.0, -3.0), 0.0, f64::INFINITY)
-            .expect("the ray crosses both plates");
-        // f32 traversal: distances good to a few ulps of the scene size.
-        assert!((hit.distance - 1.0).abs() < 1e-5, "{hit:?}");
-        assert!(hit.triangle >= 2, "{hit:?}");
-        let [a, b, c] = tris[hit.triangle as usize];
-        let p = a + (b - a) * f64::from(hit.u) + (c - a) * f64::from(hit.v);
-        assert!((p - dvec3(0.3, 0.6, 1.0)).length() < 1e-5, "{p}");
-        // Nothing within 0.9, and nothing at all beside the plates.
-        assert!(occ.closest_hit(o, -DVec3::Z, 0.0, 0.9).is_none());
-        assert!(
-            occ.closest_hit(dvec3(3.0, 0.0, 2.0), -DVec3::Z, 0.0, 10.0)
-                .is_none()
-        );
-    }
-
-    /// The 12 triangles of the box `lo`–`hi`, facing out (or in, for a room).
-    fn boxed(lo: DVec3, hi: DVec3, out: bool) -> Vec<[DVec3; 3]> {
-        let mid = (lo + hi) * 0.5;
-        let mut tris = Vec::new();
-        for axis in 0..3 {
-            for side in [lo[axis], hi[axis]] {
-                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-                let corner = |a: f64, b: f64| {
-                    let mut p = DVec3::ZERO;
-                    p[axis] = side;
-                    p[u] = a;
-                    p[v] = b;
-                    p
-                };
-                let q = [
-                    corner(lo[u], lo[v]),
-                    corner(hi[u], lo[v]),
-                    corner(hi[u], hi[v]),
-                    corner(lo[u], hi[v]),
-                ];
-                let n = (q[1] - q[0]).cross(q[2] - q[0]);
-                let outward = n.dot(q[0] - mid) > 0.0;
-                let [a, b, c, d] = if outward == out {
-                    q
-                } else {
-                    [q[3], q[2], q[1], q[0]]
-                };
-                tris.push([a, b, c]);
-                tris.push([a, c, d]);
-            }
-        }
-        tris
-    }
-
-    #[test]
-    fn burial_and_negative_zero_directions() {
-        // A room with a box standing on its floor. obvhs's traversal missed every triangle
-        // for a direction with a `-0.0` component: straight up from the floor under the box
-        // with (-0, 1, -0) met nothing, with (0, 1, 0) the box's top at 2.2.
-        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
-        tris.extend(boxed(dvec3(2.8, 0.0, 0.5), dvec3(3.6, 2.2, 1.2), true));
-        let occ = Occluders::from_triangles(&tris);
-        let x = dvec3(3.2, 0.0, 1.0);
-        for d in [dvec3(0.0, 1.0, 0.0), dvec3(-0.0, 1.0, -0.0)] {
-            let hit = occ.closest_hit_from_surface(x, d, 100.0);
-            let hit = hit.unwrap_or_else(|| panic!("{d:?} met nothing"));
-            assert!((hit.distance - 2.2).abs() < 1e-5, "{d:?}: {hit:?}");
-        }
-        // Buried: the floor under the box (its inside above), whichever sign its normal's
-        // zeros carry; the box's bottom (face to face with the floor). Exposed: the floor
-        // beside the box, and the box's top.
-        assert!(occ.buried(x, dvec3(0.0, 1.0, 0.0)));
-        assert!(occ.buried(x, dvec3(-0.0, 1.0, -0.0)));
-        assert!(occ.buried(x, dvec3(0.0, -1.0, 0.0)));
-        assert!(!occ.buried(dvec3(2.0, 0.0, 2.5), dvec3(-0.0, 1.0, 0.0)));
-        assert!(!occ.buried(dvec3(3.2, 2.2, 1.0), DVec3::Y));
-        // Under an open-bottomed shade 2 wide hung 0.5 above the floor (its inside is its
-        // back faces): exposed, the grazing rays leave through the gap (they would need more
-        // than 87° under a gap of 0.05).
-        let mut shade = boxed(dvec3(0.5, 0.5, 2.0), dvec3(2.5, 1.5, 4.0), true);
-        shade.retain(|t| t.iter().any(|p| p.y > 0.5));
-        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
-        tris.extend(shade);
-        let occ = Occluders::from_triangles(&tris);
-        assert!(!occ.buried(dvec3(1.5, 0.0, 3.0), DVec3::Y));
-        // A two-sided panel (two sheets face to face) in the middle of the room: both sides
-        // look out on the room's front faces, neither is buried.
-        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
-        let [a, b, c, d] =
-            [(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)].map(|(x, z)| dvec3(x, 1.5, z));
-        tris.extend([[a, b, c], [a, c, d], [a, c, b], [a, d, c]]);
-        let occ = Occluders::from_triangles(&tris);
-        assert!(!occ.buried(dvec3(2.0, 1.5, 2.0), DVec3::Y));
-        assert!(!occ.buried(dvec3(2.0, 1.5, 2.0), -DVec3::Y));
-    }
-
-    #[test]
-    fn a_panels_sheets_out_of_order_show_the_near_front() {
-        // A two-sided panel over the floor of a room, modelled as in the conference room: the
-        // sheet facing up (+y) lies 1e-5 *below* the sheet facing down, so a ray up from the
-        // floor meets the back of the upper-facing sheet first. What it sees is the panel's
-        // underside; `reaches` already said so for a ray toward it, the closest hit does not.
-        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
-        let sheet =
-            |y: f64| [(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)].map(|(x, z)| dvec3(x, y, z));
-        let [a, b, c, d] = sheet(1.5 - 1e-5);
-        tris.extend([[a, c, b], [a, d, c]]); // facing +y
-        let [a, b, c, d] = sheet(1.5 + 1e-5);
-        let under = tris.len() as u32;
-        tris.extend([[a, b, c], [a, c, d]]); // facing -y
-        let occ = Occluders::from_triangles(&tris);
-        let x = dvec3(2.0, 0.0, 2.0);
-        let back = occ.closest_hit_from_surface(x, DVec3::Y, 10.0).unwrap();
-        assert!(back.triangle < under, "{back:?}");
-        let (hit, front) = occ.first_surface_from_surface(x, DVec3::Y, 10.0).unwrap();
-        assert!(front && hit.triangle >= under, "{hit:?} {front}");
-        assert!((hit.distance - 1.5).abs() < 1e-4, "{hit:?}");
-        assert!(occ.reaches(x, dvec3(2.0, 1.5 + 1e-5, 2.0), under));
-        // From the camera's side too, and from above: the top sheet's front.
-        let (_, front) = occ
-            .first_surface(x + DVec3::Y * 0.1, DVec3::Y, 0.0, 10.0)
-            .unwrap();
-        assert!(front);
-        let (hit, front) = occ
-            .first_surface_from_surface(dvec3(2.0, 3.0, 2.0), -DVec3::Y, 10.0)
-            .unwrap();
-        assert!(front && hit.triangle < under, "{hit:?}");
-        // A lone back face stays a back face: the room seen from outside.
-        let (_, front) = occ
-            .first_surface(dvec3(2.0, -1.0, 2.0), DVec3::Y, 0.0, 10.0)
-            .unwrap();
-        assert!(!front);
-    }
-
-    #[test]
-    fn parts_in_contact_exchange_nothing() {
-        // A block resting on the floor of a room 7 across with a gap of 2e-7 (2.8e-8 of the
-        // extent: above the 1e-9 within which a plane holds a point, below the f32 steps of
-        // the BVH, as parts modelled against each other come out of f32 files). The floor
-        // under it and the block's bottom face each other in contact: buried, and a
-        // visibility ray between them finds nothing, as the burial test decides. Before,
-        // `reaches` let the pair exchange F ≈ 1 over the contact while burial took that area
-        // out of the patches: rows over the exposed part up to 2.3 in the conference room.
-        let gap = 2e-7;
-        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
-        let bottom = tris.len() as u32;
-        tris.extend(boxed(dvec3(1.0, gap, 1.0), dvec3(2.0, 1.0, 2.0), true));
-        let occ = Occluders::from_triangles(&tris);
-        let (x, y) = (dvec3(1.3, 0.0, 1.6), dvec3(1.3, gap, 1.6));
-        let (on_floor, on_bottom) = (dvec3(1.35, 0.0, 1.62), dvec3(1.35, gap, 1.62));
-        let holding = |range: core::ops::Range<u32>, p: DVec3| {
-            range
-                .clone()
-                .find(|&t| {
-                    let c = tris[t as usize];
-                    c.iter().all(|q| q.y == p.y) && inside_by(&c, p, 0.0)
-                })
-                .unwrap()
-        };
-        let floor = holding(0..bottom, on_floor);
-        let bottom = holding(bottom..tris.len() as u32, on_bottom);
-        assert!(!occ.reaches(x, on_bottom, bottom));
-        assert!(!occ.reaches(y, on_floor, floor));
-        assert!(occ.buried(x, DVec3::Y));
-        assert!(occ.buried(y, -DVec3::Y));
-        let (_, front) = occ.first_surface_from_surface(x, DVec3::Y, 10.0).unwrap();
-        assert!(!front);
-        // Beside the block the floor is exposed and sees the block's side.
-        assert!(!occ.buried(dvec3(2.5, 0.0, 1.5), DVec3::Y));
-        // Raised by 1e-3 (1.4e-4 of the extent, far above f32 rounding) it is a real gap:
-        // the floor under the block sees its bottom.
-        let mut tris = boxed(DVec3::ZERO, dvec3(4.0, 3.0, 5.0), false);
-        tris.extend(boxed(dvec3(1.0, 1e-3, 1.0), dvec3(2.0, 1.0, 2.0), true));
-        let occ = Occluders::from_triangles(&tris);
-        let (hit, front) = occ.first_surface_from_surface(x, DVec3::Y, 10.0).unwrap();
-        assert!(front && (hit.distance - 1e-3).abs() < 1e-5, "{hit:?}");
-        assert!(!occ.buried(x, DVec3::Y));
-    }
-}
+mod tests;

@@ -1,0 +1,489 @@
+//! The whole bake: scene → patches → form factors → effect plan → transfer → order → encode →
+//! [`RadFile`], with a report of every decision, error estimate and timing.
+//!
+//! [`discretise`] runs the first half (simplification, form factors, burial and closure
+//! (`closure`), dark patches (`dark`)), [`bake_discretised`] the second (transfer, order,
+//! encode, measure, the runtime mesh and the report (`report`)); [`bake`] runs both.
+
+mod closure;
+mod dark;
+mod params;
+mod report;
+
+pub use closure::Exposure;
+pub use dark::{DarkCheck, check_dark};
+pub use params::{BakeParams, FormatChoice, Hooks};
+pub use report::{BakeReport, Bytes, ClosureReport};
+
+use report::{BakeSummary, Measured};
+
+use crate::BakeError;
+use crate::bounce::{BounceSpec, Dense, TransferError, transfer_matrix};
+use crate::effects::{self, Effect, Effects};
+use crate::encode::{
+    EncodeError, EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
+    default_sparse_fraction, encode_dense_with,
+};
+use crate::form_factor::{
+    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors,
+};
+use crate::geometry::Occluders;
+use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
+use crate::scene::Scene;
+use crate::simplify::{Patches, simplify};
+use closure::{closure_effect, escape_check, expose};
+use dark::dark_patches;
+use radiosity_core::{Bounces, Format, Patch, RadFile, Rgb};
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// A finished bake.
+#[derive(Clone, Debug)]
+pub struct BakeOutput {
+    /// The file to write.
+    pub file: RadFile<'static>,
+    /// What happened.
+    pub report: BakeReport,
+    /// For each file patch, its index in the simplification (`Patches::patches`).
+    pub patch_source: Vec<u32>,
+}
+
+/// The discretised system every bake starts from: patches, their closure-corrected form
+/// factors and reflectances, with the patches that see nothing removed. Independent of the
+/// bounces, format, order and sparse threshold, so one `Discretised` serves many bakes
+/// ([`bake_discretised`]) and the exact solution of the same patches
+/// (`(I − F^C)⁻¹ F`, for measuring errors).
+#[derive(Clone, Debug)]
+pub struct Discretised {
+    /// The simplification (all patches, dark ones included).
+    pub patches: Patches,
+    /// Simplification index of each matrix patch: the patches that see something.
+    pub live: Vec<usize>,
+    /// Form factors among the live patches (closure-corrected when the scene is closed).
+    pub f: Dense,
+    /// Reflectance of each live patch.
+    pub reflectance: Vec<[f64; 3]>,
+    /// The live patches as the core stores them (bake numbering).
+    pub core_patches: Vec<Patch>,
+    /// Stored channels: 3, or 1 for an all-grey scene.
+    pub channels: usize,
+    /// Decisions so far (colour, occlusion, emission, closed, dark patches).
+    pub effects: Effects,
+    /// Row sums of F and the closure correction.
+    pub closure: ClosureReport,
+    /// The surface buried under other objects, taken out of the patches ([`expose`]).
+    pub exposure: Exposure,
+    /// Shadow rays cast for the form factors.
+    pub rays_cast: u64,
+    /// The form-factor settings used.
+    pub form_factors: FormFactorSummary,
+    /// Largest reciprocity error of F.
+    pub reciprocity_error: f64,
+    /// Milliseconds of `simplify`, `plan`, `form_factors` and `closure` (burial and closure).
+    pub timings_ms: BTreeMap<&'static str, f64>,
+}
+
+impl Discretised {
+    /// Patches in the matrix.
+    pub fn len(&self) -> usize {
+        self.live.len()
+    }
+
+    /// Whether no patch is live (never true for a successful [`discretise`]).
+    pub fn is_empty(&self) -> bool {
+        self.live.is_empty()
+    }
+}
+
+/// Bakes `scene`. Errors: an empty scene, impossible parameters, a transfer that cannot converge.
+pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
+    let system = discretise(scene, params, hooks)?;
+    bake_discretised(scene, &system, params, hooks)
+}
+
+/// The first half of [`bake`]: simplify, plan, form factors, closure, dark patches (uses
+/// `params.voxel`, `params.form_factors` and `params.closure_tolerance`).
+pub fn discretise(
+    scene: &Scene,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<Discretised, BakeError> {
+    let stage = |s: &str| {
+        if let Some(f) = hooks.stage {
+            f(s)
+        }
+    };
+    let mut timings = BTreeMap::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
+        timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
+        clock = Instant::now();
+    };
+
+    stage("simplify");
+    let mut patches = simplify(scene, &params.voxel)?;
+    lap("simplify", &mut timings);
+
+    let mut effects = Effects::new();
+    let colour = effects::plan_colour(&patches);
+    let channels = if colour.on { 3 } else { 1 };
+    effects.insert("colour", colour);
+    let occlusion = effects::plan_occlusion(scene);
+    let mut ffp = params.form_factors;
+    if !occlusion.on {
+        ffp.visibility = Visibility::Off;
+    }
+    let occluders = occlusion.on.then(|| Occluders::new(scene));
+    effects.insert("occlusion", occlusion);
+    effects.insert("emission", effects::plan_emission(&patches));
+    lap("plan", &mut timings);
+
+    stage("form factors");
+    let ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
+    lap("form_factors", &mut timings);
+    form_factor_effects(&ff, ffp.exact_pieces, &mut effects);
+
+    let n_all = patches.len();
+    let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());
+    let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    let exposure = expose(&mut patches, occluders.as_ref(), &mut f, params.seed);
+    let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    // The checks below cast rays even where nothing occludes (no BVH was built for F): then
+    // one is built, once, when a check first needs it.
+    let built = std::cell::OnceCell::new();
+    let checks_occ = || {
+        occluders
+            .as_ref()
+            .unwrap_or_else(|| built.get_or_init(|| Occluders::new(scene)))
+    };
+    let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
+    let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
+    effects.insert("closed", closed);
+    lap("closure", &mut timings);
+
+    // Patches that see nothing (row of F zero) receive and give no indirect light: drop them.
+    let (live, dark): (Vec<usize>, Vec<usize>) =
+        (0..n_all).partition(|&i| f.row(i).iter().any(|v| *v > 0.0));
+    let dark_effect = if dark.is_empty() {
+        Effect::new(false, "every patch sees some other patch: none dropped")
+    } else {
+        // An independent look at the decision: hemisphere rays from the dark patches.
+        let buried = dark
+            .iter()
+            .filter(|&&i| exposure.share.get(i).is_some_and(|&b| b >= 1.0))
+            .count();
+        dark_patches(
+            &mut patches,
+            checks_occ(),
+            &dark,
+            buried,
+            &full_areas,
+            params.seed,
+        )
+    };
+    effects.insert("dark_patches", dark_effect);
+    if live.is_empty() {
+        return Err(BakeError::Unbakeable(
+            "no patch sees any other patch, so no light can travel between surfaces (a single surface, or every surface facing away from the rest)".into(),
+        ));
+    }
+    let f_live = Dense::new(
+        live.len(),
+        live.iter()
+            .flat_map(|&i| live.iter().map(move |&j| (i, j)))
+            .map(|(i, j)| f.get(i, j))
+            .collect(),
+    );
+    let reflectance: Vec<[f64; 3]> = live
+        .iter()
+        .map(|&i| patches.patches[i].reflectance.to_array().map(f64::from))
+        .collect();
+    let core_patches: Vec<Patch> = live.iter().map(|&i| to_core_patch(&patches, i)).collect();
+    Ok(Discretised {
+        patches,
+        live,
+        f: f_live,
+        reflectance,
+        core_patches,
+        channels,
+        effects,
+        closure,
+        exposure,
+        rays_cast: ff.rays_cast,
+        form_factors: params.form_factors.summary(),
+        reciprocity_error: ff.reciprocity_error,
+        timings_ms: timings,
+    })
+}
+
+/// The `flat_sites` and `clustered_pairs` decisions the form factors made, with their reasons.
+fn form_factor_effects(ff: &FormFactors, budget: usize, effects: &mut Effects) {
+    let pieces = ff.pieces;
+    let why = if ff.sites > 0 {
+        format!(
+            "{pieces} pieces in all (over {budget}): {} flat patches of more than {MAX_EXACT_PIECES} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
+            ff.sites,
+            (pieces as f64).powi(2) / 2.0
+        )
+    } else if pieces > budget {
+        format!(
+            "{pieces} pieces in all (over {budget}), but no patch of more than {MAX_EXACT_PIECES} pieces is flat: every pair integrated piece by piece"
+        )
+    } else {
+        format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
+    };
+    effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
+    let why = if ff.clustered_pairs > 0 {
+        format!(
+            "{pieces} pieces in all (over {budget}): all {} patch pairs integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
+            ff.clustered_pairs
+        )
+    } else {
+        format!(
+            "{pieces} pieces in all (at most {budget}): every pair integrated piece by piece, one shadow ray per quadrature leaf and piece"
+        )
+    };
+    effects.insert("clustered_pairs", Effect::new(ff.clustered_pairs > 0, why));
+}
+
+/// The second half of [`bake`]: transfer, order, encode, measure, for a system from
+/// [`discretise`] (its `voxel`, `form_factors` and `closure_tolerance` params are not looked
+/// at again). Timings include the discretisation's, and `total` is theirs plus this half's.
+pub fn bake_discretised(
+    scene: &Scene,
+    system: &Discretised,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
+    let stage = |s: &str| {
+        if let Some(f) = hooks.stage {
+            f(s)
+        }
+    };
+    let mut timings = system.timings_ms.clone();
+    let t_all = Instant::now();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
+        timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
+        clock = Instant::now();
+    };
+    let mut effects = system.effects.clone();
+    let channels = system.channels;
+    let n = system.live.len();
+
+    stage("transfer");
+    let (m, transfer) = transfer_step(system, params, &mut effects)?;
+    lap("transfer", &mut timings);
+
+    let (format, encode_params) = encode_params_for(params, channels);
+
+    stage("order");
+    let (candidates, chosen) = choose_order(system, &m, params, encode_params)?;
+    let m = order::permute(&m, n, channels, &chosen.perm);
+    lap("order", &mut timings);
+
+    stage("encode");
+    // Errors are weighed for the scene's own emitters and for runtime lights alike
+    // (`ErrorWeights`), and the sparse entries chosen by that weighted error.
+    let file_patches: Vec<Patch> = order::permute_rows(&system.core_patches, &chosen.perm);
+    let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
+    let matrix = encode_dense_with(
+        n,
+        channels,
+        &m,
+        &encode_params,
+        &ErrorWeights::for_emitters(&emission),
+        SparseSelection::ErrorDriven,
+    )
+    .map_err(encode_error)?;
+    lap("encode", &mut timings);
+
+    stage("measure");
+    let measured = Measured::new(&m, n, channels, &matrix, &emission, &candidates, &chosen);
+    lap("measure", &mut timings);
+
+    let patch_source: Vec<u32> = chosen
+        .perm
+        .iter()
+        .map(|&k| system.live[k as usize] as u32)
+        .collect();
+    let mut file = RadFile {
+        patches: Cow::Owned(file_patches),
+        order: Cow::Owned(chosen.perm.clone()),
+        matrix,
+        objects: scene
+            .objects
+            .iter()
+            .map(|o| Cow::Owned(o.clone()))
+            .collect(),
+        bounces: transfer.bounces,
+        patch_order: chosen.kind.patch_order().expect("a concrete order"),
+        compression_rmse: Some(measured.rmse as f32),
+        lighting_error: measured.lighting_error.map(|e| e as f32),
+        report: None,
+        mesh: Some(file_mesh(scene, system, &patch_source)),
+    };
+    let discretise_ms: f64 = system.timings_ms.values().sum();
+    timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
+    let summary = BakeSummary {
+        format,
+        chosen: &chosen,
+        bounces: transfer.bounces,
+        measured,
+        effects,
+        timings,
+    };
+    let report = report::report(scene, system, &file, summary);
+    let report = report::store(&mut file, report)?;
+    Ok(BakeOutput {
+        file,
+        report,
+        patch_source,
+    })
+}
+
+/// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,
+/// and the `bounces` decision in `effects`.
+fn transfer_step(
+    system: &Discretised,
+    params: &BakeParams,
+    effects: &mut Effects,
+) -> Result<(Vec<f32>, crate::bounce::TransferReport), BakeError> {
+    let (m, transfer) = transfer_matrix(
+        &system.f,
+        &system.reflectance,
+        system.channels,
+        params.bounces,
+    )
+    .map_err(|e| match e {
+        TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
+        other => BakeError::InvalidParams(other.to_string()),
+    })?;
+    effects.insert(
+        "bounces",
+        Effect::new(
+            true,
+            match transfer.bounces {
+                Bounces::Infinite => format!(
+                    "{} bounces needed at energy gain {:.4} per bounce: all of them, by LU (cheaper than 3 or more series terms)",
+                    bounces_needed(transfer.max_gain, params.bounces),
+                    transfer.max_gain
+                ),
+                Bounces::Finite(k) => format!(
+                    "{k} bounce(s) leave at most {:.1e} of the energy (gain {:.4} per bounce)",
+                    transfer.energy_left, transfer.max_gain
+                ),
+            },
+        ),
+    );
+    Ok((m, transfer))
+}
+
+/// The storage format (`params.format`, or the automatic choice for `channels`) and the
+/// encode parameters with the format's default sparse and correction shares where `params`
+/// leaves them open.
+fn encode_params_for(params: &BakeParams, channels: usize) -> (Format, EncodeParams) {
+    let format = match params.format {
+        FormatChoice::Auto if channels == 1 => Format::Bc4,
+        FormatChoice::Auto => Format::Bc1,
+        FormatChoice::Fixed(f) => f,
+    };
+    let encode_params = EncodeParams {
+        format,
+        sparse_fraction: params
+            .sparse_fraction
+            .unwrap_or_else(|| default_sparse_fraction(format, channels)),
+        corrections: params
+            .corrections
+            .unwrap_or_else(|| default_correction_fraction(format, channels)),
+        ..params.encode
+    };
+    (format, encode_params)
+}
+
+/// The order stage: every concrete order is computed and its compression error estimated on
+/// sampled blocks (the report lists them all); `best` then picks among none/paper/spatial.
+/// Returns every candidate and the chosen one.
+fn choose_order(
+    system: &Discretised,
+    m: &[f32],
+    params: &BakeParams,
+    encode_params: EncodeParams,
+) -> Result<(Vec<Candidate>, Candidate), BakeError> {
+    let dense = DenseMatrix::new(system.len(), system.channels, m);
+    let order_params = OrderParams {
+        seed: params.seed,
+        encode: encode_params,
+        ..OrderParams::default()
+    };
+    let candidates = order::evaluate(
+        &OrderKind::CONCRETE,
+        &system.core_patches,
+        dense,
+        &order_params,
+    )
+    .map_err(encode_error)?;
+    let chosen = match params.order {
+        OrderKind::Best => {
+            let eligible: Vec<Candidate> = candidates
+                .iter()
+                .filter(|c| OrderKind::CANDIDATES.contains(&c.kind))
+                .cloned()
+                .collect();
+            eligible[order::choose_best(&eligible)].clone()
+        }
+        kind => candidates
+            .iter()
+            .find(|c| c.kind == kind)
+            .expect("every concrete order evaluated")
+            .clone(),
+    };
+    Ok((candidates, chosen))
+}
+
+/// The runtime mesh: full-detail triangles, corner weights and direct-light samples, in the
+/// file's patch numbering (`patch_source[i]`: the simplification patch of file patch `i`).
+fn file_mesh(
+    scene: &Scene,
+    system: &Discretised,
+    patch_source: &[u32],
+) -> radiosity_core::Mesh<'static> {
+    let mut file_index = vec![None; system.patches.len()];
+    for (i, &k) in patch_source.iter().enumerate() {
+        file_index[k as usize] = Some(i as u32);
+    }
+    crate::simplify::runtime_mesh::runtime_mesh(
+        scene,
+        &system.patches,
+        &file_index,
+        &system.exposure.buried_pieces,
+    )
+}
+
+fn encode_error(e: EncodeError) -> BakeError {
+    BakeError::InvalidParams(e.to_string())
+}
+
+fn bounces_needed(gain: f64, spec: BounceSpec) -> String {
+    let tol = match spec {
+        BounceSpec::Auto { tolerance } => tolerance,
+        _ => 1e-3,
+    };
+    if gain >= 1.0 || gain <= 0.0 {
+        return "unbounded".into();
+    }
+    format!("{:.0}", (tol.ln() / gain.ln()).ceil())
+}
+
+fn to_core_patch(patches: &Patches, i: usize) -> Patch {
+    let p = &patches.patches[i];
+    Patch {
+        centre: p.centre.as_vec3().to_array(),
+        area: p.area as f32,
+        normal: p.normal.as_vec3().normalize().to_array(),
+        object: p.object,
+        reflectance: p.reflectance,
+        emission: p.emission,
+    }
+}

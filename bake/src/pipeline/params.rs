@@ -1,0 +1,98 @@
+//! What a bake can be told: [`BakeParams`] and its presets, the storage format choice, and
+//! the front end's [`Hooks`].
+
+use crate::bounce::BounceSpec;
+use crate::encode::EncodeParams;
+use crate::form_factor::{FormFactorParams, Progress};
+use crate::order::OrderKind;
+use crate::simplify::VoxelParams;
+use radiosity_core::Format;
+
+/// Which storage format to use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FormatChoice {
+    /// BC1 for colour scenes, BC4 for grey ones (BC1 cannot store a single channel).
+    #[default]
+    Auto,
+    /// This format (BC1 on a grey scene is an error).
+    Fixed(Format),
+}
+
+/// Everything a bake can be told. Presets: [`BakeParams::fast`], [`BakeParams::high_quality`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeParams {
+    /// Simplification: target patch count or voxel size. More patches: finer lighting, n²
+    /// memory and n³ transfer time.
+    pub voxel: VoxelParams,
+    /// Form-factor quadrature and visibility rays (rays are switched off by the effect plan when
+    /// nothing can occlude).
+    pub form_factors: FormFactorParams,
+    /// Bounces carried by M.
+    pub bounces: BounceSpec,
+    /// Storage format.
+    pub format: FormatChoice,
+    /// Patch numbering (rows and columns together) before compression.
+    pub order: OrderKind,
+    /// Quantiser range, tile size, BC1 fit (its `format` and `sparse_fraction` are ignored: see
+    /// `format` and `sparse_fraction`).
+    pub encode: EncodeParams,
+    /// Fraction of entries kept exact; `None` for [`default_sparse_fraction`](crate::encode::default_sparse_fraction) of the format
+    /// (a fixed share of the block bytes).
+    pub sparse_fraction: Option<f32>,
+    /// Share of block positions given a block correction; `None` for
+    /// [`default_correction_fraction`](crate::encode::default_correction_fraction) of the format (a fixed share of the block bytes).
+    pub corrections: Option<f32>,
+    /// A scene is treated as closed when every row of F sums to 1 within this; its rows are then
+    /// rebalanced to sum to exactly 1 (the correction is reported).
+    pub closure_tolerance: f64,
+    /// Seed of the random order.
+    pub seed: u64,
+}
+
+impl Default for BakeParams {
+    fn default() -> Self {
+        Self {
+            voxel: VoxelParams::default(),
+            form_factors: FormFactorParams::default(),
+            bounces: BounceSpec::default(),
+            format: FormatChoice::Auto,
+            order: OrderKind::Best,
+            encode: EncodeParams::default(),
+            sparse_fraction: None,
+            corrections: None,
+            closure_tolerance: 0.05,
+            seed: 1,
+        }
+    }
+}
+
+impl BakeParams {
+    /// Coarse and quick: previews.
+    pub fn fast() -> Self {
+        Self {
+            voxel: VoxelParams::fast(),
+            form_factors: FormFactorParams::fast(),
+            order: OrderKind::Spatial,
+            ..Self::default()
+        }
+    }
+
+    /// Fine and slow: final bakes.
+    pub fn high_quality() -> Self {
+        Self {
+            voxel: VoxelParams::high_quality(),
+            form_factors: FormFactorParams::high_quality(),
+            encode: EncodeParams::high_quality(Format::Bc1),
+            ..Self::default()
+        }
+    }
+}
+
+/// Callbacks for a front end: stage names as they start, and form-factor progress.
+#[derive(Clone, Copy, Default)]
+pub struct Hooks<'a> {
+    /// Called with a stage name when it starts.
+    pub stage: Option<&'a (dyn Fn(&str) + Sync)>,
+    /// Form-factor rows done / total.
+    pub progress: Option<Progress<'a>>,
+}

@@ -1,0 +1,298 @@
+//! What the bake reports: the `bake --json` object ([`BakeReport`], `docs/contract.md`), also
+//! stored in the file's REPORT section for `inspect`, and the error measures it holds.
+
+use super::Discretised;
+use crate::BakeError;
+use crate::effects::Effects;
+use crate::form_factor::FormFactorSummary;
+use crate::order::{self, Candidate};
+use crate::scene::Scene;
+use radiosity_core::{
+    Bounces, DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, TransferMatrix,
+};
+use serde::Serialize;
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+
+/// Sizes in bytes.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Bytes {
+    /// The whole `.rad` file.
+    pub total: usize,
+    /// Block data.
+    pub blocks: usize,
+    /// Sparse arrays.
+    pub sparse: usize,
+    /// Block corrections (their four arrays).
+    pub corrections: usize,
+    /// Blocks corrected.
+    pub corrected_blocks: usize,
+}
+
+/// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
+/// file's REPORT section for `inspect`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BakeReport {
+    /// Patches in the matrix.
+    pub patches: usize,
+    /// Stored channels.
+    pub channels: usize,
+    /// Storage format.
+    pub format: &'static str,
+    /// Patch order used.
+    pub order: &'static str,
+    /// Bounces (a number, or "infinite").
+    pub bounces: serde_json::Value,
+    /// Sizes.
+    pub bytes: Bytes,
+    /// Shadow rays cast for form factors.
+    pub rays_cast: u64,
+    /// The form-factor quadrature and rays asked for (`FormFactorParams::summary`).
+    pub form_factors: FormFactorSummary,
+    /// Relative Frobenius error of the decoded matrix, per order measured (the chosen one
+    /// exactly, the others estimated on sampled blocks of the encoder's first pass, which the
+    /// bake's own encode improves on: see `order::ErrorMeter`).
+    pub compression_rmse: BTreeMap<String, f64>,
+    /// RMS error of the compressed log texture in 8-bit codes, per order measured as
+    /// `compression_rmse` is (`order::ErrorEstimate::code_rms`): the paper's own measure (its
+    /// Fig. 4 compares the compressed texture with the uncompressed one). Empty for the float
+    /// formats.
+    pub compression_code_rmse: BTreeMap<String, f64>,
+    /// Relative L2 error of the irradiance from the scene's own emitters caused by compression
+    /// (`null` without emitters).
+    pub lighting_error: Option<f64>,
+    /// Every effect decision with its reason.
+    pub effects: Effects,
+    /// Row sums of F before any correction, and the correction applied.
+    pub closure: ClosureReport,
+    /// Largest reciprocity error of F.
+    pub reciprocity_error: f64,
+    /// Milliseconds per stage.
+    pub timings_ms: BTreeMap<&'static str, f64>,
+    /// Warnings from loading and simplification.
+    pub warnings: Vec<String>,
+    /// Exposed area of each object (file object order): its full-detail area less the part
+    /// buried under other objects, dark patches included: what per-object means are taken over.
+    pub object_areas: Vec<f64>,
+}
+
+/// Closure measurements.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClosureReport {
+    /// Smallest row sum of F over patches that see anything and are not partly buried (whose
+    /// rows mix two estimates, see `closure_effect`), before any correction.
+    pub min_row_sum: f64,
+    /// Largest row sum, before any correction.
+    pub max_row_sum: f64,
+    /// The patch of the largest row sum, in simplification order (`Patches::patches`, the
+    /// numbering `radiosity check-rows --patch` takes).
+    pub max_row_patch: Option<usize>,
+    /// Largest relative change of a row sum made by the closure correction (0 when open), apart
+    /// from the rows of partly buried patches.
+    pub correction: f64,
+    /// Share of hemisphere rays from the patches that left the scene
+    /// (`row_check::escape_check`), asked only when the row sums say closed; above
+    /// `row_check::ESCAPE_LIMIT` the scene is open after all.
+    pub escaped: Option<f64>,
+}
+/// `‖a − b‖ / ‖a‖` over all entries (0 for an all-zero `a` equal to `b`).
+pub(crate) fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
+    let num: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+        .sum();
+    let den: f64 = a.iter().map(|x| f64::from(*x).powi(2)).sum();
+    if den == 0.0 {
+        num.sqrt()
+    } else {
+        (num / den).sqrt()
+    }
+}
+
+/// Relative L2 error of `y = M·E` (the scene's own emitters) between the exact dense `m` and
+/// the encoded matrix; `None` when nothing emits.
+pub(crate) fn lighting_error(
+    m: &[f32],
+    n: usize,
+    channels: usize,
+    encoded: &TransferMatrix<'_>,
+    emission: &[Rgb],
+) -> Option<f64> {
+    let peak = emission
+        .iter()
+        .map(|e| e.max_channel())
+        .fold(0.0f32, f32::max);
+    if !(peak > 0.0) {
+        return None;
+    }
+    // The error is relative, so scale-free: measure with the brightest emitter at 1, so that
+    // emission near f32's limit cannot overflow the f32 gather into a NaN estimate.
+    let scaled: Vec<Rgb> = emission.iter().map(|e| *e * (1.0 / peak)).collect();
+    let emission = &scaled[..];
+    let mut exact = vec![[0f64; 3]; n];
+    for i in 0..n {
+        for j in 0..n {
+            let e = emission[j].to_array();
+            for k in 0..3 {
+                let v = m[(i * n + j) * channels + if channels == 1 { 0 } else { k }];
+                exact[i][k] += f64::from(v) * f64::from(e[k]);
+            }
+        }
+    }
+    let mut gather = ReferenceGather::new(encoded.clone(), DecodeMode::D3d10);
+    let mut y = vec![Rgb::ZERO; n];
+    gather.gather(emission, &mut y).ok()?;
+    let num: f64 = exact
+        .iter()
+        .zip(&y)
+        .map(|(a, b)| {
+            (0..3)
+                .map(|k| (a[k] - f64::from(b.channel(k))).powi(2))
+                .sum::<f64>()
+        })
+        .sum();
+    let den: f64 = exact
+        .iter()
+        .map(|a| a.iter().map(|v| v * v).sum::<f64>())
+        .sum();
+    (den > 0.0).then(|| (num / den).sqrt())
+}
+
+/// The compression errors of a bake: measured on the encoded matrix for the chosen order,
+/// estimated on sampled blocks for the others.
+pub(super) struct Measured {
+    /// Relative Frobenius error of the decoded matrix.
+    pub(super) rmse: f64,
+    /// [`lighting_error`] of the encoded matrix.
+    pub(super) lighting_error: Option<f64>,
+    /// Per order, the relative Frobenius error (the chosen one's measured).
+    pub(super) compression_rmse: BTreeMap<String, f64>,
+    /// Per order, the RMS error in 8-bit codes (the chosen one's measured; log formats only).
+    pub(super) compression_code_rmse: BTreeMap<String, f64>,
+}
+
+impl Measured {
+    /// Measures `matrix`, the encode of the dense `m` (`n × n × channels`, file numbering)
+    /// whose patches emit `emission`, with `candidates`' estimates for the other orders.
+    pub(super) fn new(
+        m: &[f32],
+        n: usize,
+        channels: usize,
+        matrix: &TransferMatrix<'_>,
+        emission: &[Rgb],
+        candidates: &[Candidate],
+        chosen: &Candidate,
+    ) -> Self {
+        let decoded = matrix.decode_dense(DecodeMode::D3d10);
+        let rmse = relative_frobenius(m, &decoded);
+        let code_rmse = order::code_rms(matrix, m, &decoded);
+        drop(decoded);
+        let lighting_error = lighting_error(m, n, channels, matrix, emission);
+        let mut compression_rmse: BTreeMap<String, f64> = candidates
+            .iter()
+            .map(|c| (c.kind.name().to_owned(), c.error.relative))
+            .collect();
+        compression_rmse.insert(chosen.kind.name().to_owned(), rmse);
+        let mut compression_code_rmse: BTreeMap<String, f64> = candidates
+            .iter()
+            .filter_map(|c| Some((c.kind.name().to_owned(), c.error.code_rms?)))
+            .collect();
+        if let Some(e) = code_rmse {
+            compression_code_rmse.insert(chosen.kind.name().to_owned(), e);
+        }
+        Self {
+            rmse,
+            lighting_error,
+            compression_rmse,
+            compression_code_rmse,
+        }
+    }
+}
+
+/// What the second half of the bake decided, for its report.
+pub(super) struct BakeSummary<'a> {
+    /// Storage format.
+    pub(super) format: Format,
+    /// The order used.
+    pub(super) chosen: &'a Candidate,
+    /// Bounces carried by M.
+    pub(super) bounces: Bounces,
+    /// The compression errors.
+    pub(super) measured: Measured,
+    /// Every effect decision.
+    pub(super) effects: Effects,
+    /// Milliseconds per stage.
+    pub(super) timings: BTreeMap<&'static str, f64>,
+}
+
+/// The report of a bake of `scene` from `system` into `file` (its size still 0: [`store`]).
+pub(super) fn report(
+    scene: &Scene,
+    system: &Discretised,
+    file: &RadFile<'_>,
+    summary: BakeSummary<'_>,
+) -> BakeReport {
+    BakeReport {
+        patches: system.len(),
+        channels: system.channels,
+        format: summary.format.name(),
+        order: summary.chosen.kind.name(),
+        bounces: match summary.bounces {
+            Bounces::Finite(k) => serde_json::json!(k),
+            Bounces::Infinite => serde_json::json!("infinite"),
+        },
+        bytes: Bytes {
+            total: 0,
+            blocks: file.matrix.blocks.len(),
+            sparse: file.matrix.sparse.bytes(),
+            corrections: file.matrix.corrections.bytes(),
+            corrected_blocks: file.matrix.corrections.count(),
+        },
+        rays_cast: system.rays_cast,
+        form_factors: system.form_factors,
+        compression_rmse: summary.measured.compression_rmse,
+        compression_code_rmse: summary.measured.compression_code_rmse,
+        lighting_error: summary.measured.lighting_error,
+        effects: summary.effects,
+        closure: system.closure.clone(),
+        reciprocity_error: system.reciprocity_error,
+        timings_ms: summary.timings,
+        warnings: scene
+            .report
+            .warnings
+            .iter()
+            .chain(&system.patches.warnings)
+            .cloned()
+            .collect(),
+        object_areas: scene
+            .object_areas()
+            .iter()
+            .enumerate()
+            .map(|(o, a)| a - system.exposure.buried_area.get(o).copied().unwrap_or(0.0))
+            .collect(),
+    }
+}
+
+/// Stores `report` in `file`'s REPORT section with the file's size in it, and returns it.
+pub(super) fn store(
+    file: &mut RadFile<'static>,
+    mut report: BakeReport,
+) -> Result<BakeReport, BakeError> {
+    // The report stores the file size, which depends on the report: write twice (the size
+    // field has the same width both times only by luck, so measure until it is stable).
+    for _ in 0..3 {
+        file.report = Some(Cow::Owned(
+            serde_json::to_string(&report).expect("report serialises"),
+        ));
+        let total = file
+            .to_bytes()
+            .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?
+            .len();
+        if total == report.bytes.total {
+            break;
+        }
+        report.bytes.total = total;
+    }
+    Ok(report)
+}

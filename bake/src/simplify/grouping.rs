@@ -1,0 +1,329 @@
+//! Cutting the triangles by the grid and grouping the pieces of each cell into patches: by
+//! connected component (loose parts), object, material and orientation, with small groups
+//! absorbed into their neighbours.
+
+use super::Piece;
+use crate::geometry::bvh::Occluders;
+use crate::geometry::polygon::Polygon;
+use crate::scene::Scene;
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// Cuts a polygon by the grid planes `origin + k·h` along each axis.
+pub(super) fn cut(poly: Polygon, origin: DVec3, h: f64, out: &mut Vec<([i64; 3], Polygon)>) {
+    let mut work = vec![poly];
+    for axis in 0..3 {
+        let mut next = Vec::with_capacity(work.len());
+        for mut p in work {
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for v in p.vertices() {
+                lo = lo.min(v[axis]);
+                hi = hi.max(v[axis]);
+            }
+            let k0 = ((lo - origin[axis]) / h).floor() as i64;
+            let k1 = ((hi - origin[axis]) / h).floor() as i64;
+            for k in k0 + 1..=k1 {
+                let (below, above) = p.split(axis, origin[axis] + k as f64 * h);
+                if !below.is_empty() {
+                    next.push(below);
+                }
+                p = above;
+                if p.is_empty() {
+                    break;
+                }
+            }
+            if !p.is_empty() {
+                next.push(p);
+            }
+        }
+        work = next;
+    }
+    for p in work {
+        let c = p.centroid();
+        let cell = [0, 1, 2].map(|a| ((c[a] - origin[a]) / h).floor() as i64);
+        out.push((cell, p));
+    }
+}
+
+pub(super) struct Grouping {
+    /// Per group: (object, material, pieces).
+    pub(super) groups: Vec<(u32, u32, Vec<Piece>)>,
+}
+
+/// Connected surfaces: for every triangle, the index of its component, where triangles sharing
+/// a corner position (bit for bit, so split vertices of one mesh still join) are connected.
+///
+/// Pieces of different components never share a patch. Without this, the floors of two rooms
+/// on either side of a thin wall, carrying the same object and material names, fell into one
+/// patch wherever a cell straddled the wall, and that patch carried the lit room's light into
+/// the dark one (14% of the lit room's irradiance with a wall 1% of the room thick).
+pub(super) fn components(scene: &Scene) -> Vec<u32> {
+    fn find(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            let up = parent[parent[i as usize] as usize];
+            parent[i as usize] = up;
+            i = up;
+        }
+        i
+    }
+    let n = scene.triangles.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let mut first_at: HashMap<[u64; 3], u32> = HashMap::new();
+    for t in 0..n {
+        for p in scene.corners(t) {
+            let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+            let other = *first_at.entry(key).or_insert(t as u32);
+            let (a, b) = (find(&mut parent, t as u32), find(&mut parent, other));
+            if a != b {
+                parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+    }
+    (0..n as u32).map(|t| find(&mut parent, t)).collect()
+}
+
+/// A connected surface whose whole area is below this share of a cell face (`h²`) is a loose
+/// part (a screw, a chair's leg, one slat of a blind). Loose parts of one object and material
+/// in one cell join one patch when they face the same way and see each other (a segment
+/// between them that no other surface blocks). Without this, furniture of many loose parts
+/// kept the patch count near the count of parts at any cell size (the conference room, 330k
+/// triangles: 18,693 patches asked for 256). The visibility test keeps the thin-wall case of
+/// [`components`] right for small parts too; large surfaces never merge.
+pub(super) const LOOSE_PART: f64 = 0.5;
+
+/// Total area of each connected surface, indexed by its [`components`] root.
+pub(super) fn component_areas(scene: &Scene, component: &[u32]) -> Vec<f64> {
+    let mut area = vec![0.0; component.len()];
+    for (t, &c) in component.iter().enumerate() {
+        area[c as usize] += scene.triangle_area(t);
+    }
+    area
+}
+
+/// What loose parts and small groups need to merge: each surface's area, the surfaces, and
+/// the occluders for the visibility test (built on first use: most scenes at most cell sizes
+/// have no loose part and no small group of fine triangles).
+pub(super) struct Loose<'a> {
+    pub(super) area: Vec<f64>,
+    pub(super) occluders: std::cell::OnceCell<Occluders>,
+    pub(super) scene: &'a Scene,
+    pub(super) component: &'a [u32],
+}
+
+impl Loose<'_> {
+    fn occluders(&self) -> &Occluders {
+        self.occluders.get_or_init(|| Occluders::new(self.scene))
+    }
+
+    /// Whether two pieces see each other: no surface but their own two blocks the segment
+    /// between their centres, both lifted `lift` off their surfaces along their normals so that
+    /// pieces lying in one plane (tiles, slats) do not block each other. Each end is
+    /// `(centre, unit normal, connected surface)`.
+    fn sees(&self, a: (DVec3, DVec3, u32), b: (DVec3, DVec3, u32), lift: f64) -> bool {
+        self.occluders()
+            .segment_visible_skipping(a.0 + a.1 * lift, b.0 + b.1 * lift, &|id| {
+                let c = self.component[id as usize];
+                c == a.2 || c == b.2
+            })
+    }
+}
+
+/// Cuts and groups at cell size `h`; returns the groups (object, material, pieces). Pieces
+/// join a group only within one cell, object, material and connected component
+/// ([`components`]), with normals within the angle; loose parts ([`LOOSE_PART`]) of different
+/// components may share a group when they see each other. Small groups then merge whatever
+/// their orientation ([`absorb_small_groups`]).
+pub(super) fn group(
+    scene: &Scene,
+    component: &[u32],
+    loose: &Loose<'_>,
+    h: f64,
+    cos_max: f64,
+) -> Grouping {
+    /// Stands for every loose part in the grouping key.
+    const LOOSE: u32 = u32::MAX;
+    let (lo, _) = scene.bounds();
+    let origin = lo;
+    let mut lookup: HashMap<([i64; 3], u32, u32, u32), Vec<usize>> = HashMap::new();
+    // Loose parts: the groups a surface already joined in a cell, and each group's first piece
+    // (centre, surface) to test visibility against.
+    let mut joined: HashMap<([i64; 3], u32, u32, u32), Vec<usize>> = HashMap::new();
+    let mut first: Vec<(DVec3, u32)> = Vec::new();
+    let mut groups: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
+    let mut seeds: Vec<DVec3> = Vec::new();
+    let mut cells = Vec::new();
+    let mut cell_of: Vec<[i64; 3]> = Vec::new();
+    let small = LOOSE_PART * h * h;
+    let lift = LIFT * h;
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let p = scene.corners(t);
+        let normal = scene.triangle_normal(t);
+        let tri_area = scene.triangle_area(t);
+        let own = component[t];
+        let is_loose = loose.area[own as usize] < small;
+        cells.clear();
+        cut(Polygon::triangle(p[0], p[1], p[2]), origin, h, &mut cells);
+        for &(cell, poly) in &cells {
+            let area = 0.5 * poly.doubled_area_vector().length();
+            // Rounding slivers from cutting exactly along a grid plane.
+            if !(area > 1e-14 * tri_area) {
+                continue;
+            }
+            let piece = Piece {
+                polygon: poly,
+                normal,
+                area,
+                triangle: t as u32,
+            };
+            let key = (
+                cell,
+                tri.object,
+                tri.material,
+                if is_loose { LOOSE } else { own },
+            );
+            let cands = lookup.entry(key).or_default();
+            let fits = |g: usize| seeds[g].dot(normal) >= cos_max;
+            let found = if is_loose {
+                let mine = joined
+                    .entry((cell, tri.object, tri.material, own))
+                    .or_default();
+                mine.iter().copied().find(|&g| fits(g)).or_else(|| {
+                    let end = (piece.polygon.centroid(), normal, own);
+                    let g = cands.iter().copied().find(|&g| {
+                        let (at, other) = first[g];
+                        fits(g) && loose.sees(end, (at, seeds[g], other), lift)
+                    })?;
+                    mine.push(g);
+                    Some(g)
+                })
+            } else {
+                cands.iter().copied().find(|&g| fits(g))
+            };
+            match found {
+                Some(g) => groups[g].2.push(piece),
+                None => {
+                    let g = groups.len();
+                    cands.push(g);
+                    if is_loose {
+                        joined
+                            .entry((cell, tri.object, tri.material, own))
+                            .or_default()
+                            .push(g);
+                    }
+                    first.push((piece.polygon.centroid(), own));
+                    seeds.push(normal);
+                    cell_of.push(cell);
+                    groups.push((tri.object, tri.material, vec![piece]));
+                }
+            }
+        }
+    }
+    let ends: Vec<(DVec3, DVec3, u32)> = first
+        .iter()
+        .zip(&seeds)
+        .map(|(&(centre, surface), &normal)| (centre, normal, surface))
+        .collect();
+    Grouping {
+        groups: absorb_small_groups(groups, &cell_of, &ends, loose, h),
+    }
+}
+
+/// How far visibility tests lift their ends off the surfaces, in cells (see [`Loose::sees`]).
+pub(super) const LIFT: f64 = 1e-3;
+
+/// A group whose area, and the area of each triangle it was cut from, are below this share of
+/// a cell face (`h²`) is small, and is not kept apart by orientation ([`absorb_small_groups`]).
+///
+/// The orientation rule exists for large surfaces: a floor and the wall standing on it, or the
+/// two sides of a thin wall. Curved furniture instead splits into a group per normal cone in
+/// every cell it touches, each a small part of the cell face, so that in the conference room
+/// (330k triangles) the patch count stayed near 4400 at any cell size, and `--patches 4096`
+/// gave cells of 1093 units, a third of the room, for a floor of 4.4 million square units in 6
+/// patches. Form factors are computed on a patch's true pieces with their own normals, so a
+/// patch of pieces facing different ways is still integrated right; what merging loses is that
+/// they share one radiosity, which for a part small against the cell is the resolution the
+/// grid gives anyway.
+///
+/// The triangle condition keeps every guarantee of the orientation rule for surfaces modelled
+/// with polygons of at least a tenth of a cell face (floors, walls, thin walls, boxes: the
+/// Cornell box bakes as before): their slivers at the rim of a surface or in a corner cell are
+/// small groups by area but stay apart. Only finely tessellated parts merge; a thin wall
+/// tessellated that finely may, at its rim, put a sliver of one side (under a tenth of a face)
+/// in a patch of the other. A tenth: the conference room at `--patches 4096` gets cells of 130
+/// units and 294 floor patches with it, 148 and 228 with 0.05, 130 and 294 with 0.2
+/// (`ARCHITECTURE.md`, "Small groups merge").
+pub(super) const SMALL_GROUP: f64 = 0.1;
+
+/// Merges the small groups ([`SMALL_GROUP`]) into others of their cell, object and material,
+/// whatever their orientation: each joins the first large group of its own connected surface,
+/// else the first large group it sees ([`Loose::sees`] between the two groups' first pieces),
+/// else in the same way a small group kept before it, else stays as one. Large groups never
+/// merge with one another, and two surfaces join only by the same visibility test as loose
+/// parts, so a small part behind a wall stays on its side.
+///
+/// `groups`, `cell` and `ends` (each group's first piece: centre, normal, surface) are in
+/// creation order, which the result keeps (a merged patch sits where its first group was).
+pub(super) fn absorb_small_groups(
+    mut groups: Vec<(u32, u32, Vec<Piece>)>,
+    cell: &[[i64; 3]],
+    ends: &[(DVec3, DVec3, u32)],
+    loose: &Loose<'_>,
+    h: f64,
+) -> Vec<(u32, u32, Vec<Piece>)> {
+    let small = SMALL_GROUP * h * h;
+    let is_small: Vec<bool> = groups
+        .iter()
+        .map(|(_, _, pieces)| {
+            pieces.iter().map(|p| p.area).sum::<f64>() < small
+                && pieces
+                    .iter()
+                    .all(|p| loose.scene.triangle_area(p.triangle as usize) < small)
+        })
+        .collect();
+    let mut by_key: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
+    for (g, (object, material, _)) in groups.iter().enumerate() {
+        by_key
+            .entry((cell[g], *object, *material))
+            .or_default()
+            .push(g);
+    }
+    let lift = LIFT * h;
+    // The group each one joins (itself when it stays); a group that others join never joins
+    // another, so one step reaches the end.
+    let mut into: Vec<usize> = (0..groups.len()).collect();
+    for list in by_key.values() {
+        if list.iter().all(|&g| !is_small[g]) {
+            continue;
+        }
+        // Large groups first, then the small groups that stayed, each in creation order.
+        let mut targets: Vec<usize> = list.iter().copied().filter(|&g| !is_small[g]).collect();
+        let large = targets.len();
+        for &g in list.iter().filter(|&&g| is_small[g]) {
+            let own = |t: &usize| ends[*t].2 == ends[g].2;
+            let seen = |t: &usize| loose.sees(ends[*t], ends[g], lift);
+            let (big, kept) = targets.split_at(large);
+            let found = big
+                .iter()
+                .find(|t| own(t))
+                .or_else(|| big.iter().find(|t| seen(t)))
+                .or_else(|| kept.iter().find(|t| own(t)))
+                .or_else(|| kept.iter().find(|t| seen(t)));
+            match found {
+                Some(&t) => into[g] = t,
+                None => targets.push(g),
+            }
+        }
+    }
+    let mut slot = vec![usize::MAX; groups.len()];
+    let mut merged: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
+    for g in 0..groups.len() {
+        let t = into[g];
+        if slot[t] == usize::MAX {
+            slot[t] = merged.len();
+            merged.push((groups[t].0, groups[t].1, Vec::new()));
+        }
+        let pieces = std::mem::take(&mut groups[g].2);
+        merged[slot[t]].2.extend(pieces);
+    }
+    merged
+}
