@@ -120,6 +120,8 @@ pub fn code_rms(matrix: &TransferMatrix<'_>, exact: &[f32], decoded: &[f32]) -> 
             }
             sum
         })
+        .collect::<Vec<f64>>()
+        .iter()
         .sum();
     Some((sum / (n * n * channels).max(1) as f64).sqrt())
 }
@@ -154,10 +156,15 @@ impl<'a> ErrorMeter<'a> {
             0.0
         };
         let rule = SparseRule::new(m.values, m.n, m.channels, fraction);
+        // Chunk sums are collected and added in order here and below: rayon's `sum` associates
+        // as the work was stolen, and the estimates (in the report, and deciding `best`) must
+        // not change from run to run.
         let squared_norm = m
             .values
             .par_chunks(4096)
             .map(|c| c.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>())
+            .collect::<Vec<f64>>()
+            .iter()
             .sum();
         let mut meter = Self {
             m,
@@ -228,6 +235,8 @@ impl<'a> ErrorMeter<'a> {
                     .map(|(a, b)| (f64::from(*a) - f64::from(*b)).powi(2))
                     .sum::<f64>()
             })
+            .collect::<Vec<f64>>()
+            .iter()
             .sum();
         let blocks = self
             .block_weights(perm)
