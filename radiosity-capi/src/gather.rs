@@ -92,7 +92,7 @@ pub unsafe extern "C" fn rad_gather_new(
     })
 }
 
-/// The gather's name as the Gather trait gives it ("cpu-bc1", "wgpu-bc1", "reference", ...),
+/// The gather's name as the Gather trait gives it ("cpu-bc1", "gpu-bc1", "reference", ...),
 /// owned by the gather; NULL for a NULL gather.
 ///
 /// # Safety
