@@ -186,7 +186,9 @@ mod tests {
     #[test]
     fn the_last_error_is_per_thread() {
         status("main", || Err(Failure::new(RAD_ERR_LENGTH, "here")));
-        std::thread::spawn(|| assert_eq!(last(), "")).join().unwrap();
+        std::thread::spawn(|| assert_eq!(last(), ""))
+            .join()
+            .unwrap();
         assert_eq!(last(), "main: here");
     }
 

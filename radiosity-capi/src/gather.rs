@@ -47,7 +47,10 @@ fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, F
         "gpu" => WgpuGather::new(matrix, &GpuOptions::default())
             .map(gpu)
             .map_err(|e| {
-                Failure::new(RAD_ERR_UNAVAILABLE, format!("backend gpu is not available: {e}"))
+                Failure::new(
+                    RAD_ERR_UNAVAILABLE,
+                    format!("backend gpu is not available: {e}"),
+                )
             }),
         other => Err(Failure::new(
             RAD_ERR_BACKEND,

@@ -33,14 +33,13 @@ mod scene;
 
 pub use error::rad_last_error;
 pub use gather::{
-    RadGather, rad_gather_backend, rad_gather_free, rad_gather_name, rad_gather_new,
-    rad_gather_run,
+    RadGather, rad_gather_backend, rad_gather_free, rad_gather_name, rad_gather_new, rad_gather_run,
 };
 pub use scene::{
-    RadScene, rad_first_exitance, rad_scene_corner_indirect, rad_scene_free,
-    rad_scene_from_bytes, rad_scene_object_count, rad_scene_object_name, rad_scene_open,
-    rad_scene_patch_count, rad_scene_patches, rad_scene_triangle_count, rad_scene_triangles,
-    rad_scene_vertex_count, rad_scene_vertices,
+    RadScene, rad_first_exitance, rad_scene_corner_indirect, rad_scene_free, rad_scene_from_bytes,
+    rad_scene_object_count, rad_scene_object_name, rad_scene_open, rad_scene_patch_count,
+    rad_scene_patches, rad_scene_triangle_count, rad_scene_triangles, rad_scene_vertex_count,
+    rad_scene_vertices,
 };
 
 use bytemuck::{Pod, Zeroable};
@@ -116,12 +115,11 @@ pub struct RadTriangle {
     pub emission: RadRgb,
 }
 
-const VERSION: &CStr = match CStr::from_bytes_with_nul(
-    concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes(),
-) {
-    Ok(v) => v,
-    Err(_) => panic!("the version has no NUL inside"),
-};
+const VERSION: &CStr =
+    match CStr::from_bytes_with_nul(concat!(env!("CARGO_PKG_VERSION"), "\0").as_bytes()) {
+        Ok(v) => v,
+        Err(_) => panic!("the version has no NUL inside"),
+    };
 
 /// The library's version, e.g. "0.1.0"; a static string.
 #[unsafe(no_mangle)]
@@ -169,7 +167,14 @@ mod tests {
         let r: RadPatch = bytemuck::cast(p);
         assert_eq!(r.centre, p.centre);
         assert_eq!(r.object, 7);
-        assert_eq!(r.emission, RadRgb { r: 5.0, g: 6.0, b: 7.0 });
+        assert_eq!(
+            r.emission,
+            RadRgb {
+                r: 5.0,
+                g: 6.0,
+                b: 7.0
+            }
+        );
     }
 
     #[test]

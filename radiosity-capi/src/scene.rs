@@ -167,7 +167,9 @@ pub unsafe extern "C" fn rad_scene_free(scene: *mut RadScene) {
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn rad_scene_patch_count(scene: *const RadScene) -> usize {
     // SAFETY: the caller promises a live scene or NULL (checked).
-    guard("rad_scene_patch_count", 0, || Ok(unsafe { scene_ref(scene) }?.file.n()))
+    guard("rad_scene_patch_count", 0, || {
+        Ok(unsafe { scene_ref(scene) }?.file.n())
+    })
 }
 
 /// The scene's patches, rad_scene_patch_count of them in the matrix numbering, owned by the
@@ -194,7 +196,9 @@ pub unsafe extern "C" fn rad_scene_patches(scene: *const RadScene) -> *const Rad
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn rad_scene_object_count(scene: *const RadScene) -> usize {
     // SAFETY: the caller promises a live scene or NULL (checked).
-    guard("rad_scene_object_count", 0, || Ok(unsafe { scene_ref(scene) }?.names.len()))
+    guard("rad_scene_object_count", 0, || {
+        Ok(unsafe { scene_ref(scene) }?.names.len())
+    })
 }
 
 /// The name of object `index`, a NUL-terminated UTF-8 string owned by the scene; NULL past the
@@ -214,7 +218,10 @@ pub unsafe extern "C" fn rad_scene_object_name(
         let name = scene.names.get(index).ok_or_else(|| {
             Failure::new(
                 RAD_ERR_LENGTH,
-                format!("object {index} past the end ({} objects)", scene.names.len()),
+                format!(
+                    "object {index} past the end ({} objects)",
+                    scene.names.len()
+                ),
             )
         })?;
         Ok(name.as_ptr())

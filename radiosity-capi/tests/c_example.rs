@@ -59,7 +59,14 @@ fn compile_example(out: &Path) -> PathBuf {
     let exe = out.join("gather");
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let output = Command::new(&cc)
-        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O1"])
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+            "-O1",
+        ])
         .arg("-I")
         .arg(crate_dir.join("include"))
         .arg(crate_dir.join("examples/gather.c"))
@@ -71,7 +78,9 @@ fn compile_example(out: &Path) -> PathBuf {
         .arg("-o")
         .arg(&exe)
         .output()
-        .unwrap_or_else(|e| panic!("cannot run the C compiler {cc:?} ({e}): scripts/test.sh installs gcc"));
+        .unwrap_or_else(|e| {
+            panic!("cannot run the C compiler {cc:?} ({e}): scripts/test.sh installs gcc")
+        });
     assert!(
         output.status.success(),
         "{cc} failed:\n{}",
@@ -153,7 +162,10 @@ fn run_example(exe: &Path, dir: &Path, name: &str, file: &RadFile<'_>) -> String
         }
     }
     // Every bad input was refused with a message (the example exits 1 otherwise).
-    let refused = stdout.lines().filter(|l| l.starts_with("refused\t")).count();
+    let refused = stdout
+        .lines()
+        .filter(|l| l.starts_with("refused\t"))
+        .count();
     assert!(refused >= 30, "only {refused} refusals:\n{stdout}");
     stdout
 }
@@ -163,7 +175,10 @@ fn run_example(exe: &Path, dir: &Path, name: &str, file: &RadFile<'_>) -> String
 fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
     let cli = profile_dir().join(format!("radiosity{}", std::env::consts::EXE_SUFFIX));
     if !cli.exists() {
-        eprintln!("note: {} not built; solve --json comparison skipped", cli.display());
+        eprintln!(
+            "note: {} not built; solve --json comparison skipped",
+            cli.display()
+        );
         return;
     }
     let output = Command::new(&cli)
@@ -171,11 +186,18 @@ fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
         .arg(path)
         .output()
         .expect("radiosity runs");
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     let objects = json["objects"].as_array().expect("objects");
     assert_eq!(objects.len(), power.len());
-    let scale = power.iter().flat_map(|p| p.1).fold(0f64, |m, v| m.max(v.abs()));
+    let scale = power
+        .iter()
+        .flat_map(|p| p.1)
+        .fold(0f64, |m, v| m.max(v.abs()));
     for (o, (name, p)) in objects.iter().zip(power) {
         assert_eq!(o["name"].as_str(), Some(name.as_str()));
         let area = o["area"].as_f64().unwrap();
@@ -195,8 +217,8 @@ fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
 fn c_example_on_a_baked_cornell_box() {
     let dir = tempfile::tempdir().unwrap();
     let exe = compile_example(dir.path());
-    let obj = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../scenes/cornell-box/CornellBox-Original.obj");
+    let obj =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
     let scene = Scene::load_obj(&obj).expect("Cornell box loads");
     let params = BakeParams {
         voxel: VoxelParams::with_patches(150),
@@ -206,7 +228,10 @@ fn c_example_on_a_baked_cornell_box() {
     assert!(out.file.mesh.is_some(), "the bake stores the mesh");
     let stdout = run_example(&exe, dir.path(), "cornell.rad", &out.file);
     assert!(stdout.contains("backend\tcpu\tcpu\tcpu-"), "{stdout}");
-    assert!(stdout.lines().any(|l| l.starts_with("corners\t")), "{stdout}");
+    assert!(
+        stdout.lines().any(|l| l.starts_with("corners\t")),
+        "{stdout}"
+    );
     compare_with_solve(&dir.path().join("cornell.rad"), &printed_power(&stdout));
 }
 
