@@ -12,6 +12,9 @@ missing=()
 for p in "${need_packages[@]}"; do
     dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
 done
+# A C compiler: radiosity-capi's tests compile its C example (radiosity-capi/examples/gather.c)
+# with `cc` and link it against the crate's shared library.
+command -v cc >/dev/null 2>&1 || missing+=(gcc libc6-dev)
 if [ ${#missing[@]} -gt 0 ]; then
     echo "installing: ${missing[*]}"
     apt-get update -qq && apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -4,14 +4,15 @@
 //!
 //! - `auto`: the wgpu gather on a **hardware** GPU adapter when there is one and it can hold
 //!   the matrix, else the SIMD CPU gather (a software rasteriser such as llvmpipe is slower
-//!   than the CPU backend on the same cores, so `auto` never picks one).
+//!   than the CPU backend on the same cores, so `auto` never picks one); the GPU half is
+//!   `radiosity_backend_wgpu::auto_gather`, which the C ABI shares.
 //! - `gpu`: the wgpu gather on the best adapter, software rasterisers included; no adapter is
 //!   an error.
 //! - `cpu`, `reference`: the SIMD CPU gather, the scalar oracle.
 
 use anyhow::bail;
 use radiosity_backend_cpu::CpuGather;
-use radiosity_backend_wgpu::{GpuOptions, WgpuGather, adapters};
+use radiosity_backend_wgpu::{GpuOptions, WgpuGather, auto_gather};
 use radiosity_core::{DecodeMode, Gather, ReferenceGather, TransferMatrix};
 
 /// A chosen gather with the backend kind (`cpu`, `gpu`, `reference`) for reports.
@@ -50,38 +51,17 @@ pub(crate) fn choose(
         }
     };
     let chosen = match requested.as_str() {
-        "auto" => {
-            let all = adapters();
-            match all.iter().find(|a| a.info.is_hardware()) {
-                Some(adapter) => {
-                    match WgpuGather::on_adapter(&matrix, adapter, &GpuOptions::default()) {
-                        Ok(g) => {
-                            let detail = gpu_detail(&g, "auto: a hardware GPU is present");
-                            Chosen {
-                                gather: Box::new(g),
-                                kind: "gpu",
-                                detail,
-                            }
-                        }
-                        Err(e) => cpu(matrix, &format!("auto: the GPU cannot run it ({e})")),
-                    }
-                }
-                None if all.is_empty() => cpu(matrix, "auto: no GPU adapter"),
-                None => {
-                    let names: Vec<String> = all
-                        .iter()
-                        .map(|a| format!("{} via {}", a.info.name, a.info.backend))
-                        .collect();
-                    cpu(
-                        matrix,
-                        &format!(
-                            "auto: no hardware GPU, only software rasterisers ({}; --backend gpu uses them)",
-                            names.join(", ")
-                        ),
-                    )
+        "auto" => match auto_gather(&matrix, &GpuOptions::default()) {
+            Ok(g) => {
+                let detail = gpu_detail(&g, "auto: a hardware GPU is present");
+                Chosen {
+                    gather: Box::new(g),
+                    kind: "gpu",
+                    detail,
                 }
             }
-        }
+            Err(why) => cpu(matrix, &why),
+        },
         "cpu" => cpu(matrix, &format!("requested by {source}")),
         "reference" => Chosen {
             gather: Box::new(ReferenceGather::new(matrix, DecodeMode::D3d10)),

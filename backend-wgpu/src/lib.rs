@@ -60,6 +60,7 @@
 //! ```
 
 mod adapter;
+mod auto;
 mod conv;
 mod device;
 mod gather;
@@ -68,6 +69,7 @@ pub mod probe;
 mod shader;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
+pub use auto::auto_gather;
 pub use gather::WgpuGather;
 pub use radiosity_core::DecodeMode;
 

@@ -102,7 +102,7 @@ pub use error::{RadError, SectionKind};
 pub use gather::{Gather, GatherError, ReferenceGather, check_gather_args};
 pub use layout::{DEFAULT_MAX_TILE, Format, LayoutError, MatrixLayout, Tile};
 pub use light::{Light, LightError, ShadowRay, finish_frame, first_exitance};
-pub use mesh::{CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
+pub use mesh::{CornerLengthError, CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
 pub use patch::Patch;
 pub use quantise::{DEFAULT_SHIFT, LogScale};
 pub use sparse::SparseRows;

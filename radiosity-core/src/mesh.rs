@@ -306,6 +306,80 @@ impl<'a> Mesh<'a> {
     }
 }
 
+/// Why [`Mesh::corner_indirect`] refused its slices: the per-patch input must have one entry
+/// per matrix patch and the output one per triangle corner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CornerLengthError {
+    /// Matrix patches the mesh was built for.
+    pub patches: usize,
+    /// Entries in the per-patch slice.
+    pub per_patch: usize,
+    /// Corners of the mesh (`3 × triangles`).
+    pub corners: usize,
+    /// Entries in the output slice.
+    pub out: usize,
+}
+
+impl core::fmt::Display for CornerLengthError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "corner light needs {} per-patch values and room for {} corners (3 per triangle), got {} and {}",
+            self.patches, self.corners, self.per_patch, self.out
+        )
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for CornerLengthError {}
+
+impl Mesh<'_> {
+    /// Corners of the mesh: three per triangle.
+    pub fn corner_count(&self) -> usize {
+        3 * self.triangles.len()
+    }
+
+    /// Per-corner indirect irradiance of the full-detail mesh from per-patch irradiance
+    /// `per_patch` (a gather's `y`, in the file's matrix patch numbering, W/m²).
+    ///
+    /// `out` has one entry per corner, triangle-major: `out[3·t + c]` is corner `c` of
+    /// triangle `t`, the corner whose vertex is `triangles[t].vertices[c]`. A corner's value is
+    /// the sum over its weight row ([`Mesh::corner`]) **in stored order**, starting from zero,
+    /// of `per_patch[patch] * weight`, per channel, as one f32 multiply and one f32 add per term
+    /// (no fused multiply-add); an empty row gives zero. A GPU pass that follows the same order
+    /// gives the same values up to FMA contraction. At a corner this equals
+    /// [`Mesh::interpolate`] with that corner's barycentrics.
+    ///
+    /// An engine draws its own mesh with it by giving each corner its value as a vertex
+    /// attribute (three vertices per triangle, unshared, since corners of one vertex may
+    /// interpolate different patches) and multiplying by the surface's reflectance.
+    pub fn corner_indirect(
+        &self,
+        per_patch: &[Rgb],
+        out: &mut [Rgb],
+    ) -> Result<(), CornerLengthError> {
+        let patches = self.sample_rows.len().saturating_sub(1);
+        let corners = self.corner_count();
+        if per_patch.len() != patches || out.len() != corners {
+            return Err(CornerLengthError {
+                patches,
+                per_patch: per_patch.len(),
+                corners,
+                out: out.len(),
+            });
+        }
+        for (r, o) in out.iter_mut().enumerate() {
+            let row = self.corner_rows[r] as usize..self.corner_rows[r + 1] as usize;
+            let mut acc = Rgb::ZERO;
+            for e in &self.corner_weights[row] {
+                acc += per_patch[e.patch as usize] * e.weight;
+            }
+            *o = acc;
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,5 +391,114 @@ mod tests {
         assert_eq!(size_of::<MeshTriangle>(), 40);
         assert_eq!(size_of::<CornerWeight>(), 8);
         assert_eq!(size_of::<PatchSample>(), 28);
+    }
+
+    /// Two triangles over three patches: one corner with an empty row, one with three
+    /// weights, the rest with one or two.
+    fn two_triangles() -> Mesh<'static> {
+        let tri = |vertices| MeshTriangle {
+            vertices,
+            ..MeshTriangle::default()
+        };
+        let w = |patch, weight| CornerWeight { patch, weight };
+        let rows: [&[CornerWeight]; 6] = [
+            &[w(0, 1.0)],
+            &[w(0, 0.25), w(2, 0.75)],
+            &[],
+            &[w(1, 0.5), w(2, 0.25), w(0, 0.25)],
+            &[w(2, 1.0)],
+            &[w(1, 0.125), w(0, 0.875)],
+        ];
+        let mut corner_rows = alloc::vec![0u32];
+        let mut corner_weights = Vec::new();
+        for r in rows {
+            corner_weights.extend_from_slice(r);
+            corner_rows.push(corner_weights.len() as u32);
+        }
+        Mesh {
+            positions: Cow::Owned(alloc::vec![[0.0; 3]; 4]),
+            triangles: Cow::Owned(alloc::vec![tri([0, 1, 2]), tri([0, 2, 3])]),
+            corner_rows: Cow::Owned(corner_rows),
+            corner_weights: Cow::Owned(corner_weights),
+            sample_rows: Cow::Owned(alloc::vec![0; 4]),
+            samples: Cow::Owned(Vec::new()),
+        }
+    }
+
+    #[test]
+    fn corner_indirect_sums_rows_in_order() {
+        let mesh = two_triangles();
+        let y = [
+            Rgb::new(1.0, 2.0, 4.0),
+            Rgb::new(8.0, 0.0, 1.0),
+            Rgb::new(0.5, 0.25, 3.0),
+        ];
+        let mut out = [Rgb::splat(f32::NAN); 6];
+        mesh.corner_indirect(&y, &mut out).unwrap();
+        for (r, o) in out.iter().enumerate() {
+            let (t, c) = (r / 3, r % 3);
+            let mut acc = Rgb::ZERO;
+            for e in mesh.corner(t, c) {
+                acc += y[e.patch as usize] * e.weight;
+            }
+            assert_eq!(
+                o.to_array().map(f32::to_bits),
+                acc.to_array().map(f32::to_bits)
+            );
+        }
+        assert_eq!(out[0], y[0]);
+        assert_eq!(out[1], Rgb::new(0.625, 0.6875, 3.25));
+        assert_eq!(out[2], Rgb::ZERO);
+        assert_eq!(out[4], y[2]);
+    }
+
+    #[test]
+    fn corner_indirect_equals_interpolate_at_corners() {
+        let mesh = two_triangles();
+        let y = [
+            Rgb::new(0.3, 1.7, 2.9),
+            Rgb::new(5.1, 0.01, 1.3),
+            Rgb::new(0.77, 0.123, 3.3),
+        ];
+        let mut out = [Rgb::ZERO; 6];
+        mesh.corner_indirect(&y, &mut out).unwrap();
+        for t in 0..2 {
+            let at = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)];
+            for (c, (u, v)) in at.into_iter().enumerate() {
+                assert_eq!(out[3 * t + c], mesh.interpolate(t, u, v, &y), "t {t} c {c}");
+            }
+        }
+    }
+
+    #[test]
+    fn corner_indirect_refuses_wrong_lengths() {
+        let mesh = two_triangles();
+        assert_eq!(mesh.corner_count(), 6);
+        let y = [Rgb::ONE; 3];
+        let mut out = [Rgb::ZERO; 6];
+        let err = mesh.corner_indirect(&y[..2], &mut out).unwrap_err();
+        assert_eq!(
+            err,
+            CornerLengthError {
+                patches: 3,
+                per_patch: 2,
+                corners: 6,
+                out: 6
+            }
+        );
+        assert!(mesh.corner_indirect(&y, &mut out[..5]).is_err());
+        let mut long = [Rgb::ZERO; 7];
+        assert!(mesh.corner_indirect(&y, &mut long).is_err());
+        assert_eq!(out, [Rgb::ZERO; 6], "nothing written on refusal");
+    }
+
+    #[test]
+    fn corner_indirect_of_an_empty_mesh_is_empty() {
+        let mut mesh = two_triangles();
+        mesh.triangles = Cow::Owned(Vec::new());
+        mesh.corner_rows = Cow::Owned(alloc::vec![0]);
+        mesh.corner_weights = Cow::Owned(Vec::new());
+        assert_eq!(mesh.corner_count(), 0);
+        mesh.corner_indirect(&[Rgb::ONE; 3], &mut []).unwrap();
     }
 }

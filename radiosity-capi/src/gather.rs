@@ -1,0 +1,187 @@
+//! `RadGather`: `y = M · x` over a scene's matrix on a chosen backend.
+
+use crate::error::{Failure, check_ptr, guard, slice_mut, status};
+use crate::scene::{RadScene, read_input};
+use crate::{
+    RAD_ERR_BACKEND, RAD_ERR_GATHER, RAD_ERR_LENGTH, RAD_ERR_UNAVAILABLE, RAD_ERR_VALUE, RadRgb,
+};
+use radiosity_backend_cpu::CpuGather;
+use radiosity_backend_wgpu::{GpuOptions, WgpuGather, auto_gather};
+use radiosity_core::{DecodeMode, Gather, GatherError, ReferenceGather, TransferMatrix};
+use std::ffi::{CStr, CString, c_char};
+
+/// A gather over a scene's transfer matrix on one backend. Opaque: made by rad_gather_new,
+/// freed by rad_gather_free; used by one thread at a time.
+pub struct RadGather {
+    gather: Box<dyn Gather>,
+    name: CString,
+    backend: &'static CStr,
+}
+
+impl RadGather {
+    fn new(gather: Box<dyn Gather>, backend: &'static CStr) -> Self {
+        let name = CString::new(gather.name().replace('\0', " ")).unwrap_or_default();
+        Self {
+            gather,
+            name,
+            backend,
+        }
+    }
+}
+
+fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, Failure> {
+    let cpu = || RadGather::new(Box::new(CpuGather::new(matrix.clone())), c"cpu");
+    let gpu = |g: WgpuGather| RadGather::new(Box::new(g), c"gpu");
+    match backend {
+        // The same choice as the CLI's `auto` (radiosity_backend_wgpu::auto_gather): a hardware
+        // GPU that can hold the matrix, else the CPU.
+        "auto" => Ok(match auto_gather(matrix, &GpuOptions::default()) {
+            Ok(g) => gpu(g),
+            Err(_) => cpu(),
+        }),
+        "cpu" => Ok(cpu()),
+        "reference" => Ok(RadGather::new(
+            Box::new(ReferenceGather::new(matrix.clone(), DecodeMode::D3d10)),
+            c"reference",
+        )),
+        "gpu" => WgpuGather::new(matrix, &GpuOptions::default())
+            .map(gpu)
+            .map_err(|e| {
+                Failure::new(
+                    RAD_ERR_UNAVAILABLE,
+                    format!("backend gpu is not available: {e}"),
+                )
+            }),
+        other => Err(Failure::new(
+            RAD_ERR_BACKEND,
+            format!("unknown backend {other:?}: use auto, cpu, gpu or reference"),
+        )),
+    }
+}
+
+/// Makes a gather over `scene`'s matrix on `backend`: "cpu" (the SIMD CPU gather), "gpu" (the
+/// wgpu gather on its own device, the best adapter, software rasterisers included), "reference"
+/// (the scalar oracle) or "auto" (as the command line chooses: a hardware GPU that can hold
+/// the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
+/// RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
+/// The scene must outlive the gather.
+///
+/// # Safety
+///
+/// `scene` is NULL or a live scene; `backend` is NULL or a NUL-terminated string; `out` is
+/// NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_new(
+    scene: *const RadScene,
+    backend: *const c_char,
+    out: *mut *mut RadGather,
+) -> i32 {
+    status("rad_gather_new", || {
+        check_ptr(out.cast_const(), "out")?;
+        // SAFETY: `out` is non-NULL and aligned (checked); the caller promises it is writable.
+        unsafe { out.write(std::ptr::null_mut()) };
+        check_ptr(scene, "scene")?;
+        check_ptr(backend, "backend")?;
+        // SAFETY: non-NULL and aligned (checked); the caller promises a live scene.
+        let scene = unsafe { &*scene };
+        // SAFETY: non-NULL (checked); the caller promises a NUL-terminated string.
+        let name = unsafe { CStr::from_ptr(backend) }
+            .to_str()
+            .map_err(|_| Failure::new(RAD_ERR_VALUE, "backend name is not UTF-8"))?;
+        let gather = build(&scene.file.matrix, name)?;
+        // SAFETY: as above.
+        unsafe { out.write(Box::into_raw(Box::new(gather))) };
+        Ok(())
+    })
+}
+
+/// The gather's name as the Gather trait gives it ("cpu-bc1", "gpu-bc1", "reference", ...),
+/// owned by the gather; NULL for a NULL gather.
+///
+/// # Safety
+///
+/// `gather` is NULL or a live gather.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_name(gather: *const RadGather) -> *const c_char {
+    guard("rad_gather_name", std::ptr::null(), || {
+        check_ptr(gather, "gather")?;
+        // SAFETY: non-NULL and aligned (checked); the caller promises a live gather.
+        Ok(unsafe { &*gather }.name.as_ptr())
+    })
+}
+
+/// The backend the gather runs on, "cpu", "gpu" or "reference" (what "auto" chose), a static
+/// string; NULL for a NULL gather.
+///
+/// # Safety
+///
+/// `gather` is NULL or a live gather.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_backend(gather: *const RadGather) -> *const c_char {
+    guard("rad_gather_backend", std::ptr::null(), || {
+        check_ptr(gather, "gather")?;
+        // SAFETY: non-NULL and aligned (checked); the caller promises a live gather.
+        Ok(unsafe { &*gather }.backend.as_ptr())
+    })
+}
+
+/// One gather: `y = M · x`, per-patch irradiance (W/m²) from first exitance `x` (W/m²), `n` =
+/// the scene's patch count, both in the matrix numbering. `x` and `y` may be the same array.
+/// RAD_ERR_VALUE for a non-finite `x` (nothing written), RAD_ERR_GATHER when the backend fails.
+///
+/// # Safety
+///
+/// `gather` is NULL or a live gather not in use by another thread; `x` is NULL or `n` readable
+/// values; `y` is NULL or `n` writable values.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_run(
+    gather: *mut RadGather,
+    x: *const RadRgb,
+    y: *mut RadRgb,
+    n: usize,
+) -> i32 {
+    status("rad_gather_run", || {
+        check_ptr(gather.cast_const(), "gather")?;
+        // SAFETY: non-NULL and aligned (checked); the caller promises a live gather that no
+        // other thread uses.
+        let gather = unsafe { &mut *gather };
+        let patches = gather.gather.patches();
+        if n != patches {
+            return Err(Failure::new(
+                RAD_ERR_LENGTH,
+                format!("n = {n}, the scene has {patches} patches"),
+            ));
+        }
+        // SAFETY: the caller promises `n` readable values at `x`; an overlap with `y` is
+        // copied away before `y` is borrowed.
+        let x = unsafe { read_input(x, n, y.cast_const(), n, "x") }?;
+        // SAFETY: the caller promises `n` writable values at a non-NULL `y`; `x` no longer
+        // borrows them if they overlapped.
+        let y = unsafe { slice_mut(y, n, "y") }?;
+        gather
+            .gather
+            .gather(&x, bytemuck::cast_slice_mut(y))
+            .map_err(|e| match e {
+                GatherError::Length { .. } => Failure::new(RAD_ERR_LENGTH, e.to_string()),
+                GatherError::NonFinite { .. } => Failure::new(RAD_ERR_VALUE, e.to_string()),
+                GatherError::Backend(_) => Failure::new(RAD_ERR_GATHER, e.to_string()),
+            })
+    })
+}
+
+/// Frees a gather. NULL is a no-op.
+///
+/// # Safety
+///
+/// `gather` is NULL or a gather not yet freed; no pointer it returned is used afterwards.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_free(gather: *mut RadGather) {
+    guard("rad_gather_free", (), || {
+        if !gather.is_null() {
+            // SAFETY: the caller promises a gather from Box::into_raw (rad_gather_new), freed
+            // once.
+            drop(unsafe { Box::from_raw(gather) });
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,250 @@
+//! `examples/gather.c` compiled with the system C compiler (`cc`, or `$CC`) against the
+//! header and linked against the crate's shared library, run on a small bake of the Cornell
+//! box and on sample files with and without a mesh. Its printed power per object is compared
+//! with the same sums computed here from the reference gather, which are what
+//! `radiosity solve --json` reports as `radiosity × area` (checked too when the CLI binary has
+//! been built next to this test).
+
+use radiosity_bake::pipeline::{BakeParams, Hooks, bake};
+use radiosity_bake::scene::Scene;
+use radiosity_bake::voxel::VoxelParams;
+use radiosity_core::{DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, first_exitance};
+use radiosity_tests::fixtures::sample_file;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// `target/<profile>`: this test runs from `target/<profile>/deps`.
+fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    let deps = exe.parent().expect("deps directory");
+    deps.parent().expect("profile directory").to_path_buf()
+}
+
+/// The directory holding the crate's shared library. `cargo test` builds the library with all
+/// its crate types into `deps/` (the freshest copy: `cargo build` writes there too before
+/// copying it up); failing that, `cargo build -p radiosity-capi` is run.
+fn library_dir() -> PathBuf {
+    let name = format!(
+        "{}radiosity_capi{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    );
+    let profile = profile_dir();
+    let deps = profile.join("deps");
+    if deps.join(&name).exists() {
+        return deps;
+    }
+    if !profile.join(&name).exists() {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut build = Command::new(cargo);
+        build.args(["build", "-p", "radiosity-capi"]);
+        if profile.file_name().is_some_and(|p| p == "release") {
+            build.arg("--release");
+        }
+        let status = build.status().expect("cargo runs");
+        assert!(status.success(), "cargo build -p radiosity-capi failed");
+    }
+    assert!(
+        profile.join(&name).exists(),
+        "{name} not found in {}",
+        profile.display()
+    );
+    profile
+}
+
+/// Compiles the example into `out`, returning the executable.
+fn compile_example(out: &Path) -> PathBuf {
+    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = library_dir();
+    let exe = out.join("gather");
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let output = Command::new(&cc)
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+            "-O1",
+        ])
+        .arg("-I")
+        .arg(crate_dir.join("include"))
+        .arg(crate_dir.join("examples/gather.c"))
+        .arg("-L")
+        .arg(&dir)
+        .arg("-lradiosity_capi")
+        .arg(format!("-Wl,-rpath,{}", dir.display()))
+        .arg("-lm")
+        .arg("-o")
+        .arg(&exe)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("cannot run the C compiler {cc:?} ({e}): scripts/test.sh installs gcc")
+        });
+    assert!(
+        output.status.success(),
+        "{cc} failed:\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    exe
+}
+
+/// Power per object (W) lit by the file's own emitters, as `solve` computes it: radiosity
+/// `B = E + ρ·y` with `y` from the reference gather, `Σ area·B` over the object's patches.
+fn power_per_object(file: &RadFile<'_>) -> Vec<[f64; 3]> {
+    let n = file.n();
+    let mut x = vec![Rgb::ZERO; n];
+    first_exitance(&file.patches, &vec![Rgb::ZERO; n], &mut x);
+    let mut y = vec![Rgb::ZERO; n];
+    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
+        .gather(&x, &mut y)
+        .unwrap();
+    let mut power = vec![[0f64; 3]; file.objects.len()];
+    for (p, y) in file.patches.iter().zip(&y) {
+        let b = p.emission + p.reflectance * *y;
+        for k in 0..3 {
+            power[p.object as usize][k] += f64::from(p.area) * f64::from(b.channel(k));
+        }
+    }
+    power
+}
+
+/// The example's `power` lines: index → (name, [r, g, b]).
+fn printed_power(stdout: &str) -> Vec<(String, [f64; 3])> {
+    stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("power\t"))
+        .map(|l| {
+            let f: Vec<&str> = l.split('\t').collect();
+            assert_eq!(f.len(), 6, "power line {l:?}");
+            let v = |i: usize| f[i].parse::<f64>().unwrap();
+            (f[1].to_owned(), [v(3), v(4), v(5)])
+        })
+        .collect()
+}
+
+fn close(a: f64, b: f64, scale: f64) -> bool {
+    (a - b).abs() <= 1e-5 * scale.max(1e-12)
+}
+
+/// Runs the example on `file` written to `dir/name`, checks it passed and its power, and
+/// returns its output.
+fn run_example(exe: &Path, dir: &Path, name: &str, file: &RadFile<'_>) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, file.to_bytes().unwrap()).unwrap();
+    let output = Command::new(exe)
+        .arg(&path)
+        .arg(dir.join(format!("{name}.garbage")))
+        .env("NODEVICE_SELECT", "1")
+        .output()
+        .expect("the example runs");
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success(),
+        "gather {name} failed ({}):\n{stdout}\n{stderr}",
+        output.status
+    );
+    assert_eq!(stdout.lines().last(), Some("ok"), "{stdout}");
+    let want = power_per_object(file);
+    let got = printed_power(&stdout);
+    assert_eq!(got.len(), file.objects.len(), "{stdout}");
+    let scale = want.iter().flatten().fold(0f64, |m, v| m.max(v.abs()));
+    for (o, ((name, g), w)) in got.iter().zip(&want).enumerate() {
+        assert_eq!(name, file.objects[o].as_ref());
+        for k in 0..3 {
+            assert!(
+                close(g[k], w[k], scale),
+                "object {o} ({name}) channel {k}: example {} here {}",
+                g[k],
+                w[k]
+            );
+        }
+    }
+    // Every bad input was refused with a message (the example exits 1 otherwise).
+    let refused = stdout
+        .lines()
+        .filter(|l| l.starts_with("refused\t"))
+        .count();
+    assert!(refused >= 30, "only {refused} refusals:\n{stdout}");
+    stdout
+}
+
+/// When the CLI binary sits next to this test, `solve --json --backend reference` must report
+/// the same power: its per-object mean radiosity times its area.
+fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
+    let cli = profile_dir().join(format!("radiosity{}", std::env::consts::EXE_SUFFIX));
+    if !cli.exists() {
+        eprintln!(
+            "note: {} not built; solve --json comparison skipped",
+            cli.display()
+        );
+        return;
+    }
+    let output = Command::new(&cli)
+        .args(["solve", "--json", "--backend", "reference"])
+        .arg(path)
+        .output()
+        .expect("radiosity runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let objects = json["objects"].as_array().expect("objects");
+    assert_eq!(objects.len(), power.len());
+    let scale = power
+        .iter()
+        .flat_map(|p| p.1)
+        .fold(0f64, |m, v| m.max(v.abs()));
+    for (o, (name, p)) in objects.iter().zip(power) {
+        assert_eq!(o["name"].as_str(), Some(name.as_str()));
+        let area = o["area"].as_f64().unwrap();
+        for k in 0..3 {
+            let b = o["radiosity"][k].as_f64().unwrap();
+            assert!(
+                close(b * area, p[k], scale),
+                "{name} channel {k}: solve {} example {}",
+                b * area,
+                p[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn c_example_on_a_baked_cornell_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile_example(dir.path());
+    let obj =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
+    let scene = Scene::load_obj(&obj).expect("Cornell box loads");
+    let params = BakeParams {
+        voxel: VoxelParams::with_patches(150),
+        ..BakeParams::fast()
+    };
+    let out = bake(&scene, &params, Hooks::default()).expect("bakes");
+    assert!(out.file.mesh.is_some(), "the bake stores the mesh");
+    let stdout = run_example(&exe, dir.path(), "cornell.rad", &out.file);
+    assert!(stdout.contains("backend\tcpu\tcpu\tcpu-"), "{stdout}");
+    assert!(
+        stdout.lines().any(|l| l.starts_with("corners\t")),
+        "{stdout}"
+    );
+    compare_with_solve(&dir.path().join("cornell.rad"), &printed_power(&stdout));
+}
+
+#[test]
+fn c_example_on_sample_files_with_and_without_a_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile_example(dir.path());
+    let with_mesh = sample_file(70, 3, Format::Bc1, 32);
+    let stdout = run_example(&exe, dir.path(), "sample.rad", &with_mesh);
+    assert!(stdout.contains("scene\t70\t2\t2\n"), "{stdout}");
+    let mut grey = sample_file(40, 1, Format::Bc4, 16);
+    grey.mesh = None;
+    let stdout = run_example(&exe, dir.path(), "grey.rad", &grey);
+    assert!(stdout.contains("scene\t40\t2\t0\n"), "{stdout}");
+    assert!(!stdout.contains("corners\t"), "{stdout}");
+}
