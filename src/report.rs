@@ -29,8 +29,8 @@ use radiosity_bake::pipeline::{
 use radiosity_bake::scene::Scene;
 use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
 use radiosity_bake::voxel::VoxelParams;
-use radiosity_benches::peers::{FaerDense, JacobiBounces, LuSolve};
-use radiosity_benches::timing::{interleaved_medians, median, ms, runs_for};
+use radiosity_perf::peers::{FaerDense, JacobiBounces, LuSolve};
+use radiosity_perf::timing::{interleaved_medians, median, ms, runs_for};
 use radiosity_core::{DecodeMode, Format, Gather, Rgb};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
