@@ -20,21 +20,18 @@
 mod rows;
 
 use crate::embedded;
-use rows::{Row, encoded_rows, peer_rows};
 use anyhow::{Context, bail};
-use radiosity_backend_cpu::CpuGather;
-use radiosity_bake::encode::{
-    EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
-};
+use radiosity_bake::encode::{EncodeParams, ErrorWeights};
 use radiosity_bake::order::{self, DenseMatrix, OrderKind, OrderParams};
 use radiosity_bake::pipeline::{BakeParams, Discretised, Hooks, discretise};
 use radiosity_bake::rng::SplitMix64;
 use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
 use radiosity_bake::voxel::VoxelParams;
-use radiosity_perf::peers::{Cost, FaerDense, JacobiBounces, LuSolve, gather_cost};
+use radiosity_core::{Format, Rgb};
+use radiosity_perf::peers::LuSolve;
 use radiosity_perf::roofline::Roofline;
 use radiosity_perf::timing::{interleaved_medians, ms, runs_for};
-use radiosity_core::{Format, Gather, Rgb};
+use rows::{Row, encoded_rows, peer_rows};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};

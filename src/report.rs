@@ -26,7 +26,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use markdown::{Notes, markdown};
 use measure::{Timer, sample, time_in_turns};
 use radiosity_bake::order::OrderKind;
-use radiosity_bake::pipeline::{BakeOutput, BakeParams, Discretised, FormatChoice, Hooks, discretise};
+use radiosity_bake::pipeline::{
+    BakeOutput, BakeParams, Discretised, FormatChoice, Hooks, discretise,
+};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::transfer::BounceSpec;
 use radiosity_bake::voxel::VoxelParams;
@@ -255,7 +257,15 @@ pub(crate) fn run(quick: bool, out: &Path) -> anyhow::Result<()> {
             samples.push(s);
         }
         let by_order = if target == plan.middle {
-            middle_sweeps(&level, &params, &plan, &mut gpu, &mut samples, &mut timers, &bar)?
+            middle_sweeps(
+                &level,
+                &params,
+                &plan,
+                &mut gpu,
+                &mut samples,
+                &mut timers,
+                &bar,
+            )?
         } else {
             Vec::new()
         };

@@ -23,8 +23,8 @@
 //! halves). Every function here is compiled with `avx2,fma,f16c` and only entered after
 //! runtime detection ([`crate::SimdPath::Avx2Fma`]).
 
-use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
 use crate::block_row::{Ctx, RowBody, X4, finish_rows};
+use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
 use radiosity_core::bytemuck::cast;
 use radiosity_core::{Format, Rgb};
 use std::arch::x86_64::*;

@@ -20,7 +20,7 @@ impl X4 {
     pub(crate) const ZERO: X4 = X4([0.0; 4]);
 }
 
-/// A block-row body of its own (`avx512.rs`, `ymm.rs`): output rows `4r..4r + out.len()` from
+/// A block-row body of its own (`avx512.rs`, `avx2.rs`): output rows `4r..4r + out.len()` from
 /// the exitance in [`X4`] layout. Unsafe to call: the CPU must have the features its path needs.
 #[cfg(target_arch = "x86_64")]
 pub(crate) type RowBody = unsafe fn(&Ctx<'_, '_>, &[X4], usize, &mut [Rgb]);
@@ -47,12 +47,7 @@ pub(crate) struct Ctx<'a, 'm> {
 
 /// Block row `r` (output rows `4r..4r + out.len()`) on the chosen path.
 #[inline]
-pub(crate) fn dispatch<K: Kernel>(
-    ctx: &Ctx<'_, '_>,
-    simd: SimdPath,
-    r: usize,
-    out: &mut [Rgb],
-) {
+pub(crate) fn dispatch<K: Kernel>(ctx: &Ctx<'_, '_>, simd: SimdPath, r: usize, out: &mut [Rgb]) {
     match simd {
         #[cfg(target_arch = "x86_64")]
         SimdPath::Avx2Fma | SimdPath::Avx512 => {

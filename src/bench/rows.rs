@@ -87,7 +87,13 @@ pub(super) fn encoded_rows(
 
 /// The peers in the bake's numbering: faer's dense mat-vec of `m` (dropped once copied),
 /// Jacobi bounces with F, and the LU solve per frame (`lu`, factorised in `lu_setup` ms).
-pub(super) fn peer_rows(sys: &Discretised, m: Vec<f32>, lu: LuSolve, lu_setup: f64, rows: &mut Vec<Row>) {
+pub(super) fn peer_rows(
+    sys: &Discretised,
+    m: Vec<f32>,
+    lu: LuSolve,
+    lu_setup: f64,
+    rows: &mut Vec<Row>,
+) {
     let (n, channels) = (sys.len(), sys.channels);
     let t = Instant::now();
     let faer = FaerDense::new(n, channels, &m);

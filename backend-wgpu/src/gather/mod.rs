@@ -288,15 +288,13 @@ impl WgpuGather {
     fn record_pass(&self, encoder: &mut wgpu::CommandEncoder) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("gather"),
-            timestamp_writes: self
-                .buffers
-                .timer
-                .as_ref()
-                .map(|t| wgpu::ComputePassTimestampWrites {
+            timestamp_writes: self.buffers.timer.as_ref().map(|t| {
+                wgpu::ComputePassTimestampWrites {
                     query_set: &t.queries,
                     beginning_of_pass_write_index: Some(0),
                     end_of_pass_write_index: Some(1),
-                }),
+                }
+            }),
         });
         pass.set_pipeline(&self.pipelines.gather);
         for d in &self.bands {

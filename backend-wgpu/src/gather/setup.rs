@@ -32,8 +32,7 @@ fn column_splits(row_workgroups: usize, cols: usize, max: u32) -> usize {
 
 /// `v` as a `u32` for a uniform, or why the matrix is too large for one.
 pub(super) fn u32_of(v: usize, what: &str) -> Result<u32, GpuError> {
-    u32::try_from(v)
-        .map_err(|_| GpuError::Unsupported(format!("{what} {v} does not fit 32 bits")))
+    u32::try_from(v).map_err(|_| GpuError::Unsupported(format!("{what} {v} does not fit 32 bits")))
 }
 
 /// The limits a plan respects: the device's, lowered by the caps of `options`.

@@ -1,7 +1,10 @@
 //! Serialising ([`RadFile::to_bytes`]) and [`reseal`].
 
-use super::{Header, MAGIC, Meta, RadFile, SectionEntry, VERSION, align, header_checksum, opt_to_f32};
+use super::{
+    Header, MAGIC, Meta, RadFile, SectionEntry, VERSION, align, header_checksum, opt_to_f32,
+};
 use crate::checksum::crc32;
+use crate::mesh::Mesh;
 use crate::{RadError, SectionKind};
 use alloc::borrow::Cow;
 use alloc::string::String;

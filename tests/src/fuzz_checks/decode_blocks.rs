@@ -1,17 +1,9 @@
 //! `decode_blocks`: the BC1 and BC4 decoders under both decode rules, against each other and
 //! the reference decoders.
 
-use radiosity_bake::encode::{
-    EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense, encode_dense_with,
-};
-use radiosity_core::container::reseal;
-use radiosity_core::half::f16_to_f32;
 use radiosity_core::{
-    Bounces, DEFAULT_SHIFT, DecodeMode, Format, Gather, Patch, PatchOrder, RadFile,
-    ReferenceGather, Rgb, SectionKind, SparseRows, TransferMatrix, decode_bc1_block,
-    decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
+    DecodeMode, decode_bc1_block, decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
 };
-use std::borrow::Cow;
 
 /// Largest difference between the [`DecodeMode::Mesa`] and [`DecodeMode::D3d10`] palettes on an
 /// interpolated BC1 entry, per channel. Both round `e0 + (e1 − e0)·k` for k = 1/3, 2/3 (four

@@ -4,12 +4,10 @@
 use radiosity_bake::encode::{
     EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense, encode_dense_with,
 };
-use radiosity_core::container::reseal;
 use radiosity_core::half::f16_to_f32;
 use radiosity_core::{
     Bounces, DEFAULT_SHIFT, DecodeMode, Format, Gather, Patch, PatchOrder, RadFile,
-    ReferenceGather, Rgb, SectionKind, SparseRows, TransferMatrix, decode_bc1_block,
-    decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
+    ReferenceGather, Rgb, SectionKind, SparseRows, TransferMatrix,
 };
 use std::borrow::Cow;
 
@@ -280,7 +278,7 @@ fn correction_dense(m: &TransferMatrix<'_>) -> Vec<f32> {
 }
 
 /// The byte range of section `kind` among `ranges` ([`radiosity_core::container::section_ranges`]).
-fn section_range(
+pub(super) fn section_range(
     ranges: &[(SectionKind, std::ops::Range<usize>)],
     kind: SectionKind,
 ) -> std::ops::Range<usize> {

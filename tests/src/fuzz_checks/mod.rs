@@ -29,4 +29,3 @@ pub const TARGETS: [(&str, Check); 3] = [
     ("parse_container", check_parse_container),
     ("encode_roundtrip", check_encode_roundtrip),
 ];
-

@@ -1,16 +1,7 @@
 //! `parse_container`: `RadFile::parse` on any bytes, and what a parsed file must satisfy.
 
-use radiosity_bake::encode::{
-    EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense, encode_dense_with,
-};
 use radiosity_core::container::reseal;
-use radiosity_core::half::f16_to_f32;
-use radiosity_core::{
-    Bounces, DEFAULT_SHIFT, DecodeMode, Format, Gather, Patch, PatchOrder, RadFile,
-    ReferenceGather, Rgb, SectionKind, SparseRows, TransferMatrix, decode_bc1_block,
-    decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
-};
-use std::borrow::Cow;
+use radiosity_core::{DecodeMode, Gather, RadFile, ReferenceGather, Rgb};
 
 /// `RadFile::parse` must answer every input without a panic; so must it after
 /// [`reseal`] recomputed the checksums (which lets mutations reach the semantic checks behind

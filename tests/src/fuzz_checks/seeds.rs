@@ -1,16 +1,9 @@
 //! The seed corpus of every target, deterministic.
 
-use radiosity_bake::encode::{
-    EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense, encode_dense_with,
-};
+use super::encode_roundtrip::{EncodeCase, rad_file_around, section_range};
+use radiosity_bake::encode::encode_dense;
+use radiosity_core::SectionKind;
 use radiosity_core::container::reseal;
-use radiosity_core::half::f16_to_f32;
-use radiosity_core::{
-    Bounces, DEFAULT_SHIFT, DecodeMode, Format, Gather, Patch, PatchOrder, RadFile,
-    ReferenceGather, Rgb, SectionKind, SparseRows, TransferMatrix, decode_bc1_block,
-    decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,
-};
-use std::borrow::Cow;
 
 /// One seed file: the target's corpus folder, a file name, the bytes.
 #[derive(Clone, Debug)]
