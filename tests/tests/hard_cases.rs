@@ -16,9 +16,9 @@
 //! Σ_j B_j Σ_i A_i F_ij = Σ_j A_j B_j Σ_i F_ji` by reciprocity (`A_i F_ij = A_j F_ji`), and
 //! `Σ_i F_ji ≤ 1` (= 1 when closed): arriving ≤ leaving = `Σ A B = Σ A E + Σ A ρ H`. Moving
 //! `Σ A ρ H` to the left gives the bound. Finite K leaves out the later bounces, which only
-//! lowers H. "What the emitters can supply" is therefore the absorbed
-//! power; the arriving power `Σ A H` itself may exceed `Σ A E` (by up to `1/(1 − ρ_max)`, as in
-//! the furnace), which `assert_energy` checks too.
+//! lowers H. "What the emitters can supply" is therefore the absorbed power; the arriving
+//! power `Σ A H` itself may exceed `Σ A E` (by up to `1/(1 − ρ_max)`, as in the furnace),
+//! which `assert_energy` checks too.
 //!
 //! One file (over 600 lines) on purpose: every case asserts the bound derived above with the
 //! same scene builders and checks, which read best beside it.
