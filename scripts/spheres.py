@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Sphere scenes with closed-form radiosity (../shared/reference/multibounce.md section 3).
+"""Sphere scenes with closed-form radiosity: inside a sphere every F_ij = A_j / A; nested
+spheres exchange light by their areas alone.
 
     scripts/spheres.py inside  LEVEL RHO OUT.obj   # icosphere seen from inside, split at y = 0:
-                                                   # "top" emits E = 1, "bottom" does not (3c)
+                                                   # "top" emits E = 1, "bottom" does not
     scripts/spheres.py nested  LEVEL RHO OUT.obj   # emitting icosphere of radius 0.5, facing out,
-                                                   # in one of radius 1 facing in (3b)
+                                                   # in one of radius 1 facing in
     scripts/spheres.py uv      SEGMENTS RHO OUT.obj  # UV sphere (SEGMENTS x SEGMENTS/2) seen
                                                    # from inside, every facet emitting E = 1
 

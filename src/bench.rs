@@ -1,5 +1,5 @@
 //! `radiosity bench [--patches N] [--json] [--runs R]`: the per-frame gather in every format
-//! against its peers (DESIGN.md, "Peers"), on the embedded Cornell box, in one run.
+//! against its peers, on the embedded Cornell box, in one run.
 //!
 //! Setup (progress on stderr): discretise the box into about N patches, compute the exact
 //! transfer matrix `M = (I − F^C)⁻¹ F` (all bounces), order the patches (the paper's neighbour
@@ -15,29 +15,27 @@
 //! A roofline measured on this machine (streaming-read bandwidth, 256-bit FMA rate) bounds each
 //! row from below.
 //!
-//! Adding a backend is pushing one more [`Row`] (see `rows` in [`run`]).
+//! Adding a backend is pushing one more [`Row`] (see [`encoded_rows`] and [`peer_rows`]).
+
+mod rows;
 
 use crate::embedded;
 use anyhow::{Context, bail};
-use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
-use radiosity_bake::encode::{
-    EncodeParams, ErrorWeights, SparseSelection, default_sparse_fraction, encode_dense_with,
-};
+use radiosity_bake::encode::{EncodeParams, ErrorWeights};
 use radiosity_bake::order::{self, DenseMatrix, OrderKind, OrderParams};
-use radiosity_bake::pipeline::{BakeParams, Hooks, discretise};
+use radiosity_bake::pipeline::{BakeParams, Discretised, Hooks, discretise};
 use radiosity_bake::rng::SplitMix64;
 use radiosity_bake::simplify::VoxelParams;
-use radiosity_benches::peers::{Cost, FaerDense, JacobiBounces, LuSolve, gather_cost};
-use radiosity_benches::roofline::Roofline;
-use radiosity_benches::timing::{interleaved_medians, ms, runs_for};
-use radiosity_core::{Format, Gather, Rgb};
+use radiosity_core::{Format, Rgb};
+use radiosity_perf::peers::LuSolve;
+use radiosity_perf::roofline::Roofline;
+use radiosity_perf::timing::{interleaved_medians, ms, runs_for};
+use rows::{Row, encoded_rows, peer_rows};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-/// Jacobi bounce iterations per frame for the classical-radiosity peer (DESIGN.md: `jacobi-8`).
-const JACOBI_ITERATIONS: usize = 8;
 /// Largest patch count: the dense peers and the exact solution hold about 80·n² bytes
 /// (5.4 GB at 8192).
 const MAX_PATCHES: usize = 8192;
@@ -58,21 +56,6 @@ struct Measured {
     runs: usize,
     x: Vec<Rgb>,
     y: Vec<Rgb>,
-}
-
-/// One method measured: a gather, which numbering its vectors use, and its cost per call.
-pub(crate) struct Row {
-    /// `cpu-bc1`, `faer-dense-f32`, … (DESIGN.md names).
-    pub(crate) method: String,
-    pub(crate) gather: Box<dyn Gather>,
-    /// Vectors in the file's numbering (the encoded matrices) rather than the bake's.
-    pub(crate) file_order: bool,
-    pub(crate) cost: Cost,
-    /// One-off preparation (encoding, factorisation), ms.
-    pub(crate) setup_ms: f64,
-    /// GPU rows: median GPU time of the kernels alone (timestamps), ms.
-    pub(crate) kernel_ms: Option<f64>,
-    pub(crate) note: String,
 }
 
 /// A measured row, as printed and as JSON.
@@ -139,7 +122,8 @@ struct Report {
     timings_ms: BTreeMap<&'static str, f64>,
 }
 
-/// Runs the bench and prints the table (or JSON).
+/// Runs the bench and prints the table (or JSON): the system, its exact answers, the encoded
+/// and peer rows, the roofline, then every row checked and timed in turns.
 pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Result<()> {
     if patches == 0 {
         bail!("--patches must be at least 1");
@@ -174,8 +158,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     )
     .context("cannot discretise the Cornell box")?;
     timings.insert("discretise", ms(t.elapsed()));
-    let n = sys.len();
-    let channels = sys.channels;
+    let (n, channels) = (sys.len(), sys.channels);
 
     // M with every bounce (what the bake stores), in the bake's numbering.
     stage("transfer (LU)");
@@ -184,135 +167,165 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         .context("cannot compute the transfer matrix")?;
     timings.insert("transfer", ms(t.elapsed()));
 
-    // The exact oracle, which is also the lu-per-frame peer.
     stage("factorise I − F^C");
-    let t = Instant::now();
-    let mut lu = LuSolve::new(&sys.f, &sys.reflectance);
-    let lu_setup = ms(t.elapsed());
-    timings.insert("lu_factorise", lu_setup);
-    let emission: Vec<Rgb> = sys.core_patches.iter().map(|p| p.emission).collect();
-    let mut rng = SplitMix64(0xbe7c);
-    let random: Vec<Rgb> = (0..n)
-        .map(|_| Rgb::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
-        .collect();
-    let to64 =
-        |v: &[Rgb]| -> Vec<[f64; 3]> { v.iter().map(|x| x.to_array().map(f64::from)).collect() };
-    let lit = emission.iter().any(|e| e.max_channel() > 0.0);
-    let exact_emission = lu.solve(&to64(&emission));
-    let exact_random = lu.solve(&to64(&random));
-
-    // Patch order, then every format.
+    let oracle = Oracle::new(&sys, &mut timings);
     stage("order (paper)");
-    let t = Instant::now();
-    let bc1_params = EncodeParams::for_format(Format::Bc1);
-    let perm = order::permutation(
-        OrderKind::Paper,
-        &sys.core_patches,
-        DenseMatrix::new(n, channels, &m),
-        &OrderParams::for_encode(bc1_params),
-    )
-    .context("cannot order the patches")?;
-    let m_file = order::permute(&m, n, channels, &perm);
-    // Encoded as the bake encodes: errors weighed for the box's own light and runtime light
-    // alike, sparse entries chosen by that error.
-    let file_emission: Vec<Rgb> = order::permute_rows(&sys.core_patches, &perm)
-        .iter()
-        .map(|p| p.emission)
-        .collect();
-    let weights = ErrorWeights::for_emitters(&file_emission);
-    timings.insert("order", ms(t.elapsed()));
-
-    let mut rows: Vec<Row> = Vec::new();
-    // GPU rows on the best adapter when there is one (DESIGN.md: `gpu-…` when an adapter exists).
-    let gpu = radiosity_backend_wgpu::adapters().into_iter().next();
-    if gpu.is_none() {
-        eprintln!("note: no GPU adapter: gpu-… rows skipped");
-    }
-    for format in Format::ALL {
-        if format == Format::Bc1 && channels == 1 {
-            eprintln!("note: cpu-bc1 skipped: the scene is grey and BC1 cannot hold one channel");
-            continue;
-        }
-        stage(&format!("encode {}", format.name()));
-        let t = Instant::now();
-        let encode = EncodeParams {
-            sparse_fraction: default_sparse_fraction(format, channels),
-            ..EncodeParams::for_format(format)
-        };
-        let matrix = encode_dense_with(
-            n,
-            channels,
-            &m_file,
-            &encode,
-            &weights,
-            SparseSelection::ErrorDriven,
-        )
-        .with_context(|| format!("cannot encode in {}", format.name()))?;
-        let setup_ms = ms(t.elapsed());
-        let cost = gather_cost(&matrix);
-        let sparse = matrix.sparse.nnz();
-        if let Some(adapter) = &gpu {
-            gpu_rows(adapter, &matrix, cost, setup_ms, &mut rows)?;
-        }
-        let gather = CpuGather::new(matrix);
-        let note = format!("SIMD path {}, {sparse} sparse entries", gather.path());
-        rows.push(Row {
-            method: format!("cpu-{}", format.name()),
-            gather: Box::new(gather),
-            file_order: true,
-            cost,
-            setup_ms,
-            kernel_ms: None,
-            note,
-        });
-    }
-    drop(m_file);
+    let ordered = Ordered::new(&sys, &m, &mut timings)?;
+    let mut rows = encoded_rows(n, channels, ordered.m_file, &ordered.weights, &stage)?;
     timings.insert("encode", rows.iter().map(|r| r.setup_ms).sum());
-
     stage("peers");
-    let t = Instant::now();
-    let faer = FaerDense::new(n, channels, &m);
-    drop(m);
-    rows.push(Row {
-        method: "faer-dense-f32".into(),
-        cost: faer.cost(),
-        gather: Box::new(faer),
-        file_order: false,
-        setup_ms: ms(t.elapsed()),
-        kernel_ms: None,
-        note: format!("faer matmul, the same M unquantised, {channels} channel matrices"),
-    });
-    let t = Instant::now();
-    let jacobi = JacobiBounces::new(&sys.f, &sys.reflectance, JACOBI_ITERATIONS);
-    rows.push(Row {
-        method: format!("jacobi-{JACOBI_ITERATIONS}"),
-        cost: jacobi.cost(),
-        gather: Box::new(jacobi),
-        file_order: false,
-        setup_ms: ms(t.elapsed()),
-        kernel_ms: None,
-        note: format!(
-            "{JACOBI_ITERATIONS} bounce iterations with F (f32, faer): its error is the bounces it leaves out"
-        ),
-    });
-    rows.push(Row {
-        method: "lu-per-frame".into(),
-        cost: lu.cost(),
-        gather: Box::new(lu),
-        file_order: false,
-        setup_ms: lu_setup,
-        kernel_ms: None,
-        note: "F·x and triangular solves (f64); the factorisation of I − F^C is made once and reused: it depends only on geometry and reflectance".into(),
-    });
+    peer_rows(&sys, m, oracle.lu, oracle.lu_setup, &mut rows);
 
     stage("roofline");
     let t = Instant::now();
     let roof = Roofline::measure(ROOFLINE_BYTES, 5);
     timings.insert("roofline", ms(t.elapsed()));
 
-    // Errors of every row, and how many calls each gets.
-    let mut measured = Vec::new();
+    let perm = &ordered.perm;
     bar.set_length(rows.len() as u64);
+    let measured = check_rows(&mut rows, perm, &oracle.answers, runs, &bar, &stage)?;
+    stage("time every method in turns");
+    bar.set_position(rows.len() as u64);
+    let out_rows = time_rows(&mut rows, measured, &roof)?;
+    bar.finish_and_clear();
+
+    let ratios = ratios(&out_rows);
+    let report = Report {
+        patches: n,
+        scene: "cornell-box (embedded CornellBox-Original)",
+        channels,
+        order: "paper",
+        threads: rayon::current_num_threads(),
+        simd_path: radiosity_backend_cpu::SimdPath::detect().name(),
+        roofline: RooflineOut {
+            bandwidth_gb_s: roof.bandwidth / 1e9,
+            fma_gflop_s: roof.fma_rate / 1e9,
+            fma_path: roof.fma_path,
+            buffer_bytes: roof.buffer_bytes,
+        },
+        rows: out_rows,
+        ratios,
+        timings_ms: timings,
+    };
+    if json {
+        outln!(
+            "{}",
+            serde_json::to_string_pretty(&report).context("cannot serialise the report")?
+        );
+    } else {
+        print_text(&report);
+    }
+    Ok(())
+}
+
+/// The two exitances every row is checked with and their exact irradiance, in the bake's
+/// numbering.
+struct Answers {
+    /// The scene's own light.
+    emission: Vec<Rgb>,
+    /// A seeded random exitance on every patch (every column counts).
+    random: Vec<Rgb>,
+    /// Whether the scene has any light (else its row has no error).
+    lit: bool,
+    exact_emission: Vec<[f64; 3]>,
+    exact_random: Vec<[f64; 3]>,
+}
+
+/// The exact oracle, which is also the lu-per-frame peer, and the answers it gives.
+struct Oracle {
+    lu: LuSolve,
+    /// Its factorisation time, ms.
+    lu_setup: f64,
+    answers: Answers,
+}
+
+impl Oracle {
+    /// Factorises `I − F^C` of `sys` and solves for the scene's light and a random exitance.
+    fn new(sys: &Discretised, timings: &mut BTreeMap<&'static str, f64>) -> Self {
+        let t = Instant::now();
+        let mut lu = LuSolve::new(&sys.f, &sys.reflectance);
+        let lu_setup = ms(t.elapsed());
+        timings.insert("lu_factorise", lu_setup);
+        let emission: Vec<Rgb> = sys.core_patches.iter().map(|p| p.emission).collect();
+        let mut rng = SplitMix64(0xbe7c);
+        let random: Vec<Rgb> = (0..sys.len())
+            .map(|_| Rgb::new(rng.next_f32(), rng.next_f32(), rng.next_f32()))
+            .collect();
+        let to64 = |v: &[Rgb]| -> Vec<[f64; 3]> {
+            v.iter().map(|x| x.to_array().map(f64::from)).collect()
+        };
+        let lit = emission.iter().any(|e| e.max_channel() > 0.0);
+        let exact_emission = lu.solve(&to64(&emission));
+        let exact_random = lu.solve(&to64(&random));
+        Oracle {
+            lu,
+            lu_setup,
+            answers: Answers {
+                emission,
+                random,
+                lit,
+                exact_emission,
+                exact_random,
+            },
+        }
+    }
+}
+
+/// The file's numbering and what the encoders weigh errors by.
+struct Ordered {
+    /// File patch → bake patch (the paper's neighbour sort).
+    perm: Vec<u32>,
+    /// M in the file's numbering.
+    m_file: Vec<f32>,
+    weights: ErrorWeights,
+}
+
+impl Ordered {
+    /// Orders the patches of `sys` as the bake does for BC1 and permutes `m` to match.
+    fn new(
+        sys: &Discretised,
+        m: &[f32],
+        timings: &mut BTreeMap<&'static str, f64>,
+    ) -> anyhow::Result<Self> {
+        let (n, channels) = (sys.len(), sys.channels);
+        let t = Instant::now();
+        let bc1_params = EncodeParams::for_format(Format::Bc1);
+        let perm = order::permutation(
+            OrderKind::Paper,
+            &sys.core_patches,
+            DenseMatrix::new(n, channels, m),
+            &OrderParams::for_encode(bc1_params),
+        )
+        .context("cannot order the patches")?;
+        let m_file = order::permute(m, n, channels, &perm);
+        // Encoded as the bake encodes: errors weighed for the box's own light and runtime
+        // light alike, sparse entries chosen by that error.
+        let file_emission: Vec<Rgb> = order::permute_rows(&sys.core_patches, &perm)
+            .iter()
+            .map(|p| p.emission)
+            .collect();
+        let weights = ErrorWeights::for_emitters(&file_emission);
+        timings.insert("order", ms(t.elapsed()));
+        Ok(Ordered {
+            perm,
+            m_file,
+            weights,
+        })
+    }
+}
+
+/// Errors of every row against the exact answers, and how many calls each gets (`runs`, or
+/// about [`TIME_BUDGET`] of them). `perm` maps the file's numbering to the bake's.
+fn check_rows(
+    rows: &mut [Row],
+    perm: &[u32],
+    answers: &Answers,
+    runs: Option<usize>,
+    bar: &indicatif::ProgressBar,
+    stage: &dyn Fn(&str),
+) -> anyhow::Result<Vec<Measured>> {
+    let n = answers.emission.len();
+    let mut measured = Vec::new();
     for (i, row) in rows.iter_mut().enumerate() {
         bar.set_position(i as u64);
         stage(&format!("check {}", row.method));
@@ -323,8 +336,8 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
                 v.to_vec()
             }
         };
-        let x_emission = file(&emission);
-        let x_random = file(&random);
+        let x_emission = file(&answers.emission);
+        let x_random = file(&answers.random);
         let mut y = vec![Rgb::ZERO; n];
         let mut error_for = |x: &[Rgb], exact: &[[f64; 3]]| -> anyhow::Result<f64> {
             row.gather
@@ -339,12 +352,12 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             };
             Ok(relative_l2(&y, exact_in_order))
         };
-        let rel_error = if lit {
-            Some(error_for(&x_emission, &exact_emission)?)
+        let rel_error = if answers.lit {
+            Some(error_for(&x_emission, &answers.exact_emission)?)
         } else {
             None
         };
-        let rel_error_random = error_for(&x_random, &exact_random)?;
+        let rel_error_random = error_for(&x_random, &answers.exact_random)?;
 
         let t = Instant::now();
         row.gather
@@ -359,12 +372,17 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             y,
         });
     }
+    Ok(measured)
+}
 
-    // Time every row in turns (`TIMING_ROUNDS` rounds), so that outside load on a shared
-    // machine slows them alike and the ratios between them hold.
-    // (The bar is not moved inside the timed calls.)
-    stage("time every method in turns");
-    bar.set_position(rows.len() as u64);
+/// Times every row in turns (`TIMING_ROUNDS` rounds), so that outside load on a shared
+/// machine slows them alike and the ratios between them hold, and sets each against the
+/// roofline.
+fn time_rows(
+    rows: &mut [Row],
+    mut measured: Vec<Measured>,
+    roof: &Roofline,
+) -> anyhow::Result<Vec<RowOut>> {
     let run_counts: Vec<usize> = measured.iter().map(|m| m.runs).collect();
     let mut failed = None;
     let times = interleaved_medians(&run_counts, TIMING_ROUNDS, |i| {
@@ -404,8 +422,11 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             note: row.note.clone(),
         });
     }
-    bar.finish_and_clear();
+    Ok(out_rows)
+}
 
+/// `cpu-bc1`'s speed-ups over faer and the Jacobi bounces, with their targets.
+fn ratios(out_rows: &[RowOut]) -> Vec<Ratio> {
     let time_of = |name: &str| out_rows.iter().find(|r| r.method == name).map(|r| r.ms);
     let mut ratios = Vec::new();
     for (against, target) in [("faer-dense-f32", 4.0), ("jacobi-8", 10.0)] {
@@ -420,101 +441,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             });
         }
     }
-    let report = Report {
-        patches: n,
-        scene: "cornell-box (embedded CornellBox-Original)",
-        channels,
-        order: "paper",
-        threads: rayon::current_num_threads(),
-        simd_path: radiosity_backend_cpu::SimdPath::detect().name(),
-        roofline: RooflineOut {
-            bandwidth_gb_s: roof.bandwidth / 1e9,
-            fma_gflop_s: roof.fma_rate / 1e9,
-            fma_path: roof.fma_path,
-            buffer_bytes: roof.buffer_bytes,
-        },
-        rows: out_rows,
-        ratios,
-        timings_ms: timings,
-    };
-    if json {
-        outln!(
-            "{}",
-            serde_json::to_string_pretty(&report).context("cannot serialise the report")?
-        );
-    } else {
-        print_text(&report);
-    }
-    Ok(())
-}
-
-/// The `gpu-<format>` row on `adapter` (its default decode path) and, for a BC matrix on an
-/// adapter with BC textures, the other path too (`gpu-<format>-software` decoding in the
-/// shader, or `gpu-<format>-hardware` decoding in the texture unit), timed side by side. The roofline of these rows is the CPU's: right for a software
-/// rasteriser (llvmpipe), only a reference for a real GPU.
-fn gpu_rows(
-    adapter: &radiosity_backend_wgpu::Adapter,
-    matrix: &radiosity_core::TransferMatrix<'_>,
-    cost: Cost,
-    setup_ms: f64,
-    rows: &mut Vec<Row>,
-) -> anyhow::Result<()> {
-    use radiosity_backend_wgpu::{DecodePath, GpuOptions, WgpuGather};
-    let format = matrix.layout.format();
-    let mut push = |path: DecodePath, suffix: &str| -> anyhow::Result<DecodePath> {
-        let t = Instant::now();
-        let options = GpuOptions {
-            path,
-            ..GpuOptions::default()
-        };
-        let mut gather = WgpuGather::on_adapter(matrix, adapter, &options)
-            .with_context(|| format!("cannot build the GPU gather on {}", adapter.info))?;
-        let chosen = gather.path();
-        let mut note = format!(
-            "{}, {} decode, {} dispatches, {:.1} MB on the device",
-            gather.adapter(),
-            chosen,
-            gather.dispatches(),
-            gather.device_bytes() as f64 / 1e6
-        );
-        // The kernels alone (GPU timestamps): what a frame costs when y stays on the GPU.
-        let x = vec![Rgb::splat(1.0); gather.patches()];
-        let mut y = x.clone();
-        let mut kernel = Vec::new();
-        for _ in 0..21 {
-            gather.gather(&x, &mut y)?;
-            kernel.extend(gather.kernel_ms());
-        }
-        kernel.sort_by(f64::total_cmp);
-        let kernel_ms = kernel.get(kernel.len() / 2).copied();
-        if let Some(k) = kernel_ms {
-            note += &format!(
-                "; kernels {k:.3} ms (GPU timestamps, median of 21), {:.1} GB/s",
-                cost.bytes as f64 / (k * 1e-3) / 1e9
-            );
-        }
-        rows.push(Row {
-            method: format!("gpu-{}{suffix}", format.name()),
-            gather: Box::new(gather),
-            file_order: true,
-            cost,
-            setup_ms: setup_ms + ms(t.elapsed()),
-            kernel_ms,
-            note,
-        });
-        Ok(chosen)
-    };
-    // The other decode path of a BC matrix, where the adapter has both.
-    match push(DecodePath::Auto, "")? {
-        DecodePath::HardwareBc => {
-            push(DecodePath::Software, "-software")?;
-        }
-        _ if format.is_block_compressed() && adapter.info.bc => {
-            push(DecodePath::HardwareBc, "-hardware")?;
-        }
-        _ => {}
-    }
-    Ok(())
+    ratios
 }
 
 /// `‖y − exact‖ / ‖exact‖` over every patch and channel (`exact(i)` in `y`'s numbering); the

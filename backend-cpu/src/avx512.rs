@@ -12,8 +12,8 @@
 //! the crate docs). Every function is compiled with `avx512f` (plus the AVX2 set, which every
 //! AVX-512 CPU has) and only entered after runtime detection.
 
+use crate::block_row::{Ctx, RowBody, X4, finish_rows};
 use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
-use crate::kernel::{Ctx, RowBody, X4, finish_rows};
 use radiosity_core::{Format, Rgb};
 use std::arch::x86_64::*;
 

@@ -146,7 +146,7 @@ pub(crate) mod avx2 {
         #[inline(always)]
         fn expand4(pal: &[f32; 4], bits: u32) -> [f32x8; 2] {
             // SAFETY: only reached inside `#[target_feature(enable = "avx2,fma,f16c")]` functions,
-            // entered after runtime detection (see `kernel::block_row_dispatch`); the unaligned
+            // entered after runtime detection (see `block_row::dispatch`); the unaligned
             // load reads exactly the 16 bytes of `pal`.
             unsafe {
                 let q = _mm_loadu_ps(pal.as_ptr()); // folds into an unaligned vbroadcastf128
@@ -437,7 +437,7 @@ pub(crate) fn f16_table() -> Vec<f32> {
 }
 
 /// Blocks whose keys a vector body computes before multiplying any of them (`avx512.rs` and
-/// `ymm.rs`: 8 groups of 16 and 16 groups of 8).
+/// `avx2.rs`: 8 groups of 16 and 16 groups of 8).
 #[cfg(target_arch = "x86_64")]
 pub(crate) const KEY_RUN: usize = 128;
 

@@ -42,7 +42,7 @@
 //! the AVX-512 path (they are at their memory roof already).
 //!
 //! Most CPUs an engine meets have AVX2 but not AVX-512 (Intel's desktop parts, AMD before Zen
-//! 4), so on the AVX2 path BC1 and BC4 have bodies of their own too (`ymm.rs`): BC1 is the
+//! 4), so on the AVX2 path BC1 and BC4 have bodies of their own too (`avx2.rs`): BC1 is the
 //! `zmm` body in two halves (keys of eight blocks per register, a run ahead of their use; the
 //! exitance in 16-byte form), BC4 turns its palette codes into values through the same product
 //! form instead of a `vgatherdps`. On a Zen 3 virtual machine with AVX2 only, at 4098 patches
@@ -63,11 +63,10 @@
 //! | f16    | (AVX2)    | 2.7–3.0   | 22      | 20.5 |
 //! | f32    | (AVX2)    | 3.8–5.4   | 5.6–7.3 | 4.5  |
 //!
-//! (The `native` column is one run of an earlier revision of the same body; the AVX2 column
-//! is the generic AVX2 body, measured before BC1 and BC4 got `ymm.rs`, which has not yet run
-//! on that machine.) `target-cpu=native`
-//! alone does not reach the bottleneck, decoding: `wide` has no permute, so the texel expansion
-//! stays scalar whatever the target. The explicit AVX2 kernels are 2–7× faster on BC1, BC4 and
+//! (The `native` column is one run of an older form of the same body; the AVX2 column is the
+//! generic AVX2 body: the BC1 and BC4 bodies of `avx2.rs` are not measured on that machine.)
+//! `target-cpu=native` alone does not reach the bottleneck, decoding: `wide` has no permute, so
+//! the texel expansion stays scalar whatever the target. The explicit AVX2 kernels are 2–7× faster on BC1, BC4 and
 //! f16, equal on u8 and f32 (within 6%, scalar table look-ups and memory bandwidth bound both),
 //! and a plain x86-64 binary with them still runs on any x86-64 CPU, where a `native` build
 //! faults on older ones. So: runtime dispatch, plain builds. [`CpuGather::path`] names the path
@@ -102,11 +101,11 @@
 //! ```
 
 #[cfg(target_arch = "x86_64")]
-mod avx512;
-mod decode;
-mod kernel;
+mod avx2;
 #[cfg(target_arch = "x86_64")]
-mod ymm;
+mod avx512;
+mod block_row;
+mod decode;
 
 use radiosity_core::{Format, Gather, GatherError, Rgb, Tile, TransferMatrix, check_gather_args};
 use rayon::prelude::*;
@@ -119,7 +118,7 @@ pub enum SimdPath {
     Baseline,
     /// The body compiled with `avx2`, `fma` and `f16c` enabled (every AVX2 CPU has F16C);
     /// palette expansion, gathers and f16 conversion through `std::arch`; BC1 and BC4 through
-    /// bodies of their own (`ymm.rs`).
+    /// bodies of their own (`avx2.rs`).
     Avx2Fma,
     /// AVX-512F on top of the AVX2 set: BC1, BC4 and u8 through `zmm` bodies (one block per
     /// register; BC1 endpoint arithmetic of 16 blocks at a time; log codes to values by two
@@ -204,7 +203,7 @@ pub struct CpuGather<'m> {
     xs: Vec<f32x8>,
     /// The same for the `zmm` bodies and the AVX2 BC1 body (each column block's four values
     /// once); empty unless one of them runs.
-    x4: Vec<kernel::X4>,
+    x4: Vec<block_row::X4>,
     /// The block corrections' scale tables ([`TransferMatrix::correction_tables`]).
     correction_tables: [[f32; 256]; 3],
     simd: SimdPath,
@@ -269,7 +268,7 @@ impl<'m> CpuGather<'m> {
             Vec::new()
         };
         let x4 = if uses_x4(l.format(), simd) {
-            vec![kernel::X4::ZERO; l.padded() / 4 * 3]
+            vec![block_row::X4::ZERO; l.padded() / 4 * 3]
         } else {
             Vec::new()
         };
@@ -357,7 +356,7 @@ impl Gather for CpuGather<'_> {
                 v.0 = core::array::from_fn(|c| col(j, c, k));
             }
         }
-        let ctx = kernel::Ctx {
+        let ctx = block_row::Ctx {
             matrix: &self.matrix,
             tables: &self.tables,
             factors: &self.factors,
@@ -384,19 +383,19 @@ impl Gather for CpuGather<'_> {
         }
         match format {
             Format::Bc1 => run(parallel, irradiance, |r, out| {
-                kernel::block_row_dispatch::<decode::Bc1>(&ctx, simd, r, out)
+                block_row::dispatch::<decode::Bc1>(&ctx, simd, r, out)
             }),
             Format::Bc4 => run(parallel, irradiance, |r, out| {
-                kernel::block_row_dispatch::<decode::Bc4>(&ctx, simd, r, out)
+                block_row::dispatch::<decode::Bc4>(&ctx, simd, r, out)
             }),
             Format::U8 => run(parallel, irradiance, |r, out| {
-                kernel::block_row_dispatch::<decode::U8>(&ctx, simd, r, out)
+                block_row::dispatch::<decode::U8>(&ctx, simd, r, out)
             }),
             Format::F16 => run(parallel, irradiance, |r, out| {
-                kernel::block_row_dispatch::<decode::F16>(&ctx, simd, r, out)
+                block_row::dispatch::<decode::F16>(&ctx, simd, r, out)
             }),
             Format::F32 => run(parallel, irradiance, |r, out| {
-                kernel::block_row_dispatch::<decode::F32>(&ctx, simd, r, out)
+                block_row::dispatch::<decode::F32>(&ctx, simd, r, out)
             }),
         }
         Ok(())
@@ -404,18 +403,18 @@ impl Gather for CpuGather<'_> {
 }
 
 /// The block-row body of its own that `format` runs on `simd`, if there is one: a `zmm` body
-/// on the AVX-512 path (`avx512::body`), a `ymm` body on the AVX2 path (`ymm::body`). Both read
-/// the exitance as [`kernel::X4`].
+/// on the AVX-512 path (`avx512::body`), a `ymm` body on the AVX2 path (`avx2::body`). Both read
+/// the exitance as [`block_row::X4`].
 #[cfg(target_arch = "x86_64")]
-fn x4_body(format: Format, simd: SimdPath) -> Option<kernel::RowBody> {
+fn x4_body(format: Format, simd: SimdPath) -> Option<block_row::RowBody> {
     match simd {
         SimdPath::Avx512 => avx512::body(format),
-        SimdPath::Avx2Fma => ymm::body(format),
+        SimdPath::Avx2Fma => avx2::body(format),
         SimdPath::Baseline => None,
     }
 }
 
-/// Whether `format` reads the exitance as [`kernel::X4`] and the tables' factors on `simd`
+/// Whether `format` reads the exitance as [`block_row::X4`] and the tables' factors on `simd`
 /// ([`x4_body`]).
 fn uses_x4(format: Format, simd: SimdPath) -> bool {
     #[cfg(target_arch = "x86_64")]

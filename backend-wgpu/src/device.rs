@@ -3,10 +3,10 @@
 //! On an NVIDIA H100 (Vulkan, driver 580.159.04, Debian's loader 1.3.239) the wgpu tests hung
 //! whenever they ran on more than two threads: one thread was inside `vkDestroyDevice`, waiting
 //! in the driver, while the others waited in `vkCreateDevice` and `vkDestroyDevice` for the
-//! loader's lock (backtraces taken with `cuda-gdb` there, session 7). One thread at a time
-//! passed every test. The Vulkan loader also walks its list of devices while other threads
-//! may add to it or free from it (Khronos Vulkan-Loader issue 2018), so concurrent creation
-//! and destruction is unsafe below us whatever the driver. Every device this crate opens is
+//! loader's lock (backtraces taken with `cuda-gdb` there). One thread at a time passed every
+//! test. The Vulkan loader also walks its list of devices while other threads may add to it
+//! or free from it (<https://github.com/KhronosGroup/Vulkan-Loader/issues/2018>), so
+//! concurrent creation and destruction is unsafe below us whatever the driver. Every device this crate opens is
 //! therefore opened by [`open`] and destroyed when the last [`SerialDevice`] holding it drops,
 //! both under one process-wide lock; gathers on devices already open still run side by side.
 

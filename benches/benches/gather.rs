@@ -10,9 +10,9 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use radiosity_backend_cpu::{CpuGather, SimdPath};
 use radiosity_bake::encode::{EncodeParams, encode_dense};
-use radiosity_benches::peers::{FaerDense, dense_rgb};
-use radiosity_benches::timing::{median, ms};
 use radiosity_core::{DecodeMode, Format, Gather, Rgb, TransferMatrix};
+use radiosity_perf::peers::{FaerDense, dense_rgb};
+use radiosity_perf::timing::{median, ms};
 use radiosity_tests::fixtures::{SplitMix64, transfer_like_matrix};
 use std::hint::black_box;
 use std::time::Instant;

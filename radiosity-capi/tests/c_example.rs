@@ -7,7 +7,7 @@
 
 use radiosity_bake::pipeline::{BakeParams, Hooks, bake};
 use radiosity_bake::scene::Scene;
-use radiosity_bake::voxel::VoxelParams;
+use radiosity_bake::simplify::VoxelParams;
 use radiosity_core::{DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, first_exitance};
 use radiosity_tests::fixtures::sample_file;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! `radiosity-core`: the `no_std` heart of precomputed-transfer radiosity.
 //!
-//! A baked scene is a transfer matrix `M` (DESIGN.md): irradiance at patch `i` caused by unit
+//! A baked scene is a transfer matrix `M` (`docs/contract.md`): irradiance at patch `i` caused by unit
 //! first exitance at patch `j`, through any number of bounces. Every frame the runtime computes
 //! first exitance `x`, then gathers `y = M · x`. This crate owns what every other crate agrees
 //! on, and nothing that needs an operating system:

@@ -7,7 +7,7 @@ use crate::{Patch, Rgb, math};
 use core::fmt;
 use glam::Vec3;
 
-/// A light of the lights file (DESIGN.md): intensities in W/sr, irradiance in W/m².
+/// A light of the lights file (`docs/contract.md`): intensities in W/sr, irradiance in W/m².
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light.

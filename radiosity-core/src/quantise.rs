@@ -39,7 +39,7 @@ impl Default for LogScale {
 }
 
 /// `ln(1000)`: three decades below the tile maximum. Measured on a 2124-patch closed box, it
-/// beat ln(1e4) and ln(1e5) for BC1 lighting error (issue #4's prototype numbers).
+/// beat ln(1e4) and ln(1e5) for BC1 lighting error.
 pub const DEFAULT_SHIFT: f32 = 6.907_755_4;
 
 impl LogScale {

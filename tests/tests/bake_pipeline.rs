@@ -271,7 +271,7 @@ fn auto_bounces_follow_the_energy() {
 
 #[test]
 fn cornell_box_orders_and_compression() {
-    // Issue #4 targets, measured at 4096 patches by `radiosity bake --patches 4096 --json` (see
+    // The project's targets, measured at 4096 patches by `radiosity bake --patches 4096 --json` (see
     // README): BC1 lighting error ≤ 2%, BC4 ≤ 1%, best order ≥ 3× below random for BC1. This
     // test runs at 1500 patches to stay quick, so its bounds are the 1500-patch measurements with
     // about 25% headroom: they catch a regression, not tune to a target. Measured with the
@@ -280,10 +280,10 @@ fn cornell_box_orders_and_compression() {
     // (were 3.2× and 2.5×). The ratio fell because `random` improved most: its blocks mix
     // entries decades apart, which a code-space fit got badly wrong in value and the value-space
     // refinement does not (4096 patches: random 13.2% → 6.3%, paper 3.1% → 2.6%), so the 3×
-    // ratio is no longer met for BC1 (2.4× at 4096) while every order's error is lower. Since
-    // the bake takes the buried floor under the blocks out of its patches (session 11), the
-    // patches along the blocks' feet carry their exposed irradiance, no longer dimmed by the
-    // buried part, and BC4's lighting error at 1500 patches is 0.149% (BC1 0.68%).
+    // ratio is not met for BC1 (2.4× at 4096) while every order's error is lower. The bake
+    // takes the buried floor under the blocks out of its patches, so the patches along the
+    // blocks' feet carry their exposed irradiance, not dimmed by the buried part, and BC4's
+    // lighting error at 1500 patches is 0.149% (BC1 0.68%).
     let path =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
     for (format, max_lighting, min_gain) in [(Format::Bc1, 0.0085, 1.5), (Format::Bc4, 0.0019, 2.0)]

@@ -1,7 +1,7 @@
-//! Replays the fuzz corpora on stable (STYLE 18): every file of `fuzz/corpus/<target>/` and
+//! Replays the fuzz corpora on stable: every file of `fuzz/corpus/<target>/` and
 //! `fuzz/regressions/<target>/` goes through the same check as the fuzz target
 //! (`radiosity_tests::fuzz_checks`). A regression file is committed for every crash the fuzzer
-//! finds, so this test fails until the bug is fixed.
+//! finds, so this test fails as long as the bug is there.
 //!
 //! Also here: the exhaustive proof of the Mesa-vs-D3D10 palette bounds the `decode_blocks`
 //! target asserts, a measured bound on what `RadFile::parse` allocates, and the seed-corpus

@@ -3,8 +3,8 @@
 //!
 //! Provenance: D3D10 values from the block-compression rules in Microsoft's "Block Compression
 //! (Direct3D 10)" documentation, with the integer (truncating) division texpresso and
-//! texture2ddecoder use; Mesa values from the rules measured on llvmpipe/lavapipe 22.3 and
-//! recorded in the Foundation issue (#2). Each entry shows its arithmetic.
+//! texture2ddecoder use; Mesa values from the rules measured on llvmpipe/lavapipe 22.3
+//! (`DecodeMode::Mesa`). Each entry shows its arithmetic.
 
 use radiosity_core::{
     DecodeMode, decode_bc1_block, decode_bc1_block_with, decode_bc4_block, decode_bc4_block_with,

@@ -1,4 +1,4 @@
-//! Hard cases for the whole bake (issue #8): scenes generated in code whose physics is known,
+//! Hard cases for the whole bake: scenes generated in code whose physics is known,
 //! checked for finite results, energy conservation, light leaks, scale invariance, and clean
 //! errors where no answer exists.
 //!
@@ -16,9 +16,12 @@
 //! Σ_j B_j Σ_i A_i F_ij = Σ_j A_j B_j Σ_i F_ji` by reciprocity (`A_i F_ij = A_j F_ji`), and
 //! `Σ_i F_ji ≤ 1` (= 1 when closed): arriving ≤ leaving = `Σ A B = Σ A E + Σ A ρ H`. Moving
 //! `Σ A ρ H` to the left gives the bound. Finite K leaves out the later bounces, which only
-//! lowers H. "What the emitters can supply" in the issue's words is therefore the absorbed
-//! power; the arriving power `Σ A H` itself may exceed `Σ A E` (by up to `1/(1 − ρ_max)`, as in
-//! the furnace), which `assert_energy` checks too.
+//! lowers H. "What the emitters can supply" is therefore the absorbed power; the arriving
+//! power `Σ A H` itself may exceed `Σ A E` (by up to `1/(1 − ρ_max)`, as in the furnace),
+//! which `assert_energy` checks too.
+//!
+//! One file (over 600 lines) on purpose: every case asserts the bound derived above with the
+//! same scene builders and checks, which read best beside it.
 
 use glam::DVec3;
 use radiosity_bake::bounce::BounceSpec;
@@ -640,7 +643,7 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
     assert_energy("blocks resting on surfaces", &out, true);
     // Exposed areas, against the geometry. Buried shares come from 512 stratified points per
     // partly buried patch (Sobol'): measured at most 0.07% off here (floor, left wall). With
-    // 512 independent uniform points (session 11) the floor was 0.26% off; 0.2% catches that.
+    // 512 independent uniform points the floor is 0.26% off; 0.2% catches that.
     for (o, name) in out.file.objects.iter().enumerate() {
         let want = exposed.iter().find(|e| e.0 == name.as_ref()).unwrap().1;
         let got = out.report.object_areas[o];
@@ -713,8 +716,7 @@ fn a_small_opening_is_open_though_the_rows_are_within_tolerance() {
     // area share (16 384 rays: ±5% noise). Open, the irradiance is near the uniform-enclosure
     // estimate H = s / (1 − ρ s) = 85.9, s = 1 − 0.0105 (the path tracer: 85.2–87.8 ± 0.6 per
     // object; the closed answer would be 1000). Measured: mean 86.4, patches in [83.6, 88.3];
-    // with the centroid quadrature rule (before session 13) the mean was 93.4 (+8.7%) and this
-    // fails. Bounds: the mean within 2.5% of the estimate, each patch within 5%.
+    // with the centroid quadrature rule the mean is 93.4 (+8.7%) and this fails. Bounds: the mean within 2.5% of the estimate, each patch within 5%.
     let (out, opening) = box_with_opening(4, 150);
     let closed = &out.report.effects["closed"];
     assert!(!closed.on, "{}", closed.why);
@@ -738,8 +740,8 @@ fn a_near_closed_box_at_high_reflectance_keeps_the_right_share() {
     // 1e-4 moves B by 4%. The uniform-enclosure estimate H = s / (1 − ρ s), s = 1 − opening,
     // is 276.4; the path tracer agrees (`radiosity pathtrace` with 20 000 samples a patch,
     // objects 272.4–278.0, ± 1.9 each). Measured: mean 276.9, every patch in [273.5, 278.4].
-    // With the centroid rule (the default before session 13) F's rows averaged 4e-4 high and
-    // the mean was 316.7 (+15%; 329 at 600 patches).
+    // With the centroid rule F's rows average 4e-4 high and the mean is 316.7 (+15%; 329 at
+    // 600 patches).
     // Bounds: the area-weighted mean within 1% of the estimate (the path tracer's own spread),
     // each patch within 3% (patches next to the opening see less of the box).
     let (out, opening) = box_with_opening(8, 150);

@@ -1,4 +1,4 @@
-//! Patch orders and their compression error (issue #4, item 3), on a real transfer matrix: the
+//! Patch orders and their compression error, on a real transfer matrix: the
 //! Cornell box (CornellBox-Original.obj) simplified to about 300 patches, form factors with
 //! ray-cast visibility, all bounces (LU), three channels.
 
@@ -230,7 +230,7 @@ fn sampled_estimate_is_unbiased_and_honest_about_its_spread() {
     }
 }
 
-/// Issue #4 asks for best ≥ 3× better than `random` with BC1 and never worse than `none`.
+/// The target is best ≥ 3× better than `random` with BC1 and never worse than `none`.
 /// The second holds by construction with exact errors and is asserted. The first is NOT met
 /// on the Cornell box: the ratio grows with n (measured random/best, BC1: 1.44 at n = 286,
 /// 1.82 at 1018, 2.14 at 1938; BC4: 1.57, 2.21, 2.67), because BC1's 5:6:5 endpoints leave an
@@ -238,15 +238,15 @@ fn sampled_estimate_is_unbiased_and_honest_about_its_spread() {
 /// bench (`benches/benches/order.rs`) tracks the target at 1024+ patches; here, at n = 286,
 /// the ratios are regression guards set about 10% under the measured values (the inputs are
 /// deterministic; the margin absorbs changes in simplification and form factors): best vs
-/// random ≥ 1.2 (BC1, measured 1.29 in session 6; 1.32 before shadow rays ended on the part
-/// of a target in front of the source, 1.44 before the value-space encoder) and ≥ 1.4 (BC4,
+/// random ≥ 1.2 (BC1, measured 1.29; 1.32 were shadow rays not to end on the part of a
+/// target in front of the source, 1.44 with a code-space encoder) and ≥ 1.4 (BC4,
 /// measured 1.55); `paper` and `spatial` each ≥ 1.1× better than random (measured ≥ 1.14). In
 /// the paper's own measure, the RMS error of the log texture in codes, the gain is larger (a
 /// code wrong on a tiny entry counts as much as on a large one, and `random` gets many
 /// wrong): measured 3.25× (BC1) and 3.48× (BC4) at n = 286, 8.8× for BC1 at n = 4106; guarded
-/// at 2.7× and 3.2×. At this size BC4's code ratio moves with F's small entries: 3.31× before
-/// session 12 started each shadow ray at its own point of the quadrature leaf, 2.91× with
-/// uniform points there, 2.67× with the stratified points kept (BC1: 3.36×), while the
+/// at 2.7× and 3.2×. At this size BC4's code ratio moves with F's small entries: 3.31× with
+/// every shadow ray of a quadrature leaf starting at one point, 2.91× with uniform points of
+/// the leaf, 2.67× with its stratified points (BC1: 3.36×), while the
 /// Frobenius ratios stayed put (BC4 1.47–1.52) and at n = 4098 both formats' code ratios are
 /// 8.1×; BC4 is guarded at 2.4×.
 #[test]

@@ -1,7 +1,7 @@
 //! AVX2 block-row bodies of their own: what `avx512.rs` does in a `zmm` register, in two `ymm`
 //! halves (block rows 0–1 and 2–3).
 //!
-//! - BC1: the generic body (`kernel::block_row` over `decode::Avx2`) spent a third of its
+//! - BC1: the generic body (`block_row::generic` over `decode::Avx2`) spent a third of its
 //!   instructions on each block's scalar endpoint arithmetic (c0, c1, the four-colour flag,
 //!   three table keys), kept a branch on the channel count inside the block loop, and spilled
 //!   accumulators. Here, as in the AVX-512 body, the keys of a run of blocks are computed
@@ -23,8 +23,8 @@
 //! halves). Every function here is compiled with `avx2,fma,f16c` and only entered after
 //! runtime detection ([`crate::SimdPath::Avx2Fma`]).
 
+use crate::block_row::{Ctx, RowBody, X4, finish_rows};
 use crate::decode::{BC1_KEY_OFFSET, Bc1Palettes, bc1_channel_palette, bc1_keys, index_bits};
-use crate::kernel::{Ctx, RowBody, X4, finish_rows};
 use radiosity_core::bytemuck::cast;
 use radiosity_core::{Format, Rgb};
 use std::arch::x86_64::*;

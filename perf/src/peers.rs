@@ -1,5 +1,5 @@
-//! The peers the gather is measured against (DESIGN.md, "Peers"), each a [`Gather`] so that a
-//! bench holds every method in one list and times them with one loop:
+//! The peers the gather is measured against, each a [`Gather`] so that a bench holds every
+//! method in one list and times them with one loop:
 //!
 //! - [`FaerDense`]: the dense f32 mat-vec of the same transfer matrix M with faer, one matrix
 //!   per stored channel (what a user would write instead of compressing);

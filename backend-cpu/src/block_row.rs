@@ -1,5 +1,7 @@
-//! The block-row body: decode each block of four matrix rows, multiply-add against the
-//! exitance, add the sparse corrections. Compiled once per format and SIMD path.
+//! One block row (four matrix rows) of the gather: what every body reads ([`Ctx`], the
+//! [`X4`] exitance layout), the generic body (decode each block, multiply-add against the
+//! exitance, add the sparse corrections; compiled once per format and SIMD path) and the
+//! finish the ISA-specific bodies of `avx2.rs` and `avx512.rs` share.
 
 use crate::SimdPath;
 use crate::decode::{Baseline, Bc1Palettes, Isa, Kernel, TileTables};
@@ -18,7 +20,7 @@ impl X4 {
     pub(crate) const ZERO: X4 = X4([0.0; 4]);
 }
 
-/// A block-row body of its own (`avx512.rs`, `ymm.rs`): output rows `4r..4r + out.len()` from
+/// A block-row body of its own (`avx512.rs`, `avx2.rs`): output rows `4r..4r + out.len()` from
 /// the exitance in [`X4`] layout. Unsafe to call: the CPU must have the features its path needs.
 #[cfg(target_arch = "x86_64")]
 pub(crate) type RowBody = unsafe fn(&Ctx<'_, '_>, &[X4], usize, &mut [Rgb]);
@@ -45,32 +47,27 @@ pub(crate) struct Ctx<'a, 'm> {
 
 /// Block row `r` (output rows `4r..4r + out.len()`) on the chosen path.
 #[inline]
-pub(crate) fn block_row_dispatch<K: Kernel>(
-    ctx: &Ctx<'_, '_>,
-    simd: SimdPath,
-    r: usize,
-    out: &mut [Rgb],
-) {
+pub(crate) fn dispatch<K: Kernel>(ctx: &Ctx<'_, '_>, simd: SimdPath, r: usize, out: &mut [Rgb]) {
     match simd {
         #[cfg(target_arch = "x86_64")]
         SimdPath::Avx2Fma | SimdPath::Avx512 => {
             // SAFETY: `CpuGather` only holds `SimdPath::Avx2Fma` or `Avx512` after
             // `is_available` saw (at least) AVX2, FMA and F16C on this CPU (`SimdPath::detect` /
             // `CpuGather::with_path`).
-            unsafe { block_row_avx2::<K>(ctx, r, out) }
+            unsafe { generic_avx2::<K>(ctx, r, out) }
         }
-        _ => block_row::<K, Baseline>(ctx, r, out),
+        _ => generic::<K, Baseline>(ctx, r, out),
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,f16c")]
-fn block_row_avx2<K: Kernel>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
-    block_row::<K, crate::decode::Avx2>(ctx, r, out);
+fn generic_avx2<K: Kernel>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
+    generic::<K, crate::decode::Avx2>(ctx, r, out);
 }
 
 #[inline(always)]
-fn block_row<K: Kernel, I: Isa>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
+fn generic<K: Kernel, I: Isa>(ctx: &Ctx<'_, '_>, r: usize, out: &mut [Rgb]) {
     let m = ctx.matrix;
     let blocks: &[u8] = &m.blocks;
     let l = &m.layout;

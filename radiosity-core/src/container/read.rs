@@ -1,0 +1,434 @@
+//! Parsing: the header and section table first (their own checksum, the length, the count),
+//! then each section's placement, padding and checksum, then META and the sections' lengths
+//! and contents ([`RadFile::parse`]).
+
+use super::{
+    Bounces, Header, MAGIC, Meta, OLDEST_VERSION, PatchOrder, RadFile, SectionEntry, VERSION,
+    align, f32_to_opt, header_checksum,
+};
+use crate::checksum::crc32;
+use crate::layout::{Format, MatrixLayout};
+use crate::mesh::Mesh;
+use crate::{BlockCorrections, Patch, RadError, SectionKind, SparseRows, TransferMatrix};
+use alloc::borrow::Cow;
+use alloc::vec::Vec;
+use bytemuck::Pod;
+
+impl<'a> RadFile<'a> {
+    /// Parses and fully validates a `.rad` file. Never panics and never reads out of bounds,
+    /// whatever `bytes` holds.
+    pub fn parse(bytes: &'a [u8]) -> Result<Self, RadError> {
+        let s = read_structure(bytes)?;
+        let sec = |k: SectionKind| s.sections[k as usize - 1];
+        let meta_bytes = sec(SectionKind::Meta).ok_or(RadError::MissingSection {
+            kind: SectionKind::Meta,
+        })?;
+        expect_len(
+            SectionKind::Meta,
+            meta_bytes,
+            core::mem::size_of::<Meta>() as u64,
+        )?;
+        let meta: Meta = bytemuck::pod_read_unaligned(meta_bytes);
+        if let Some(i) = meta.reserved.iter().position(|r| *r != 0) {
+            return Err(RadError::Invalid {
+                section: SectionKind::Meta,
+                index: i as u64,
+                reason: "reserved field is not zero",
+            });
+        }
+        let format = Format::from_u32(meta.format).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "unknown matrix format code",
+        })?;
+        let layout = MatrixLayout::new(meta.n, meta.channels, format, meta.max_tile)?;
+        let bounces = Bounces::from_u32(meta.bounces).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "bounces must be at least 1",
+        })?;
+        let patch_order = PatchOrder::from_u32(meta.order).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "unknown patch order code",
+        })?;
+        for v in [meta.compression_rmse, meta.lighting_error] {
+            // Negative means "not measured"; NaN and infinity mean corruption.
+            if !v.is_finite() {
+                return Err(RadError::Invalid {
+                    section: SectionKind::Meta,
+                    index: 0,
+                    reason: "error estimate is not finite",
+                });
+            }
+        }
+        let (n, ch, nnz) = (meta.n as u64, meta.channels as u64, meta.sparse_nnz as u64);
+        let corrections = read_corrections(&s, &meta, &layout)?;
+        let required = |k: SectionKind| sec(k).ok_or(RadError::MissingSection { kind: k });
+        let patches = required(SectionKind::Patches)?;
+        expect_len(
+            SectionKind::Patches,
+            patches,
+            n * core::mem::size_of::<Patch>() as u64,
+        )?;
+        let order = required(SectionKind::Order)?;
+        expect_len(SectionKind::Order, order, 4 * n)?;
+        let scales = required(SectionKind::Scales)?;
+        expect_len(SectionKind::Scales, scales, 8 * layout.scale_count() as u64)?;
+        let blocks = required(SectionKind::Blocks)?;
+        expect_len(SectionKind::Blocks, blocks, layout.block_bytes())?;
+        let rows = required(SectionKind::SparseRows)?;
+        expect_len(SectionKind::SparseRows, rows, 4 * (n + 1))?;
+        let cols = required(SectionKind::SparseCols)?;
+        expect_len(SectionKind::SparseCols, cols, 4 * nnz)?;
+        let values = required(SectionKind::SparseValues)?;
+        expect_len(SectionKind::SparseValues, values, 4 * nnz * ch)?;
+        let objects = decode_objects(required(SectionKind::Objects)?, meta.object_count)?;
+        let report = match sec(SectionKind::Report) {
+            None => None,
+            Some(r) => Some(Cow::Borrowed(core::str::from_utf8(r).map_err(|e| {
+                RadError::Invalid {
+                    section: SectionKind::Report,
+                    index: e.valid_up_to() as u64,
+                    reason: "report is not valid UTF-8",
+                }
+            })?)),
+        };
+        let file = RadFile {
+            patches: cast(patches),
+            order: cast(order),
+            matrix: TransferMatrix {
+                layout,
+                scales: cast(scales),
+                blocks: Cow::Borrowed(blocks),
+                sparse: SparseRows {
+                    row_ptr: cast(rows),
+                    cols: cast(cols),
+                    values: cast(values),
+                },
+                corrections,
+            },
+            objects,
+            bounces,
+            patch_order,
+            compression_rmse: f32_to_opt(meta.compression_rmse),
+            lighting_error: f32_to_opt(meta.lighting_error),
+            report,
+            mesh: sec(SectionKind::Mesh)
+                .map(|m| Mesh::from_bytes(m, n as usize))
+                .transpose()?,
+        };
+        file.validate()?;
+        Ok(file)
+    }
+}
+
+/// The byte-level structure of a file: the header and each known section's bytes.
+struct Structure<'a> {
+    version: u32,
+    sections: [Option<&'a [u8]>; SectionKind::ALL.len()],
+}
+
+/// The block corrections META announces: all four sections with their exact lengths when
+/// `correction_count > 0`, none of them (and a zero base) otherwise, none in a version-1 file.
+fn read_corrections<'a>(
+    s: &Structure<'a>,
+    meta: &Meta,
+    layout: &MatrixLayout,
+) -> Result<BlockCorrections<'a>, RadError> {
+    const KINDS: [SectionKind; 4] = [
+        SectionKind::CorrectionRows,
+        SectionKind::CorrectionCols,
+        SectionKind::CorrectionExponents,
+        SectionKind::CorrectionCodes,
+    ];
+    let sec = |k: SectionKind| s.sections[k as usize - 1];
+    let count = u64::from(meta.correction_count);
+    if count == 0 {
+        if let Some(&kind) = KINDS.iter().find(|k| sec(**k).is_some()) {
+            return Err(RadError::Invalid {
+                section: kind,
+                index: 0,
+                reason: "block-correction section in a file without corrections",
+            });
+        }
+        if meta.correction_base != [0.0; 3] {
+            return Err(RadError::Invalid {
+                section: SectionKind::Meta,
+                index: 0,
+                reason: "correction base set in a file without corrections",
+            });
+        }
+        return Ok(BlockCorrections::empty(layout.n()));
+    }
+    if s.version < 2 {
+        return Err(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "block corrections in a version-1 file",
+        });
+    }
+    let ch = layout.channels() as u64;
+    let side = layout.padded() as u64 / 4;
+    let lens = [4 * (side + 1), 4 * count, count * ch, 8 * count * ch];
+    let mut bytes = [&[][..]; 4];
+    for ((kind, len), out) in KINDS.into_iter().zip(lens).zip(&mut bytes) {
+        let b = sec(kind).ok_or(RadError::MissingSection { kind })?;
+        expect_len(kind, b, len)?;
+        *out = b;
+    }
+    Ok(BlockCorrections {
+        row_ptr: cast(bytes[0]),
+        cols: cast(bytes[1]),
+        exponents: Cow::Borrowed(bytes[2]),
+        codes: cast(bytes[3]),
+        base: meta.correction_base,
+    })
+}
+/// Reads the header and the section table; returns them once their own checksum, the length,
+/// and the count are plausible (before any section is trusted).
+fn read_table(bytes: &[u8]) -> Result<(Header, Vec<SectionEntry>), RadError> {
+    let actual = bytes.len() as u64;
+    if bytes.len() < 32 {
+        if bytes.len() >= 8 && bytes[..8] != MAGIC {
+            return Err(RadError::BadMagic);
+        }
+        return Err(RadError::Truncated { needed: 32, actual });
+    }
+    let header: Header = bytemuck::pod_read_unaligned(&bytes[..32]);
+    if header.magic != MAGIC {
+        return Err(RadError::BadMagic);
+    }
+    if !(OLDEST_VERSION..=VERSION).contains(&header.version) {
+        return Err(RadError::UnsupportedVersion {
+            found: header.version,
+        });
+    }
+    let required = SectionKind::ALL.iter().filter(|k| k.required()).count() as u32;
+    if header.section_count < required || header.section_count > SectionKind::ALL.len() as u32 {
+        return Err(RadError::SectionCount {
+            found: header.section_count,
+        });
+    }
+    let table_end = 32 + 32 * u64::from(header.section_count);
+    if actual < table_end {
+        return Err(RadError::Truncated {
+            needed: table_end,
+            actual,
+        });
+    }
+    let table = &bytes[32..table_end as usize];
+    let computed = header_checksum(&header, table);
+    if computed != header.checksum {
+        return Err(RadError::HeaderChecksum {
+            stored: header.checksum,
+            computed,
+        });
+    }
+    if header.reserved != 0 {
+        return Err(RadError::NonZeroReserved { offset: 28 });
+    }
+    let entries: Vec<SectionEntry> = table
+        .chunks_exact(32)
+        .map(bytemuck::pod_read_unaligned)
+        .collect();
+    Ok((header, entries))
+}
+
+fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
+    let (header, entries) = read_table(bytes)?;
+    let actual = bytes.len() as u64;
+    if actual < header.file_len {
+        return Err(RadError::Truncated {
+            needed: header.file_len,
+            actual,
+        });
+    }
+    if actual > header.file_len {
+        return Err(RadError::TrailingBytes {
+            expected: header.file_len,
+            actual,
+        });
+    }
+    let mut sections = [None; SectionKind::ALL.len()];
+    let mut pos = 32 + 32 * u64::from(header.section_count);
+    let mut last_kind = 0u32;
+    for (i, e) in entries.iter().enumerate() {
+        let entry_offset = 32 + 32 * i as u64;
+        let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection {
+            index: i as u32,
+            kind: e.kind,
+        })?;
+        if e.kind <= last_kind {
+            return Err(RadError::SectionOrder {
+                index: i as u32,
+                kind,
+            });
+        }
+        last_kind = e.kind;
+        if e.reserved != 0 {
+            return Err(RadError::NonZeroReserved {
+                offset: entry_offset + 4,
+            });
+        }
+        if e.reserved2 != 0 {
+            return Err(RadError::NonZeroReserved {
+                offset: entry_offset + 28,
+            });
+        }
+        let expected = align(pos);
+        if e.offset != expected {
+            return Err(RadError::SectionPlacement {
+                kind,
+                offset: e.offset,
+                expected,
+            });
+        }
+        check_padding(bytes, pos, e.offset)?;
+        let end = e
+            .offset
+            .checked_add(e.len)
+            .filter(|end| *end <= actual)
+            .ok_or(RadError::Truncated {
+                needed: e.offset.saturating_add(e.len),
+                actual,
+            })?;
+        let data = &bytes[e.offset as usize..end as usize];
+        let computed = crc32(data);
+        if computed != e.checksum {
+            return Err(RadError::SectionChecksum {
+                kind,
+                offset: e.offset,
+                stored: e.checksum,
+                computed,
+            });
+        }
+        sections[kind as usize - 1] = Some(data);
+        pos = end;
+    }
+    if align(pos) != header.file_len {
+        // The declared length must end exactly at the last section's padding.
+        return Err(RadError::TrailingBytes {
+            expected: align(pos),
+            actual,
+        });
+    }
+    check_padding(bytes, pos, header.file_len)?;
+    for k in SectionKind::ALL {
+        if k.required() && sections[k as usize - 1].is_none() {
+            return Err(RadError::MissingSection { kind: k });
+        }
+    }
+    Ok(Structure {
+        version: header.version,
+        sections,
+    })
+}
+
+fn check_padding(bytes: &[u8], from: u64, to: u64) -> Result<(), RadError> {
+    let to = to.min(bytes.len() as u64);
+    if from >= to {
+        return Ok(());
+    }
+    match bytes[from as usize..to as usize]
+        .iter()
+        .position(|b| *b != 0)
+    {
+        Some(i) => Err(RadError::NonZeroPadding {
+            offset: from + i as u64,
+        }),
+        None => Ok(()),
+    }
+}
+
+fn expect_len(kind: SectionKind, bytes: &[u8], expected: u64) -> Result<(), RadError> {
+    if bytes.len() as u64 != expected {
+        return Err(RadError::SectionLength {
+            kind,
+            expected,
+            found: bytes.len() as u64,
+        });
+    }
+    Ok(())
+}
+
+/// Borrows `bytes` as `[T]` when aligned, copies otherwise. The caller has checked that the
+/// length is a multiple of `size_of::<T>()`.
+pub(crate) fn cast<T: Pod>(bytes: &[u8]) -> Cow<'_, [T]> {
+    match bytemuck::try_cast_slice(bytes) {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => {
+            let mut v = alloc::vec![T::zeroed(); bytes.len() / core::mem::size_of::<T>()];
+            bytemuck::cast_slice_mut::<T, u8>(&mut v).copy_from_slice(bytes);
+            Cow::Owned(v)
+        }
+    }
+}
+
+fn decode_objects(bytes: &[u8], count: u32) -> Result<Vec<Cow<'_, str>>, RadError> {
+    let head = 4 * (u64::from(count) + 1);
+    if (bytes.len() as u64) < head {
+        return Err(RadError::SectionLength {
+            kind: SectionKind::Objects,
+            expected: head,
+            found: bytes.len() as u64,
+        });
+    }
+    let (offsets, text) = bytes.split_at(head as usize);
+    let bad = |index: usize, reason| RadError::Invalid {
+        section: SectionKind::Objects,
+        index: index as u64,
+        reason,
+    };
+    let text = core::str::from_utf8(text)
+        .map_err(|e| bad(e.valid_up_to(), "object names are not valid UTF-8"))?;
+    let offsets: Vec<u32> = offsets
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    if offsets[0] != 0 {
+        return Err(bad(0, "first name offset is not 0"));
+    }
+    if offsets[count as usize] as usize != text.len() {
+        return Err(bad(
+            count as usize,
+            "last name offset is not the text length",
+        ));
+    }
+    let mut names = Vec::with_capacity(count as usize);
+    for i in 0..count as usize {
+        let (a, b) = (offsets[i] as usize, offsets[i + 1] as usize);
+        let name = text.get(a..b).ok_or(bad(
+            i + 1,
+            "name offset decreasing or not on a character boundary",
+        ))?;
+        names.push(Cow::Borrowed(name));
+    }
+    Ok(names)
+}
+/// The byte range of each section of a structurally valid file, in table order: for tests that
+/// corrupt one section at a time, and for `inspect`.
+pub fn section_ranges(
+    bytes: &[u8],
+) -> Result<Vec<(SectionKind, core::ops::Range<usize>)>, RadError> {
+    let (_, entries) = read_table(bytes)?;
+    entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection {
+                index: i as u32,
+                kind: e.kind,
+            })?;
+            let end = e
+                .offset
+                .checked_add(e.len)
+                .filter(|end| *end <= bytes.len() as u64)
+                .ok_or(RadError::Truncated {
+                    needed: e.offset.saturating_add(e.len),
+                    actual: bytes.len() as u64,
+                })?;
+            Ok((kind, e.offset as usize..end as usize))
+        })
+        .collect()
+}

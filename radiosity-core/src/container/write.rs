@@ -1,0 +1,159 @@
+//! Serialising ([`RadFile::to_bytes`]) and [`reseal`].
+
+use super::{
+    Header, MAGIC, Meta, RadFile, SectionEntry, VERSION, align, header_checksum, opt_to_f32,
+};
+use crate::checksum::crc32;
+use crate::mesh::Mesh;
+use crate::{RadError, SectionKind};
+use alloc::borrow::Cow;
+use alloc::string::String;
+use alloc::vec::Vec;
+
+impl RadFile<'_> {
+    /// Serialises the file after validating it (a writer never produces a file the parser
+    /// would refuse).
+    pub fn to_bytes(&self) -> Result<Vec<u8>, RadError> {
+        self.validate()?;
+        let l = &self.matrix.layout;
+        let meta = Meta {
+            n: l.n() as u32,
+            channels: l.channels() as u32,
+            format: l.format() as u32,
+            max_tile: l.max_tile(),
+            bounces: self.bounces.to_u32(),
+            order: self.patch_order as u32,
+            object_count: self.objects.len() as u32,
+            sparse_nnz: self.matrix.sparse.nnz() as u32,
+            compression_rmse: opt_to_f32(self.compression_rmse),
+            lighting_error: opt_to_f32(self.lighting_error),
+            correction_count: self.matrix.corrections.count() as u32,
+            correction_base: self.matrix.corrections.base,
+            reserved: [0; 2],
+        };
+        let objects = encode_objects(&self.objects);
+        let mut sections: Vec<(SectionKind, &[u8])> = alloc::vec![
+            (SectionKind::Meta, bytemuck::bytes_of(&meta)),
+            (SectionKind::Patches, bytemuck::cast_slice(&self.patches)),
+            (SectionKind::Order, bytemuck::cast_slice(&self.order)),
+            (
+                SectionKind::Scales,
+                bytemuck::cast_slice(&self.matrix.scales)
+            ),
+            (SectionKind::Blocks, &self.matrix.blocks),
+            (
+                SectionKind::SparseRows,
+                bytemuck::cast_slice(&self.matrix.sparse.row_ptr)
+            ),
+            (
+                SectionKind::SparseCols,
+                bytemuck::cast_slice(&self.matrix.sparse.cols)
+            ),
+            (
+                SectionKind::SparseValues,
+                bytemuck::cast_slice(&self.matrix.sparse.values)
+            ),
+            (SectionKind::Objects, &objects),
+        ];
+        if let Some(r) = &self.report {
+            sections.push((SectionKind::Report, r.as_bytes()));
+        }
+        let mesh = self.mesh.as_ref().map(Mesh::to_bytes);
+        if let Some(m) = &mesh {
+            sections.push((SectionKind::Mesh, m));
+        }
+        let c = &self.matrix.corrections;
+        if !c.is_empty() {
+            sections.extend([
+                (
+                    SectionKind::CorrectionRows,
+                    bytemuck::cast_slice(&c.row_ptr),
+                ),
+                (SectionKind::CorrectionCols, bytemuck::cast_slice(&c.cols)),
+                (SectionKind::CorrectionExponents, &c.exponents[..]),
+                (SectionKind::CorrectionCodes, bytemuck::cast_slice(&c.codes)),
+            ]);
+        }
+        let table_end = 32 + 32 * sections.len() as u64;
+        let mut entries = Vec::with_capacity(sections.len());
+        let mut pos = table_end;
+        for (kind, bytes) in &sections {
+            let offset = align(pos);
+            entries.push(SectionEntry {
+                kind: *kind as u32,
+                reserved: 0,
+                offset,
+                len: bytes.len() as u64,
+                checksum: crc32(bytes),
+                reserved2: 0,
+            });
+            pos = offset + bytes.len() as u64;
+        }
+        let file_len = align(pos);
+        let mut out = alloc::vec![0u8; file_len as usize];
+        let mut header = Header {
+            magic: MAGIC,
+            version: VERSION,
+            section_count: sections.len() as u32,
+            file_len,
+            checksum: 0,
+            reserved: 0,
+        };
+        out[32..table_end as usize].copy_from_slice(bytemuck::cast_slice(&entries));
+        header.checksum = header_checksum(&header, &out[32..table_end as usize]);
+        out[..32].copy_from_slice(bytemuck::bytes_of(&header));
+        for ((_, bytes), e) in sections.iter().zip(&entries) {
+            out[e.offset as usize..e.offset as usize + bytes.len()].copy_from_slice(bytes);
+        }
+        Ok(out)
+    }
+}
+
+fn encode_objects(names: &[Cow<'_, str>]) -> Vec<u8> {
+    let mut offsets = Vec::with_capacity(names.len() + 1);
+    let mut text = String::new();
+    offsets.push(0u32);
+    for name in names {
+        text.push_str(name);
+        offsets.push(text.len() as u32);
+    }
+    let mut out: Vec<u8> = bytemuck::cast_slice(&offsets).to_vec();
+    out.extend_from_slice(text.as_bytes());
+    out
+}
+/// Recomputes every checksum in `bytes` so they agree with the content.
+///
+/// For tests and fuzzers only: it lets a deliberately corrupted payload (a NaN, a bad count)
+/// reach the semantic checks behind the checksums. Sections outside the buffer are skipped.
+pub fn reseal(bytes: &mut [u8]) -> Result<(), RadError> {
+    if bytes.len() < 32 {
+        return Err(RadError::Truncated {
+            needed: 32,
+            actual: bytes.len() as u64,
+        });
+    }
+    let mut header: Header = bytemuck::pod_read_unaligned(&bytes[..32]);
+    let count = u64::from(header.section_count).min(SectionKind::ALL.len() as u64);
+    let table_end = (32 + 32 * count) as usize;
+    if bytes.len() < table_end {
+        return Err(RadError::Truncated {
+            needed: table_end as u64,
+            actual: bytes.len() as u64,
+        });
+    }
+    for i in 0..count as usize {
+        let at = 32 + 32 * i;
+        let mut e: SectionEntry = bytemuck::pod_read_unaligned(&bytes[at..at + 32]);
+        if let Some(end) = e
+            .offset
+            .checked_add(e.len)
+            .filter(|end| *end <= bytes.len() as u64)
+        {
+            e.checksum = crc32(&bytes[e.offset as usize..end as usize]);
+            bytes[at..at + 32].copy_from_slice(bytemuck::bytes_of(&e));
+        }
+    }
+    header.checksum = header_checksum(&header, &bytes[32..table_end]);
+    bytes[..32].copy_from_slice(bytemuck::bytes_of(&header));
+    Ok(())
+}
