@@ -1,5 +1,8 @@
 //! Bad input never panics, hangs or half-writes.
 //!
+//! One file of 630-odd lines on purpose: every bad-input case of the command line stands beside
+//! its siblings, so a new kind of bad input is added where the others are.
+//!
 //! Every file under `tests/bad/<kind>/` is run through the commands of its kind (the table in
 //! `tests/bad/README.md`), so a file dropped there is picked up without touching this code.
 //! Each run must end within [`LIMIT`], with a non-zero status that is not a panic's 101, exactly

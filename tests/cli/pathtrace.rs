@@ -253,7 +253,7 @@ fn pathtrace_bad_input_fails_with_one_line() {
 
 #[test]
 fn solve_agrees_with_the_path_tracer_on_the_cornell_box() {
-    // Issue #5's target: per-object irradiance within 3% of a converged reference. The bake is
+    // The target: per-object irradiance within 3% of a converged reference. The bake is
     // uncompressed (f32) with every bounce, so what is left is discretisation: measured 0.83%
     // worst at 1007 patches (against 1e6 paths per object), 0.75% at 3910. The path tracer's own
     // σ here is about 0.3% per object (2e5 samples), so 3% is a 2.2% margin for discretisation.
