@@ -156,10 +156,14 @@ pub(crate) fn describe_form_factors(v: &Value) -> Option<String> {
         Some(k) => format!("; piece pairs beyond {k} × their radii by the rule on both sides"),
         None => String::new(),
     };
+    // A file without `rays_per_patch` took clustered pairs in scenes of many pieces.
+    let many = match v["rays_per_patch"].as_u64() {
+        Some(k) => format!("scenes of many pieces: {k} rays cast per patch"),
+        None => format!("clustered pairs: {}", v["clustered_rule"].as_str()?),
+    };
     Some(format!(
-        "{rule} rule on leaves at most {} × their distance, depth ≤ {}, {rays} (clustered pairs: {}){far}",
+        "{rule} rule on leaves at most {} × their distance, depth ≤ {}, {rays} ({many}){far}",
         v["leaf_ratio"].as_f64()?,
         v["max_depth"].as_u64()?,
-        v["clustered_rule"].as_str()?
     ))
 }

@@ -36,7 +36,8 @@ impl Owners {
         }
     }
 
-    fn patch_at(&self, pieces: &[Piece], triangle: u32, x: DVec3) -> Option<usize> {
+    /// The patch of the piece of `triangle` nearest to `x` (a point on that triangle).
+    pub(crate) fn patch_at(&self, pieces: &[Piece], triangle: u32, x: DVec3) -> Option<usize> {
         let start = self.by_triangle.partition_point(|e| e.0 < triangle);
         self.by_triangle[start..]
             .iter()

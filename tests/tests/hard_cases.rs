@@ -25,6 +25,7 @@
 
 use glam::DVec3;
 use radiosity_bake::bounce::BounceSpec;
+use radiosity_bake::form_factor::ManyPieces;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::Scene;
@@ -581,6 +582,7 @@ fn flat_sites_keep_a_finely_tessellated_furnace_exact() {
     let path = write_scene(dir.path(), "fine", &quads, &mats);
     let mut p = params(96);
     p.form_factors.exact_pieces = 0;
+    p.form_factors.many_pieces = ManyPieces::Clustered;
     let out = bake_ok(&load(&path), &p);
     let sites = &out.report.effects["flat_sites"];
     assert!(sites.on, "{}", sites.why);

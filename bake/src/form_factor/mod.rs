@@ -51,6 +51,7 @@
 //! On Greg Ward's conference room (330 000 triangles, 4410 patches) this took the form factors
 //! from an estimated 4 h to minutes on 2 cores (ARCHITECTURE.md has the measurements).
 
+mod cast;
 mod clustered;
 mod exact;
 mod flat;
@@ -59,7 +60,7 @@ mod sampling;
 
 pub use clustered::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
 pub use exact::EXACT_PAIR_RAYS;
-pub use params::{FormFactorParams, FormFactorSummary, Visibility};
+pub use params::{FormFactorParams, FormFactorSummary, ManyPieces, RAYS_PER_PATCH, Visibility};
 
 pub(crate) use clustered::{FAR_RAYS, MAX_PAIR_RAYS};
 
@@ -92,6 +93,9 @@ pub struct FormFactors {
     /// Pairs integrated as clusters of pieces with sampled visibility (module doc, "clustered
     /// pairs"; 0 when every pair was exact).
     pub clustered_pairs: u64,
+    /// Rays cast per patch where the matrix was ray-cast (module doc, "many pieces"; 0 when
+    /// it was integrated).
+    pub rays_per_patch: u32,
 }
 
 impl FormFactors {
@@ -442,6 +446,22 @@ pub fn form_factor_rows(
 ) -> (Vec<Vec<f64>>, u64) {
     let n = patches.len();
     assert!(rows.iter().all(|&i| i < n), "row index out of range");
+    if let Some((occ, per_patch)) = cast_rays(patches, occluders, params) {
+        // Every row of a ray-cast matrix pools both sides of its pairs, so the rows come from
+        // the whole matrix, whose cost follows the patches anyway.
+        let mut matrix = vec![0f32; n * n];
+        let rays = cast::cast(patches, occ, per_patch, &mut matrix, progress);
+        let out = rows
+            .iter()
+            .map(|&i| {
+                matrix[i * n..(i + 1) * n]
+                    .iter()
+                    .map(|&f| f64::from(f))
+                    .collect()
+            })
+            .collect();
+        return (out, rays);
+    }
     let setup = Setup::new(patches, occluders, params);
     let ctx = Pairs::new(patches, setup.occ, setup.cache.as_ref(), params, setup.tol);
     let done = AtomicUsize::new(0);
@@ -475,6 +495,14 @@ pub fn form_factors(
     progress: Option<Progress<'_>>,
 ) -> FormFactors {
     let n = patches.len();
+    if let Some((occ, per_patch)) = cast_rays(patches, occluders, params) {
+        let mut matrix = vec![0f32; n * n];
+        let rays_cast = cast::cast(patches, occ, per_patch, &mut matrix, progress);
+        return FormFactors {
+            rays_per_patch: per_patch,
+            ..FormFactors::new(patches, matrix, rays_cast, 0, 0)
+        };
+    }
     let setup = Setup::new(patches, occluders, params);
     // Flat sites for patches of many pieces (an exact patch has none), and every patch's
     // radius about its centre for the near/far test.
@@ -509,28 +537,62 @@ pub fn form_factors(
             matrix[j * n + i] = (g / aj) as f32;
         }
     }
-    let row_sums: Vec<f64> = (0..n)
-        .map(|i| matrix[i * n..(i + 1) * n].iter().map(|&f| f as f64).sum())
-        .collect();
-    let mut reciprocity_error: f64 = 0.0;
-    for i in 0..n {
-        for j in i + 1..n {
-            let a = patches.patches[i].area * matrix[i * n + j] as f64;
-            let b = patches.patches[j].area * matrix[j * n + i] as f64;
-            let m = a.max(b);
-            if m > 0.0 {
-                reciprocity_error = reciprocity_error.max((a - b).abs() / m);
+    let sites = ctx.sites.iter().filter(|s| s.is_some()).count();
+    FormFactors::new(patches, matrix, rays_cast, sites, clustered.into_inner())
+}
+
+/// Whether `patches` take ray-cast form factors ([`ManyPieces::Rays`], above
+/// [`FormFactorParams::exact_pieces`] pieces, with visibility rays and occluders), and with
+/// how many rays per patch.
+fn cast_rays<'a>(
+    patches: &Patches,
+    occluders: Option<&'a Occluders>,
+    params: &FormFactorParams,
+) -> Option<(&'a Occluders, u32)> {
+    match (params.many_pieces, params.visibility, occluders) {
+        (ManyPieces::Rays { per_patch }, Visibility::Rays { .. }, Some(occ))
+            if patches.pieces.len() > params.exact_pieces =>
+        {
+            Some((occ, per_patch))
+        }
+        _ => None,
+    }
+}
+
+impl FormFactors {
+    /// The matrix with its diagnostics (row sums, reciprocity).
+    fn new(
+        patches: &Patches,
+        matrix: Vec<f32>,
+        rays_cast: u64,
+        sites: usize,
+        clustered_pairs: u64,
+    ) -> Self {
+        let n = patches.len();
+        let row_sums: Vec<f64> = (0..n)
+            .map(|i| matrix[i * n..(i + 1) * n].iter().map(|&f| f as f64).sum())
+            .collect();
+        let mut reciprocity_error: f64 = 0.0;
+        for i in 0..n {
+            for j in i + 1..n {
+                let a = patches.patches[i].area * matrix[i * n + j] as f64;
+                let b = patches.patches[j].area * matrix[j * n + i] as f64;
+                let m = a.max(b);
+                if m > 0.0 {
+                    reciprocity_error = reciprocity_error.max((a - b).abs() / m);
+                }
             }
         }
-    }
-    FormFactors {
-        n,
-        matrix,
-        rays_cast,
-        row_sums,
-        reciprocity_error,
-        pieces: patches.pieces.len(),
-        sites: ctx.sites.iter().filter(|s| s.is_some()).count(),
-        clustered_pairs: clustered.into_inner(),
+        FormFactors {
+            n,
+            matrix,
+            rays_cast,
+            row_sums,
+            reciprocity_error,
+            pieces: patches.pieces.len(),
+            sites,
+            clustered_pairs,
+            rays_per_patch: 0,
+        }
     }
 }

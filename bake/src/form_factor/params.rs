@@ -22,6 +22,25 @@ pub enum Visibility {
     },
 }
 
+/// The form factors of scenes above [`FormFactorParams::exact_pieces`] pieces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ManyPieces {
+    /// Every patch casts `per_patch` cosine-weighted rays against the full-detail triangles
+    /// and counts where they land (`form_factor::cast`); the two sides of each pair are
+    /// pooled. Each row's sum has a standard error of about `0.5 / √per_patch`.
+    Rays {
+        /// Rays per patch (below 2²⁴).
+        per_patch: u32,
+    },
+    /// Clustered pairs of pieces (module doc of `form_factor`, "clustered pairs").
+    Clustered,
+}
+
+/// Default rays per patch of [`ManyPieces::Rays`]. On Greg Ward's conference room
+/// (`docs/decisions/ray-cast-form-factors.md`) 4096 rays put 120 rows within the hemisphere
+/// check's noise, and the ray casting takes less time than the transfer at 4096 patches.
+pub const RAYS_PER_PATCH: u32 = 4096;
+
 /// Parameters of [`form_factors`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FormFactorParams {
@@ -38,6 +57,10 @@ pub struct FormFactorParams {
     /// pieces', so the default keeps the centroid there: degree 2 cost the conference room's
     /// rows 69% more time for an RMS against hemisphere rays of 0.0124 instead of 0.0137.
     pub clustered_rule: Rule,
+    /// How scenes above `exact_pieces` pieces get their form factors: rays cast from every
+    /// patch (the default: the cost follows the patches) or clustered pairs (the cost follows
+    /// the pieces' near field; also what a scene without visibility rays takes).
+    pub many_pieces: ManyPieces,
     /// Exact pairs: two pieces whose centres are more than this many times the sum of their
     /// radii apart are integrated by the source rule on both sides with the point kernel
     /// `cos cos / (π r²)`, instead of the adaptive quadrature and the exact polygon kernel
@@ -64,6 +87,9 @@ impl Default for FormFactorParams {
             },
             exact_pieces: EXACT_PIECES,
             clustered_rule: Rule::Centroid,
+            many_pieces: ManyPieces::Rays {
+                per_patch: RAYS_PER_PATCH,
+            },
             far_pieces: FAR_PIECES,
         }
     }
@@ -71,7 +97,7 @@ impl Default for FormFactorParams {
 
 impl FormFactorParams {
     /// Coarser quadrature (`--form-factors draft`): the centroid rule on leaves up to their
-    /// distance, depth 3. On the Cornell box at 4096 patches it saves a tenth of the form
+    /// distance, depth 3, and a quarter of the rays per patch in scenes of many pieces. On the Cornell box at 4096 patches it saves a tenth of the form
     /// factors' time (most rays are each piece pair's minimum), and its rows read about 8e-4
     /// high, which a nearly closed room at ρ = 0.999 turns into +29% (README, "What
     /// form-factor accuracy costs"). Fewer patches are the better preview.
@@ -82,12 +108,15 @@ impl FormFactorParams {
                 ratio: 1.0,
                 max_depth: 3,
             },
+            many_pieces: ManyPieces::Rays {
+                per_patch: RAYS_PER_PATCH / 4,
+            },
             ..Self::default()
         }
     }
 
     /// Finer quadrature and four rays per leaf (`--form-factors fine`): leaves to depth 6,
-    /// degree 2 in clustered pairs too, the exact kernel for piece pairs up to 8× their radii
+    /// degree 2 in clustered pairs too, four times the rays per patch of scenes of many pieces, the exact kernel for piece pairs up to 8× their radii
     /// apart. About 4× the rays and 3× the form factors' time of the
     /// default for rows that the default already has within a hemisphere check's noise.
     pub fn high_quality() -> Self {
@@ -103,6 +132,9 @@ impl FormFactorParams {
             },
             exact_pieces: EXACT_PIECES,
             clustered_rule: Rule::Degree2,
+            many_pieces: ManyPieces::Rays {
+                per_patch: 4 * RAYS_PER_PATCH,
+            },
             far_pieces: 8.0,
         }
     }
@@ -118,6 +150,10 @@ impl FormFactorParams {
                 Visibility::Rays { per_sample, .. } => per_sample.max(1),
             },
             clustered_rule: self.clustered_rule.name(),
+            rays_per_patch: match self.many_pieces {
+                ManyPieces::Rays { per_patch } => Some(per_patch),
+                ManyPieces::Clustered => None,
+            },
             far_pieces: self.far_pieces.is_finite().then_some(self.far_pieces),
         }
     }
@@ -145,6 +181,9 @@ pub struct FormFactorSummary {
     pub rays_per_leaf: u32,
     /// The rule of clustered pairs' quadratures (scenes above `exact_pieces` pieces).
     pub clustered_rule: &'static str,
+    /// Rays cast per patch in scenes above `exact_pieces` pieces (`None`: clustered pairs
+    /// there).
+    pub rays_per_patch: Option<u32>,
     /// Piece pairs more than this many times the sum of their radii apart take the rule on
     /// both sides with the point kernel (`None`: every piece pair through the exact kernel).
     pub far_pieces: Option<f64>,

@@ -220,7 +220,19 @@ pub fn discretise(
 /// The `flat_sites` and `clustered_pairs` decisions the form factors made, with their reasons.
 fn form_factor_effects(ff: &FormFactors, budget: usize, effects: &mut Effects) {
     let pieces = ff.pieces;
-    let why = if ff.sites > 0 {
+    let cast = ff.rays_per_patch > 0;
+    let why = if cast {
+        format!(
+            "{pieces} pieces in all (over {budget}): every patch cast {} cosine-weighted rays against the full-detail triangles, hits counted per patch and pooled over both sides of each pair (the cost follows the patches, not the pieces)",
+            ff.rays_per_patch
+        )
+    } else {
+        format!("{pieces} pieces in all (at most {budget}): form factors integrated")
+    };
+    effects.insert("ray_cast", Effect::new(cast, why));
+    let why = if cast {
+        "the form factors were ray-cast".to_owned()
+    } else if ff.sites > 0 {
         format!(
             "{pieces} pieces in all (over {budget}): {} flat patches of more than {MAX_EXACT_PIECES} pieces stand in as one flat site each in their far pairs, neighbours keep their pieces (piece by piece everywhere would cost {:.1e} piece pairs)",
             ff.sites,
@@ -234,7 +246,9 @@ fn form_factor_effects(ff: &FormFactors, budget: usize, effects: &mut Effects) {
         format!("{pieces} pieces in all (at most {budget}): every pair integrated piece by piece")
     };
     effects.insert("flat_sites", Effect::new(ff.sites > 0, why));
-    let why = if ff.clustered_pairs > 0 {
+    let why = if cast {
+        "the form factors were ray-cast".to_owned()
+    } else if ff.clustered_pairs > 0 {
         format!(
             "{pieces} pieces in all (over {budget}): all {} patch pairs integrated as clusters (piece pairs far apart for their size centre to centre, the rest by quadrature; {FAR_RAYS} shadow rays per far pair and {NEAR_RAYS} per near pair, drawn in proportion to what each piece pair carries)",
             ff.clustered_pairs

@@ -1,6 +1,6 @@
 //! Cutting the triangles by the grid and grouping the pieces of each cell into patches: by
-//! connected component (loose parts), object, material and orientation, with small groups
-//! absorbed into their neighbours.
+//! object, emitting material and orientation, separate surfaces only where they see each
+//! other, with small groups absorbed into their neighbours.
 
 use super::Piece;
 use crate::geometry::bvh::Occluders;
@@ -53,10 +53,11 @@ pub(super) struct Grouping {
 /// Connected surfaces: for every triangle, the index of its component, where triangles sharing
 /// a corner position (bit for bit, so split vertices of one mesh still join) are connected.
 ///
-/// Pieces of different components never share a patch. Without this, the floors of two rooms
-/// on either side of a thin wall, carrying the same object and material names, fell into one
-/// patch wherever a cell straddled the wall, and that patch carried the lit room's light into
-/// the dark one (14% of the lit room's irradiance with a wall 1% of the room thick).
+/// Pieces of different components share a patch only when they see each other ([`group`]).
+/// Without that test, the floors of two rooms on either side of a thin wall, carrying the same
+/// object and material names, fell into one patch wherever a cell straddled the wall, and that
+/// patch carried the lit room's light into the dark one (14% of the lit room's irradiance with
+/// a wall 1% of the room thick).
 pub(super) fn components(scene: &Scene) -> Vec<u32> {
     fn find(parent: &mut [u32], mut i: u32) -> u32 {
         while parent[i as usize] != i {
@@ -82,29 +83,9 @@ pub(super) fn components(scene: &Scene) -> Vec<u32> {
     (0..n as u32).map(|t| find(&mut parent, t)).collect()
 }
 
-/// A connected surface whose whole area is below this share of a cell face (`h²`) is a loose
-/// part (a screw, a chair's leg, one slat of a blind). Loose parts of one object and material
-/// in one cell join one patch when they face the same way and see each other (a segment
-/// between them that no other surface blocks). Without this, furniture of many loose parts
-/// kept the patch count near the count of parts at any cell size (the conference room, 330k
-/// triangles: 18,693 patches asked for 256). The visibility test keeps the thin-wall case of
-/// [`components`] right for small parts too; large surfaces never merge.
-pub(super) const LOOSE_PART: f64 = 0.5;
-
-/// Total area of each connected surface, indexed by its [`components`] root.
-pub(super) fn component_areas(scene: &Scene, component: &[u32]) -> Vec<f64> {
-    let mut area = vec![0.0; component.len()];
-    for (t, &c) in component.iter().enumerate() {
-        area[c as usize] += scene.triangle_area(t);
-    }
-    area
-}
-
-/// What loose parts and small groups need to merge: each surface's area, the surfaces, and
-/// the occluders for the visibility test (built on first use: most scenes at most cell sizes
-/// have no loose part and no small group of fine triangles).
+/// What separate surfaces and small groups need to merge: the surfaces and the occluders for the visibility test (built on first use: a scene of one connected
+/// surface per object and no small group of fine triangles never needs them).
 pub(super) struct Loose<'a> {
-    pub(super) area: Vec<f64>,
     pub(super) occluders: std::cell::OnceCell<Occluders>,
     pub(super) scene: &'a Scene,
     pub(super) component: &'a [u32],
@@ -128,11 +109,14 @@ impl Loose<'_> {
     }
 }
 
-/// Cuts and groups at cell size `h`; returns the groups (object, material, pieces). Pieces
-/// join a group only within one cell, object, material and connected component
-/// ([`components`]), with normals within the angle; loose parts ([`LOOSE_PART`]) of different
-/// components may share a group when they see each other. Small groups then merge whatever
-/// their orientation ([`absorb_small_groups`]).
+/// Cuts and groups at cell size `h`; returns the groups (object, first material, pieces).
+/// Pieces join a group only within one cell and object, of the same emitting material or of
+/// non-emitting ones ([`kind_of`]), with normals within the angle of the group's first piece;
+/// a piece of another connected surface ([`components`]) than the groups its own surface
+/// joined in the cell joins one only where the two see each other ([`Loose::sees`]). Furniture
+/// of thousands of separate parts (legs, slats, trim) thus becomes one patch per cell and
+/// orientation, and the patch target is met; two floors on either side of a wall stay apart.
+/// Small groups then merge whatever their orientation ([`absorb_small_groups`]).
 pub(super) fn group(
     scene: &Scene,
     component: &[u32],
@@ -140,27 +124,25 @@ pub(super) fn group(
     h: f64,
     cos_max: f64,
 ) -> Grouping {
-    /// Stands for every loose part in the grouping key.
-    const LOOSE: u32 = u32::MAX;
     let (lo, _) = scene.bounds();
     let origin = lo;
-    let mut lookup: HashMap<([i64; 3], u32, u32, u32), Vec<usize>> = HashMap::new();
-    // Loose parts: the groups a surface already joined in a cell, and each group's first piece
-    // (centre, surface) to test visibility against.
+    // Candidate groups per (cell, object, kind): every group of the cell's object and kind,
+    // and per (cell, object, kind, connected surface) the groups that surface already joined.
+    let mut lookup: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
     let mut joined: HashMap<([i64; 3], u32, u32, u32), Vec<usize>> = HashMap::new();
+    // Each group's first piece (centre, surface), to test visibility against.
     let mut first: Vec<(DVec3, u32)> = Vec::new();
     let mut groups: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
     let mut seeds: Vec<DVec3> = Vec::new();
     let mut cells = Vec::new();
     let mut cell_of: Vec<[i64; 3]> = Vec::new();
-    let small = LOOSE_PART * h * h;
     let lift = LIFT * h;
     for (t, tri) in scene.triangles.iter().enumerate() {
         let p = scene.corners(t);
         let normal = scene.triangle_normal(t);
         let tri_area = scene.triangle_area(t);
         let own = component[t];
-        let is_loose = loose.area[own as usize] < small;
+        let kind = kind_of(scene, tri.material);
         cells.clear();
         cut(Polygon::triangle(p[0], p[1], p[2]), origin, h, &mut cells);
         for &(cell, poly) in &cells {
@@ -175,41 +157,25 @@ pub(super) fn group(
                 area,
                 triangle: t as u32,
             };
-            let key = (
-                cell,
-                tri.object,
-                tri.material,
-                if is_loose { LOOSE } else { own },
-            );
-            let cands = lookup.entry(key).or_default();
+            let cands = lookup.entry((cell, tri.object, kind)).or_default();
             let fits = |g: usize| seeds[g].dot(normal) >= cos_max;
-            let found = if is_loose {
-                let mine = joined
-                    .entry((cell, tri.object, tri.material, own))
-                    .or_default();
-                mine.iter().copied().find(|&g| fits(g)).or_else(|| {
-                    let end = (piece.polygon.centroid(), normal, own);
-                    let g = cands.iter().copied().find(|&g| {
-                        let (at, other) = first[g];
-                        fits(g) && loose.sees(end, (at, seeds[g], other), lift)
-                    })?;
-                    mine.push(g);
-                    Some(g)
-                })
-            } else {
-                cands.iter().copied().find(|&g| fits(g))
-            };
+            let mine = joined.entry((cell, tri.object, kind, own)).or_default();
+            // A group this surface already joined here, else another surface's group it sees.
+            let found = mine.iter().copied().find(|&g| fits(g)).or_else(|| {
+                let end = (piece.polygon.centroid(), normal, own);
+                let g = cands.iter().copied().find(|&g| {
+                    let (at, other) = first[g];
+                    fits(g) && loose.sees(end, (at, seeds[g], other), lift)
+                })?;
+                mine.push(g);
+                Some(g)
+            });
             match found {
                 Some(g) => groups[g].2.push(piece),
                 None => {
                     let g = groups.len();
                     cands.push(g);
-                    if is_loose {
-                        joined
-                            .entry((cell, tri.object, tri.material, own))
-                            .or_default()
-                            .push(g);
-                    }
+                    mine.push(g);
                     first.push((piece.polygon.centroid(), own));
                     seeds.push(normal);
                     cell_of.push(cell);
@@ -225,6 +191,18 @@ pub(super) fn group(
         .collect();
     Grouping {
         groups: absorb_small_groups(groups, &cell_of, &ends, loose, h),
+    }
+}
+
+/// What a material keeps apart in the grouping key: an emitting material is its own kind (a
+/// patch has one emission), every other material shares one (a patch's reflectance is its
+/// pieces' area-weighted mean, so parts of different materials may share a patch).
+pub(super) fn kind_of(scene: &Scene, material: u32) -> u32 {
+    let m = &scene.materials[material as usize];
+    if m.emission.to_array().iter().any(|&e| e > 0.0) {
+        material
+    } else {
+        u32::MAX
     }
 }
 
@@ -283,7 +261,7 @@ pub(super) fn absorb_small_groups(
     let mut by_key: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
     for (g, (object, material, _)) in groups.iter().enumerate() {
         by_key
-            .entry((cell[g], *object, *material))
+            .entry((cell[g], *object, kind_of(loose.scene, *material)))
             .or_default()
             .push(g);
     }

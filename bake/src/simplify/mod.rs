@@ -1,7 +1,8 @@
 //! Voxel simplification (the paper's pre-processing step 1): the full-detail triangles are cut
 //! by a regular grid, and inside each cell the pieces are grouped into patches by object,
-//! material and orientation, so the two sides of a thin wall, or a floor and the wall standing
-//! on it, never become one patch. Finely tessellated parts small against a cell face join one
+//! emitting material and orientation, so the two sides of a thin wall, or a floor and the wall
+//! standing on it, never become one patch; separate parts of an object join where they see
+//! each other, so a scene of thousands of parts still meets its patch target. Finely tessellated parts small against a cell face join one
 //! patch whatever their orientation (`SMALL_GROUP`), so that curved furniture does not take
 //! the patch budget from the large surfaces.
 //!
@@ -16,7 +17,7 @@ use crate::error::BakeError;
 use crate::geometry::polygon::Polygon;
 use crate::scene::Scene;
 use glam::DVec3;
-use grouping::{Grouping, Loose, component_areas, components, group};
+use grouping::{Grouping, Loose, components, group};
 use radiosity_core::Rgb;
 use std::ops::Range;
 
@@ -239,7 +240,6 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
     let cos_max = params.max_normal_angle_deg.to_radians().cos();
     let component = components(scene);
     let loose = Loose {
-        area: component_areas(scene, &component),
         occluders: std::cell::OnceCell::new(),
         scene,
         component: &component,
@@ -326,8 +326,16 @@ fn fit_patch_count(
     let mut h_small = (total_area / target).sqrt() / 8.0;
     let mut h_large = extent * 2.0;
     let mut best: Option<(f64, Grouping, f64)> = None;
+    // The coarsest grid first: where even it gives more patches than the target allows (a
+    // scene of more objects and orientations than patches asked for), no finer grid does
+    // better, and the search would only creep towards it.
+    let coarsest = group(scene, component, loose, h_large, cos_max);
+    let fewest = coarsest.groups.len() as f64;
+    if fewest > target * (1.0 + params.tolerance) {
+        best = Some((h_large, coarsest, (fewest - target) / target));
+    }
     let mut h = (total_area / target).sqrt();
-    for _ in 0..48 {
+    for _ in 0..if best.is_some() { 0 } else { 48 } {
         let g = group(scene, component, loose, h, cos_max);
         let count = g.groups.len() as f64;
         let miss = (count - target).abs() / target;
@@ -341,7 +349,7 @@ fn fit_patch_count(
         if better {
             best = Some((h, g, miss));
         }
-        if done || h_large / h_small < 1.0 + 1e-6 {
+        if done || h_large / h_small < 1.0 + 1e-3 {
             break;
         }
         h = (h_small * h_large).sqrt();
@@ -354,7 +362,7 @@ fn fit_patch_count(
         let mut pairs: Vec<(u32, u32)> = scene
             .triangles
             .iter()
-            .map(|t| (t.object, t.material))
+            .map(|t| (t.object, grouping::kind_of(scene, t.material)))
             .collect();
         pairs.sort_unstable();
         pairs.dedup();
@@ -364,12 +372,12 @@ fn fit_patch_count(
         let held = |k: usize| g.groups.len() > n && k as f64 > 0.5 * target;
         let why = if held(pairs.len()) {
             format!(
-                "; the scene has {} object and material pairs, and a patch never spans two",
+                "; the scene has {} objects (an emitting material counted apart), and a patch never spans two",
                 pairs.len()
             )
         } else if held(roots.len()) {
             format!(
-                "; the scene has {} separate connected surfaces, and a patch joins two only when both are small and see each other",
+                "; the scene has {} separate connected surfaces, and a patch joins two only where they see each other",
                 roots.len()
             )
         } else {

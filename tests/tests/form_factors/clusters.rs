@@ -13,6 +13,7 @@ fn many_pieces_go_through_clustered_pairs_and_keep_a_sphere_in_a_box() {
     let run = |exact_pieces| {
         let params = FormFactorParams {
             exact_pieces,
+            many_pieces: ManyPieces::Clustered,
             ..FormFactorParams::default()
         };
         form_factors(&p, Some(&occ), &params, None)
@@ -105,6 +106,7 @@ fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
     let params = FormFactorParams {
         exact_pieces: 0,
+        many_pieces: ManyPieces::Clustered,
         ..FormFactorParams::default()
     };
     let ff = form_factors(&p, Some(&occ), &params, None);
@@ -379,6 +381,7 @@ fn a_clustered_pair_integrates_each_piece_pair_over_its_smaller_piece() {
         None,
         &FormFactorParams {
             exact_pieces: 0,
+            many_pieces: ManyPieces::Clustered,
             ..FormFactorParams::unoccluded()
         },
         None,

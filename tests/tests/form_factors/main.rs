@@ -10,7 +10,8 @@ mod rays;
 
 use bake_support::*;
 use radiosity_bake::form_factor::{
-    EXACT_PAIR_RAYS, FormFactorParams, FormFactors, Visibility, form_factor_rows, form_factors,
+    EXACT_PAIR_RAYS, FormFactorParams, FormFactors, ManyPieces, Visibility, form_factor_rows,
+    form_factors,
 };
 use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;

@@ -57,6 +57,7 @@ fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
                 skip_unblockable: true,
             },
             exact_pieces,
+            many_pieces: ManyPieces::Clustered,
             ..Default::default()
         };
         let ff = form_factors(&p, Some(&occ), &params, None);
@@ -101,6 +102,7 @@ fn clustered_rays_see_across_a_narrow_gap_and_not_through_a_thin_layer() {
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
     let params = FormFactorParams {
         exact_pieces: 0,
+        many_pieces: ManyPieces::Clustered,
         ..Default::default()
     };
     let ff = form_factors(&p, Some(&occ), &params, None);
@@ -132,6 +134,7 @@ fn sampled_rows_are_the_rows_of_the_whole_matrix() {
     let ball = sphere_in_a_box(dir.path());
     let clustered = FormFactorParams {
         exact_pieces: 0,
+        many_pieces: ManyPieces::Clustered,
         ..FormFactorParams::default()
     };
     for (scene, patches, params) in [

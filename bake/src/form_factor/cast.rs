@@ -1,0 +1,171 @@
+//! Ray-cast form factors for scenes of many pieces (module doc of [`super`], "many pieces"):
+//! each patch casts the same number of cosine-weighted rays from points spread over its pieces
+//! by area, and every ray that first meets the front of another patch's triangle counts one
+//! hit for that patch. The cost is rays × log(triangles): it follows the patch count, not the
+//! scene's triangles, which the piece-by-piece quadrature's near field cannot do on a scene of
+//! tiny facets.
+//!
+//! **The estimator.** Patch `i` casting `R_i` rays, `c_ij` of which reach `j`, estimates the
+//! exchange `G_ij = A_i F_ij` as `A_i c_ij / R_i`, with a variance of about `A_i G / R_i`
+//! (Poisson). Both sides of a pair estimate the same `G`, so the two estimates are pooled with
+//! weights inverse to their variances: `G = (c_ij + c_ji) / (R_i/A_i + R_j/A_j)`, all hits over
+//! all ray density. Reciprocity then holds by construction, and the smaller patch, which sends
+//! its rays at the larger from close, carries the pair as in the quadrature ("integrate over
+//! the smaller patch").
+//!
+//! **The samples.** A patch's ray `k` starts at point `k` of a scrambled Sobol' (0, 2)-sequence
+//! mapped onto its pieces by area ([`patch_point_at`]) and leaves in the direction of point
+//! `π(k)` of a second scrambled sequence (π a random permutation: the padding of Kollig &
+//! Keller, "Efficient multidimensional sampling", Eurographics 2002), cosine-weighted about the
+//! piece's own normal. Every stream is seeded by the patch alone, so the matrix is the same on
+//! any thread count. A ray that first meets a back face (the point lies under or inside
+//! something) or nothing counts for no patch: the row is the mean over the patch's whole area,
+//! as the quadrature's is, and the closure divides by the exposed share afterwards.
+
+use super::Progress;
+use crate::geometry::Occluders;
+use crate::hemisphere::{Owners, patch_point_at};
+use crate::rng::{SplitMix64, sobol2};
+use crate::simplify::Patches;
+use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Seed of the ray streams (any fixed value: it only has to differ from the checks' seeds).
+const SEED: u64 = 0x5EED_CA57_F0F0_0001;
+
+/// The ray streams of patch `i`: the two scrambles and the permutation's generator.
+fn streams(i: usize) -> ([u32; 2], [u32; 2], SplitMix64) {
+    let mut rng = SplitMix64(SEED ^ (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let mut scramble = || {
+        let v = rng.next_u64();
+        [v as u32, (v >> 32) as u32]
+    };
+    let (a, b) = (scramble(), scramble());
+    (a, b, rng)
+}
+
+/// The cosine-weighted direction about `n` at `(u, v)` of the unit square.
+fn cosine_at(n: DVec3, u: f64, v: f64) -> DVec3 {
+    let (t1, t2) = n.any_orthonormal_pair();
+    let phi = std::f64::consts::TAU * v;
+    (t1 * phi.cos() + t2 * phi.sin()) * u.sqrt() + n * (1.0 - u).sqrt()
+}
+
+/// Casts `rays` rays from patch `i` and adds one to `row[j]` for each that reaches patch `j`.
+fn cast_row(
+    patches: &Patches,
+    owners: &Owners,
+    occ: &Occluders,
+    i: usize,
+    rays: u32,
+    row: &mut [f32],
+) {
+    let pieces = patches.pieces_of(i);
+    // Running areas, so that a ray's piece is a binary search away (a curved patch of a real
+    // scene holds tens of thousands of pieces, and a walk over them cost more than the ray).
+    let mut cumulative = Vec::with_capacity(pieces.len());
+    let mut total = 0.0;
+    for q in pieces {
+        total += q.area;
+        cumulative.push(total);
+    }
+    if pieces.is_empty() || !(total > 0.0) {
+        return;
+    }
+    let (at, towards, mut rng) = streams(i);
+    let mut order: Vec<u32> = (0..rays).collect();
+    rng.shuffle(&mut order);
+    let far = 10.0 * occ.extent();
+    for (k, &p) in order.iter().enumerate() {
+        let [u, v] = sobol2(at, k as u32);
+        let pick = u * total;
+        let q = cumulative
+            .partition_point(|&c| c < pick)
+            .min(pieces.len() - 1);
+        let below = if q == 0 { 0.0 } else { cumulative[q - 1] };
+        let within = ((pick - below) / pieces[q].area).clamp(0.0, 1.0);
+        let (x, n) = patch_point_at(&pieces[q..=q], pieces[q].area, within, v);
+        let [a, b] = sobol2(towards, p);
+        let d = cosine_at(n, a, b);
+        let Some((h, true)) = occ.first_surface_from_surface(x, d, far) else {
+            continue;
+        };
+        if let Some(j) = owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance) {
+            row[j] += 1.0;
+        }
+    }
+}
+
+/// The ray-cast form-factor matrix (module doc): `matrix` (n × n, zeroed) receives `F_ij`;
+/// returns the rays cast. `rays` per patch must stay below 2²⁴ so that counts are exact in f32.
+pub(super) fn cast(
+    patches: &Patches,
+    occ: &Occluders,
+    rays: u32,
+    matrix: &mut [f32],
+    progress: Option<Progress<'_>>,
+) -> u64 {
+    let n = patches.len();
+    assert!(rays < 1 << 24, "ray counts must be exact in f32");
+    assert_eq!(matrix.len(), n * n);
+    let owners = Owners::new(patches);
+    let done = AtomicUsize::new(0);
+    // Counts first, each row written by its own patch (no shared output).
+    matrix
+        .par_chunks_mut(n.max(1))
+        .enumerate()
+        .for_each(|(i, row)| {
+            cast_row(patches, &owners, occ, i, rays, row);
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(p) = progress {
+                p(d, n);
+            }
+        });
+    // Then the pooled exchange of every pair, in place: `c_ij + c_ji` over the two sides' ray
+    // densities, divided by each side's area. Equal ray counts per patch: the density of `i`
+    // is `R / A_i`.
+    let r = f64::from(rays);
+    let area = |i: usize| patches.patches[i].area;
+    for i in 0..n {
+        let d = i * n + i;
+        matrix[d] = (f64::from(matrix[d]) / r) as f32;
+        for j in i + 1..n {
+            let (ij, ji) = (i * n + j, j * n + i);
+            let hits = f64::from(matrix[ij]) + f64::from(matrix[ji]);
+            if hits == 0.0 {
+                continue;
+            }
+            let (ai, aj) = (area(i), area(j));
+            let g = hits / (r / ai + r / aj);
+            matrix[ij] = (g / ai) as f32;
+            matrix[ji] = (g / aj) as f32;
+        }
+    }
+    n as u64 * u64::from(rays)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosine_directions_stay_in_the_hemisphere_and_keep_the_mean_cosine() {
+        // Over a stratified grid of the square, the mean cosine of a cosine-weighted
+        // direction is 2/3 (∫cos² / ∫cos over the hemisphere); 64² points put the grid's
+        // quadrature error near 1e-3, the bound is 5e-3.
+        let n = DVec3::new(0.3, -0.5, 0.8).normalize();
+        let mut sum = 0.0;
+        let m = 64;
+        for a in 0..m {
+            for b in 0..m {
+                let d = cosine_at(n, (a as f64 + 0.5) / m as f64, (b as f64 + 0.5) / m as f64);
+                assert!((d.length() - 1.0).abs() < 1e-12);
+                assert!(d.dot(n) >= 0.0);
+                sum += d.dot(n);
+            }
+        }
+        let mean = sum / (m * m) as f64;
+        assert!((mean - 2.0 / 3.0).abs() < 5e-3, "{mean}");
+    }
+}
