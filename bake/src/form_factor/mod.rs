@@ -33,7 +33,16 @@
 //! radii apart), while neighbours keep their pieces. Shadow rays still test the full-detail triangles, except
 //! those of a site's own patch, which its flat stand-in may lie off.
 //!
-//! **Clustered pairs.** In the same large scenes every pair (after flat sites) is integrated by
+//! **Many pieces.** Above [`FormFactorParams::exact_pieces`] pieces (a real scene of tens of
+//! thousands of triangles), the matrix is ray-cast by default ([`ManyPieces::Rays`], `cast`):
+//! every patch casts the same number of cosine-weighted rays against the full-detail
+//! triangles, each hit counts for the patch whose piece it lands on, and the two sides of each
+//! pair are pooled into one exchange, so reciprocity holds and the cost is rays × log
+//! triangles, following the patches. The quadrature below stays for smaller scenes, where it
+//! is exact to 1e-5; [`ManyPieces::Clustered`] keeps clustered pairs for large ones
+//! (`docs/decisions/ray-cast-form-factors.md` has the comparison).
+//!
+//! **Clustered pairs.** With [`ManyPieces::Clustered`], in the same large scenes every pair (after flat sites) is integrated by
 //! [`Pairs::clustered`], made for patches of many pieces — curved furniture, which no flat
 //! stand-in can represent — and for pieces far larger than their distance:
 //! - two pieces whose centres are more than [`POINT_RATIO`] times the sum of their radii apart

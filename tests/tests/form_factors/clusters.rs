@@ -392,3 +392,63 @@ fn a_clustered_pair_integrates_each_piece_pair_over_its_smaller_piece() {
     println!("panel → floor: {got:.5}, C-13 {want:.5}");
     assert_rel("panel → floor", got, want, 5e-3);
 }
+
+#[test]
+fn ray_cast_rows_match_the_quadrature_on_a_sphere_in_a_box() {
+    // The same sphere in a box forced through ray-cast rows (`exact_pieces` 0) against exact
+    // pairs: ray-cast factors are counts, so the checks are statistical, with bounds set from
+    // the rays' standard errors.
+    let dir = tempfile::tempdir().unwrap();
+    let s = sphere_in_a_box(dir.path());
+    let p = simplify(&s, &VoxelParams::with_patches(120)).unwrap();
+    let occ = Occluders::new(&s);
+    let object = |name: &str| s.objects.iter().position(|o| o == name).unwrap() as u32;
+    let ball = object("ball");
+    let exact = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);
+    let rays = 4096;
+    let cast = form_factors(
+        &p,
+        Some(&occ),
+        &FormFactorParams {
+            exact_pieces: 0,
+            many_pieces: ManyPieces::Rays { per_patch: rays },
+            ..FormFactorParams::default()
+        },
+        None,
+    );
+    assert_eq!(cast.rays_per_patch, rays);
+    assert_eq!(cast.rays_cast, p.len() as u64 * u64::from(rays));
+    assert_eq!((cast.clustered_pairs, cast.sites), (0, 0));
+    // Reciprocity by construction: the pooled exchange is stored once per pair (f32 rounding).
+    assert!(cast.reciprocity_error < 1e-6, "{}", cast.reciprocity_error);
+    // The same rays on any thread count: a second run gives the same bits.
+    let again = form_factors(
+        &p,
+        Some(&occ),
+        &FormFactorParams {
+            exact_pieces: 0,
+            many_pieces: ManyPieces::Rays { per_patch: rays },
+            ..FormFactorParams::default()
+        },
+        None,
+    );
+    assert_eq!(cast.matrix, again.matrix);
+    // A closed box: every ray hits something, so each row sums to 1 up to pooling (each
+    // pair's exchange is a weighted mean of both sides' estimates). Standard error of a
+    // pooled row about 0.5/√4096 ≈ 0.008 at worst; 0.04 is five of them.
+    for i in 0..p.len() {
+        let r = cast.row_sums[i];
+        assert!((r - 1.0).abs() < 0.04, "row {i}: {r}");
+    }
+    // A convex surface sees none of itself: no ray from the sphere meets the sphere.
+    assert!(object_factor(&p, &cast, ball, ball) < 1e-9);
+    // Sphere to each face: 1/6 by symmetry. The sphere's ~100 patches cast 4096 rays each
+    // (4e5 in all), so each face's share has a standard error of about
+    // √(1/6 · 5/6 / 4e5) ≈ 6e-4, 0.35% of 1/6; the bound 2% leaves room for the pooling.
+    for face in ["floor", "ceiling", "left", "right", "back", "front"] {
+        let f = object_factor(&p, &cast, ball, object(face));
+        let e = object_factor(&p, &exact, ball, object(face));
+        println!("ball → {face}: exact {e:.5}, cast {f:.5}");
+        assert!((f - 1.0 / 6.0).abs() < 0.02 / 6.0, "ball → {face}: {f}");
+    }
+}
