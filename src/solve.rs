@@ -159,12 +159,14 @@ fn surfaces(file: &RadFile<'_>) -> Option<Vec<(f64, Option<[f64; 3]>)>> {
         .as_deref()
         .and_then(|r| serde_json::from_str(r).ok());
     let field = |key: &str| report.as_ref().map(|r| r[key].clone());
+    // A figure per object, each finite and not negative, or none.
+    let good = |v: &f64| v.is_finite() && *v >= 0.0;
     let areas: Option<Vec<f64>> = field("object_surface_areas")
         .and_then(|v| serde_json::from_value(v).ok())
-        .filter(|a: &Vec<f64>| a.len() == n);
+        .filter(|a: &Vec<f64>| a.len() == n && a.iter().all(good));
     let power: Option<Vec<[f64; 3]>> = field("object_emitted_power")
         .and_then(|v| serde_json::from_value(v).ok())
-        .filter(|p: &Vec<[f64; 3]>| p.len() == n);
+        .filter(|p: &Vec<[f64; 3]>| p.len() == n && p.iter().flatten().all(good));
     if let (Some(areas), Some(power)) = (areas, power) {
         return Some(areas.into_iter().zip(power.into_iter().map(Some)).collect());
     }
@@ -194,6 +196,6 @@ fn surfaces(file: &RadFile<'_>) -> Option<Vec<(f64, Option<[f64; 3]>)>> {
     }
     field("object_areas")
         .and_then(|v| serde_json::from_value(v).ok())
-        .filter(|a: &Vec<f64>| a.len() == n)
+        .filter(|a: &Vec<f64>| a.len() == n && a.iter().all(good))
         .map(|a| a.into_iter().map(|a| (a, None)).collect())
 }

@@ -142,6 +142,63 @@ fn furnace_with_blocks_resting_on_surfaces_through_solve_json() {
     }
 }
 
+#[test]
+fn files_baked_before_the_surface_fields_still_solve() {
+    // A file whose report lacks `object_surface_areas` and `object_emitted_power` (baked before
+    // them) takes the whole surface from its full-detail mesh: the same answer as the fields
+    // give, to the mesh's f32 positions (1e-5 relative covers their rounding on these areas).
+    // Without a mesh either, the means fall back to the exposed area (`object_areas`), as such
+    // files were solved before: the furnace's B = 1000 on every object within 0.5%.
+    let dir = tempfile::tempdir().unwrap();
+    let (quads, mats, _) = resting_blocks_room(0.999);
+    let scene = write_scene(dir.path(), "resting", &quads, &mats);
+    let rad = dir.path().join("new.rad");
+    let bake = super::radiosity(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        rad.to_str().unwrap(),
+        "--patches",
+        "150",
+    ]);
+    assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+    let new = solve_json(&rad, &[]);
+    let bytes = std::fs::read(&rad).unwrap();
+    let mut file = radiosity_core::RadFile::parse(&bytes).unwrap();
+    let mut report: Value = serde_json::from_str(file.report.as_deref().unwrap()).unwrap();
+    for key in ["object_surface_areas", "object_emitted_power"] {
+        assert!(report.as_object_mut().unwrap().remove(key).is_some(), "{key}");
+    }
+    file.report = Some(report.to_string().into());
+    let with_mesh = dir.path().join("with-mesh.rad");
+    std::fs::write(&with_mesh, file.to_bytes().unwrap()).unwrap();
+    let old = solve_json(&with_mesh, &[]);
+    for o in new["objects"].as_array().unwrap() {
+        let name = o["name"].as_str().unwrap();
+        let got = object(&old, name);
+        for key in ["area", "exposed_area"] {
+            let (a, b) = (o[key].as_f64().unwrap(), got[key].as_f64().unwrap());
+            assert!((a - b).abs() < 1e-5 * a, "{name} {key}: {b} vs {a}");
+        }
+        for key in ["irradiance", "radiosity"] {
+            let (a, b) = (channel(o, key, 0), channel(got, key, 0));
+            assert!((a - b).abs() < 1e-5 * a, "{name} {key}: {b} vs {a}");
+        }
+    }
+    assert!(file.mesh.is_some(), "the bake writes a mesh");
+    file.mesh = None;
+    let bare = dir.path().join("bare.rad");
+    std::fs::write(&bare, file.to_bytes().unwrap()).unwrap();
+    let old = solve_json(&bare, &[]);
+    for o in old["objects"].as_array().unwrap() {
+        let area = o["area"].as_f64().unwrap();
+        let exposed = o["exposed_area"].as_f64().unwrap();
+        assert!(area >= exposed && area < 1.01 * exposed, "{}: {area} vs {exposed}", o["name"]);
+        let b = channel(o, "radiosity", 0);
+        assert!((b - 1000.0).abs() < 5.0, "{}: B = {b}", o["name"]);
+    }
+}
+
 /// Two rooms side by side sharing a wall `t` thick (each room's own inward faces), objects
 /// named per room, a lamp in room `a`'s ceiling.
 fn two_rooms(dir: &Path, t: f64) -> std::path::PathBuf {
