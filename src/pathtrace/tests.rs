@@ -355,11 +355,21 @@ fn buried_surface_counts_in_the_means_with_no_irradiance() {
         .object_irradiance(n, 5);
     let floor = estimate(&est, "floor");
     let exposed = 4.0 - 0.36;
-    assert!((floor.area - 4.0).abs() < 1e-12, "floor area {}", floor.area);
+    assert!(
+        (floor.area - 4.0).abs() < 1e-12,
+        "floor area {}",
+        floor.area
+    );
     // The irradiance is 3 or 0 per sample: a Bernoulli mean, σ = 3·√(p(1 − p)/n) ≈ 0.0086.
     let sigma = floor.stderr[0];
     assert!(sigma > 0.0 && sigma < 0.005 * 3.0, "σ {sigma}");
-    assert_close("floor H", floor.irradiance[0], 3.0 * exposed / 4.0, sigma, 0.0);
+    assert_close(
+        "floor H",
+        floor.irradiance[0],
+        3.0 * exposed / 4.0,
+        sigma,
+        0.0,
+    );
     // The exposed area is the same count of unburied samples: H = 3 on each of them (f32
     // light arithmetic, 1e-6 relative).
     assert!(
@@ -369,7 +379,13 @@ fn buried_surface_counts_in_the_means_with_no_irradiance() {
         floor.area,
         floor.irradiance[0]
     );
-    assert_close("floor exposed area", floor.exposed_area, exposed, 4.0 * sigma / 3.0, 0.0);
+    assert_close(
+        "floor exposed area",
+        floor.exposed_area,
+        exposed,
+        4.0 * sigma / 3.0,
+        0.0,
+    );
     let e = PI * 0.1;
     // f32 emission (Ke) against the f64 π·0.1: 1e-6 relative.
     assert!(

@@ -290,7 +290,10 @@ fn solve_agrees_with_the_path_tracer_on_the_cornell_box() {
     let exposed = whole - polygon_area(&short) - polygon_area(&tall);
     for v in [object(&solved, "floor"), object(&traced, "floor")] {
         let area = v["area"].as_f64().unwrap();
-        assert!((area - whole).abs() < 1e-6 * whole, "floor area {area} vs {whole}");
+        assert!(
+            (area - whole).abs() < 1e-6 * whole,
+            "floor area {area} vs {whole}"
+        );
         let e = v["exposed_area"].as_f64().unwrap();
         assert!(
             (e - exposed).abs() < 0.01 * exposed,
@@ -300,7 +303,10 @@ fn solve_agrees_with_the_path_tracer_on_the_cornell_box() {
     for o in objects {
         let name = o["name"].as_str().unwrap();
         let reference = object(&traced, name);
-        let (a, want) = (o["area"].as_f64().unwrap(), reference["area"].as_f64().unwrap());
+        let (a, want) = (
+            o["area"].as_f64().unwrap(),
+            reference["area"].as_f64().unwrap(),
+        );
         assert!((a - want).abs() < 1e-6 * want, "{name}: area {a} vs {want}");
         let (h, want, se) = (
             triple(&o["irradiance"]),

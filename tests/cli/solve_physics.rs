@@ -161,13 +161,20 @@ fn files_baked_before_the_surface_fields_still_solve() {
         "--patches",
         "150",
     ]);
-    assert!(bake.status.success(), "{}", String::from_utf8_lossy(&bake.stderr));
+    assert!(
+        bake.status.success(),
+        "{}",
+        String::from_utf8_lossy(&bake.stderr)
+    );
     let new = solve_json(&rad, &[]);
     let bytes = std::fs::read(&rad).unwrap();
     let mut file = radiosity_core::RadFile::parse(&bytes).unwrap();
     let mut report: Value = serde_json::from_str(file.report.as_deref().unwrap()).unwrap();
     for key in ["object_surface_areas", "object_emitted_power"] {
-        assert!(report.as_object_mut().unwrap().remove(key).is_some(), "{key}");
+        assert!(
+            report.as_object_mut().unwrap().remove(key).is_some(),
+            "{key}"
+        );
     }
     file.report = Some(report.to_string().into());
     let with_mesh = dir.path().join("with-mesh.rad");
@@ -193,7 +200,11 @@ fn files_baked_before_the_surface_fields_still_solve() {
     for o in old["objects"].as_array().unwrap() {
         let area = o["area"].as_f64().unwrap();
         let exposed = o["exposed_area"].as_f64().unwrap();
-        assert!(area >= exposed && area < 1.01 * exposed, "{}: {area} vs {exposed}", o["name"]);
+        assert!(
+            area >= exposed && area < 1.01 * exposed,
+            "{}: {area} vs {exposed}",
+            o["name"]
+        );
         let b = channel(o, "radiosity", 0);
         assert!((b - 1000.0).abs() < 5.0, "{}: B = {b}", o["name"]);
     }

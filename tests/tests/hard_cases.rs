@@ -658,9 +658,15 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
     for (o, name) in out.file.objects.iter().enumerate() {
         let want = whole.iter().find(|e| e.0 == name.as_ref()).unwrap().1;
         let got = out.report.object_surface_areas[o];
-        assert!((got - want).abs() < 1e-9 * want, "{name}: area {got} vs {want}");
+        assert!(
+            (got - want).abs() < 1e-9 * want,
+            "{name}: area {got} vs {want}"
+        );
         for p in out.report.object_emitted_power[o] {
-            assert!((p - want).abs() < 1e-6 * want, "{name}: power {p} vs {want}");
+            assert!(
+                (p - want).abs() < 1e-6 * want,
+                "{name}: power {p} vs {want}"
+            );
         }
     }
 }
