@@ -111,12 +111,17 @@ pub(crate) struct PathTracer {
     offset: f64,
 }
 
-/// An object's estimate: area-weighted means over its exposed front surfaces.
+/// An object's estimate: area-weighted means over its whole front surface, the part buried
+/// under other objects included (it receives nothing: `H = 0`, `B = E`), as an irradiance
+/// meter over the object measures.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct ObjectEstimate {
     pub(crate) name: String,
-    /// Area of its triangles not buried under other objects (estimated by the samples).
+    /// Area of its triangles (exact).
     pub(crate) area: f64,
+    /// Area of its triangles not buried under other objects (estimated by the samples: `area`
+    /// times the share of them that are not buried).
+    pub(crate) exposed_area: f64,
     /// Mean irradiance H (W/m², RGB).
     pub(crate) irradiance: [f64; 3],
     /// Standard error of `irradiance` (the sample standard deviation over √samples).
@@ -128,11 +133,12 @@ pub(crate) struct ObjectEstimate {
 }
 
 impl ObjectEstimate {
-    /// An object with no light to report (no triangles, or fewer than two exposed samples).
-    fn dark(name: &str, area: f64) -> Self {
+    /// An object without triangles.
+    fn empty(name: &str) -> Self {
         Self {
             name: name.to_owned(),
-            area,
+            area: 0.0,
+            exposed_area: 0.0,
             irradiance: [0.0; 3],
             stderr: [0.0; 3],
             radiosity: [0.0; 3],
@@ -295,10 +301,12 @@ impl PathTracer {
             .collect()
     }
 
-    /// Area-weighted mean irradiance (W/m², RGB) over each object's exposed front surfaces,
-    /// with standard errors: `samples_per_object` points uniform by area over the object, one
-    /// path each from those not buried under another object ([`Occluders::buried`]), whose
-    /// share also scales the area. Panics if `samples_per_object < 2` (a standard error needs two samples).
+    /// Area-weighted mean irradiance and radiosity (W/m², RGB) over each object's whole front
+    /// surface, with standard errors: `samples_per_object` points uniform by area over the
+    /// object, one path each from those not buried under another object
+    /// ([`Occluders::buried`]); a buried point receives nothing and counts with `H = 0`,
+    /// `B = E`. The buried share also gives the exposed area. Panics if
+    /// `samples_per_object < 2` (a standard error needs two samples).
     pub(crate) fn object_irradiance(
         &self,
         samples_per_object: usize,
@@ -316,12 +324,11 @@ impl PathTracer {
             .map(|(o, (name, (list, cdf)))| {
                 let area = cdf.last().copied().unwrap_or(0.0);
                 if list.is_empty() {
-                    return ObjectEstimate::dark(name, area);
+                    return ObjectEstimate::empty(name);
                 }
                 // Per chunk: sums and sums of squares of H and B, in sample order, and the
-                // number of points not buried under another object (the others are not
-                // surface: no light reaches or leaves them, and they count in neither the
-                // means nor the area).
+                // number of points not buried under another object (no light reaches a buried
+                // point: it counts with H = 0 and B = E, the exitance it has of its own).
                 let chunks: Vec<([[f64; 3]; 4], usize)> = (0..n.div_ceil(CHUNK))
                     .into_par_iter()
                     .map(|k| {
@@ -331,11 +338,12 @@ impl PathTracer {
                             let mut rng = sample_rng(seed, o as u64, i as u64);
                             let t = &self.tris[list[pick(cdf, rng.next_f64())] as usize];
                             let x = t.sample(&mut rng);
-                            if self.occ.buried(x, t.normal) {
-                                continue;
-                            }
-                            exposed += 1;
-                            let h = self.irradiance_at(x, t.normal, &mut rng);
+                            let h = if self.occ.buried(x, t.normal) {
+                                [0.0; 3]
+                            } else {
+                                exposed += 1;
+                                self.irradiance_at(x, t.normal, &mut rng)
+                            };
                             for c in 0..3 {
                                 let b = t.emission[c] + t.rho[c] * h[c];
                                 s[0][c] += h[c];
@@ -357,11 +365,7 @@ impl PathTracer {
                         }
                     }
                 }
-                let area = area * exposed as f64 / n as f64;
-                if exposed < 2 {
-                    return ObjectEstimate::dark(name, area);
-                }
-                let nf = exposed as f64;
+                let nf = n as f64;
                 let mean = |sum: [f64; 3]| sum.map(|v| v / nf);
                 let stderr = |sum: [f64; 3], sq: [f64; 3]| {
                     let mut e = [0.0; 3];
@@ -375,6 +379,7 @@ impl PathTracer {
                 ObjectEstimate {
                     name: name.clone(),
                     area,
+                    exposed_area: area * exposed as f64 / nf,
                     irradiance: mean(s[0]),
                     stderr: stderr(s[0], s[1]),
                     radiosity: mean(s[2]),

@@ -66,9 +66,10 @@ pub(crate) fn run(
             timings["gather"]
         );
         outln!(
-            "{:<24} {:>12} {:>36} {:>36}",
+            "{:<24} {:>12} {:>12} {:>36} {:>36}",
             "object",
             "area",
+            "exposed",
             "irradiance W/m² (r g b)",
             "radiosity W/m² (r g b)"
         );
@@ -81,9 +82,10 @@ pub(crate) fn run(
                     .join(" ")
             };
             outln!(
-                "{:<24} {:>12.5} {} {}",
+                "{:<24} {:>12.5} {:>12.5} {} {}",
                 o["name"].as_str().unwrap_or(""),
                 o["area"].as_f64().unwrap_or(0.0),
+                o["exposed_area"].as_f64().unwrap_or(0.0),
                 v("irradiance"),
                 v("radiosity")
             );
@@ -94,12 +96,13 @@ pub(crate) fn run(
     Ok(())
 }
 
-/// Area-weighted mean irradiance and radiosity per object. The means are over the object's
-/// full-detail area when the bake recorded it (`object_areas` in the file's report): patches
-/// that see nothing were dropped from the matrix and receive no light from the scene, so they
-/// count with zero irradiance and radiosity. Otherwise over the matrix patches.
+/// Area-weighted mean irradiance and radiosity per object, over its whole full-detail surface
+/// (`area`): the part outside the matrix (buried under another object, or a patch that sees
+/// nothing and was dropped) receives nothing, so it counts with `H = 0` and `B = E`. The
+/// matrix patches' own area is `exposed_area`. The whole surface comes from [`surfaces`].
 fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
-    let mut acc = vec![(0f64, [0f64; 3], [0f64; 3]); file.objects.len()];
+    // Per object: matrix area, and Σ A·H, Σ A·B, Σ A·E over its matrix patches.
+    let mut acc = vec![(0f64, [0f64; 3], [0f64; 3], [0f64; 3]); file.objects.len()];
     for (i, p) in file.patches.iter().enumerate() {
         let a = &mut acc[p.object as usize];
         let w = f64::from(p.area);
@@ -107,20 +110,24 @@ fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
         for k in 0..3 {
             a.1[k] += w * f64::from(h[i].channel(k));
             a.2[k] += w * f64::from(b[i].channel(k));
+            a.3[k] += w * f64::from(p.emission.channel(k));
         }
     }
-    let recorded: Option<Vec<f64>> = file
-        .report
-        .as_deref()
-        .and_then(|r| serde_json::from_str::<Value>(r).ok())
-        .and_then(|r| serde_json::from_value(r["object_areas"].clone()).ok())
-        .filter(|a: &Vec<f64>| a.len() == file.objects.len());
+    let whole = surfaces(file);
     file.objects
         .iter()
         .zip(acc)
         .enumerate()
-        .map(|(o, (name, (matrix_area, hs, bs)))| {
-            let area = recorded.as_ref().map_or(matrix_area, |a| a[o].max(matrix_area));
+        .map(|(o, (name, (exposed, hs, bs, es)))| {
+            let (area, power) = whole.as_ref().map_or((exposed, None), |w| w[o]);
+            // Rounding (f32 patch areas) may put the matrix a hair above the whole surface.
+            let area = area.max(exposed);
+            let mut bs = bs;
+            if let Some(power) = power.filter(|_| area > exposed) {
+                for k in 0..3 {
+                    bs[k] += (power[k] - es[k]).max(0.0);
+                }
+            }
             let mean = |s: [f64; 3]| {
                 if area > 0.0 {
                     s.map(|v| v / area)
@@ -128,7 +135,67 @@ fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
                     [0.0; 3]
                 }
             };
-            json!({ "name": name.as_ref(), "area": area, "irradiance": mean(hs), "radiosity": mean(bs) })
+            json!({
+                "name": name.as_ref(),
+                "area": area,
+                "exposed_area": exposed,
+                "irradiance": mean(hs),
+                "radiosity": mean(bs),
+            })
         })
         .collect()
+}
+
+/// Each object's whole full-detail area and the power it emits over it (file object order),
+/// from the first source the file has: the bake report's `object_surface_areas` and
+/// `object_emitted_power`; else the file's full-detail mesh (files baked before those fields);
+/// else the report's `object_areas` (the full-detail area less the buried part) with no power
+/// (nothing counted as emitted outside the matrix); and `None` without any of them: the matrix
+/// patches are then the whole surface.
+fn surfaces(file: &RadFile<'_>) -> Option<Vec<(f64, Option<[f64; 3]>)>> {
+    let n = file.objects.len();
+    let report: Option<Value> = file
+        .report
+        .as_deref()
+        .and_then(|r| serde_json::from_str(r).ok());
+    let field = |key: &str| report.as_ref().map(|r| r[key].clone());
+    // A figure per object, each finite and not negative, or none.
+    let good = |v: &f64| v.is_finite() && *v >= 0.0;
+    let areas: Option<Vec<f64>> = field("object_surface_areas")
+        .and_then(|v| serde_json::from_value(v).ok())
+        .filter(|a: &Vec<f64>| a.len() == n && a.iter().all(good));
+    let power: Option<Vec<[f64; 3]>> = field("object_emitted_power")
+        .and_then(|v| serde_json::from_value(v).ok())
+        .filter(|p: &Vec<[f64; 3]>| p.len() == n && p.iter().flatten().all(good));
+    if let (Some(areas), Some(power)) = (areas, power) {
+        return Some(areas.into_iter().zip(power.into_iter().map(Some)).collect());
+    }
+    if let Some(mesh) = &file.mesh {
+        let mut w = vec![(0.0, [0.0; 3]); n];
+        let at = |v: u32| {
+            mesh.positions
+                .get(v as usize)
+                .map(|p| glam::DVec3::from(p.map(f64::from)))
+        };
+        for t in mesh.triangles.iter() {
+            let (Some(a), Some(b), Some(c)) =
+                (at(t.vertices[0]), at(t.vertices[1]), at(t.vertices[2]))
+            else {
+                continue;
+            };
+            let Some(o) = w.get_mut(t.object as usize) else {
+                continue;
+            };
+            let area = 0.5 * (b - a).cross(c - a).length();
+            o.0 += area;
+            for k in 0..3 {
+                o.1[k] += area * f64::from(t.emission.channel(k));
+            }
+        }
+        return Some(w.into_iter().map(|(a, p)| (a, Some(p))).collect());
+    }
+    field("object_areas")
+        .and_then(|v| serde_json::from_value(v).ok())
+        .filter(|a: &Vec<f64>| a.len() == n && a.iter().all(good))
+        .map(|a| a.into_iter().map(|a| (a, None)).collect())
 }

@@ -28,8 +28,8 @@ pub(crate) struct PathtraceArgs {
     /// Seed of the random numbers: the same seed gives the same numbers on any thread count.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Print JSON: {"samples_per_object", "seed", "objects":[{"name", "area", "irradiance",
-    /// "radiosity", "stderr", "radiosity_stderr"}], "image", "timings_ms"}.
+    /// Print JSON: {"samples_per_object", "seed", "objects":[{"name", "area", "exposed_area",
+    /// "irradiance", "radiosity", "stderr", "radiosity_stderr"}], "image", "timings_ms"}.
     #[arg(long)]
     json: bool,
     /// Camera file for the image (JSON, as `render --camera`: docs/examples/camera.json);
@@ -137,9 +137,10 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
             timings["objects"].as_f64().unwrap_or(0.0)
         );
         outln!(
-            "{:<24} {:>12} {:>52} {:>36}",
+            "{:<24} {:>12} {:>12} {:>52} {:>36}",
             "object",
             "area",
+            "exposed",
             "irradiance W/m² (r g b) ± standard error",
             "radiosity W/m² (r g b)"
         );
@@ -149,9 +150,10 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
                 .collect();
             let b: Vec<String> = o.radiosity.iter().map(|v| format!("{v:>11.4}")).collect();
             outln!(
-                "{:<24} {:>12.5} {} {}",
+                "{:<24} {:>12.5} {:>12.5} {} {}",
                 o.name,
                 o.area,
+                o.exposed_area,
                 h.join(" "),
                 b.join(" ")
             );
@@ -171,6 +173,7 @@ fn object_json(o: &ObjectEstimate) -> serde_json::Value {
     json!({
         "name": o.name,
         "area": o.area,
+        "exposed_area": o.exposed_area,
         "irradiance": o.irradiance,
         "radiosity": o.radiosity,
         "stderr": o.stderr,

@@ -11,7 +11,7 @@
 
 use super::*;
 use glam::dvec3;
-use radiosity_tests::scenes::{Material as Mat, Quad, closed_box, write_scene};
+use radiosity_tests::scenes::{Material as Mat, Quad, block, closed_box, write_scene};
 use std::f64::consts::PI;
 
 const K_SIGMA: f64 = 4.0;
@@ -328,6 +328,77 @@ fn spot_cone_and_directional_light() {
             );
         }
     }
+}
+
+#[test]
+fn buried_surface_counts_in_the_means_with_no_irradiance() {
+    // A black emitting floor 2 × 2 (E = π·0.1) with a black block 0.6 × 0.6 × 0.5 resting on
+    // it, under a sun straight down (H = 3 wherever it is not shadowed). The sun's shadow is the
+    // block's footprint, which is also the floor's buried part, so the floor's mean over its
+    // whole area is H = 3·(4 − 0.36)/4, and B = E on every point, buried or not (ρ = 0). A mean
+    // over the exposed part only, as before, gives H = 3; buried points left out of B or counted
+    // with B = 0 give B = E·0.91 instead.
+    let materials = [
+        Mat::new("glow", [0.0; 3], [0.1; 3]),
+        Mat::new("black", [0.0; 3], [0.0; 3]),
+    ];
+    let mut quads = vec![rect_z("floor", "glow", [-1.0, 1.0, -1.0, 1.0], 0.0, true)];
+    quads.extend(block([-0.3, -0.3, 0.0], [0.3, 0.3, 0.5], "block", "black"));
+    let scene = load("buried", &quads, &materials);
+    let sun = Light::Directional {
+        direction: Vec3::new(0.0, 0.0, -1.0),
+        irradiance: radiosity_core::Rgb::splat(3.0),
+    };
+    let n = 20_000;
+    let est = PathTracer::new(&scene, &[sun])
+        .unwrap()
+        .object_irradiance(n, 5);
+    let floor = estimate(&est, "floor");
+    let exposed = 4.0 - 0.36;
+    assert!(
+        (floor.area - 4.0).abs() < 1e-12,
+        "floor area {}",
+        floor.area
+    );
+    // The irradiance is 3 or 0 per sample: a Bernoulli mean, σ = 3·√(p(1 − p)/n) ≈ 0.0086.
+    let sigma = floor.stderr[0];
+    assert!(sigma > 0.0 && sigma < 0.005 * 3.0, "σ {sigma}");
+    assert_close(
+        "floor H",
+        floor.irradiance[0],
+        3.0 * exposed / 4.0,
+        sigma,
+        0.0,
+    );
+    // The exposed area is the same count of unburied samples: H = 3 on each of them (f32
+    // light arithmetic, 1e-6 relative).
+    assert!(
+        (floor.exposed_area / floor.area - floor.irradiance[0] / 3.0).abs() < 1e-6,
+        "exposed {} of {} vs H {}",
+        floor.exposed_area,
+        floor.area,
+        floor.irradiance[0]
+    );
+    assert_close(
+        "floor exposed area",
+        floor.exposed_area,
+        exposed,
+        4.0 * sigma / 3.0,
+        0.0,
+    );
+    let e = PI * 0.1;
+    // f32 emission (Ke) against the f64 π·0.1: 1e-6 relative.
+    assert!(
+        (floor.radiosity[0] - e).abs() < 1e-6 * e,
+        "B {:?} vs E {e}",
+        floor.radiosity
+    );
+    // The block: whole 2·0.36 + 4·0.3 = 1.92, its bottom (0.36) buried.
+    let b = estimate(&est, "block");
+    assert!((b.area - 1.92).abs() < 1e-12, "block area {}", b.area);
+    let p = 1.56 / 1.92;
+    let sigma_b = 1.92 * (p * (1.0 - p) / n as f64).sqrt();
+    assert_close("block exposed area", b.exposed_area, 1.56, sigma_b, 0.0);
 }
 
 #[test]

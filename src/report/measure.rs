@@ -132,10 +132,11 @@ pub(super) fn time_in_turns(timers: &mut Vec<(usize, Timer)>, samples: &mut [Sam
 }
 
 /// Area-weighted relative L2 error of the per-object mean irradiance against the path tracer:
-/// `√(Σ_o A_o ‖h_o − p_o‖² / Σ_o A_o ‖p_o‖²)`. Means are over each object's full-detail area
-/// (patches that see nothing count as dark), as `solve` reports them.
+/// `√(Σ_o A_o ‖h_o − p_o‖² / Σ_o A_o ‖p_o‖²)`. Means are over each object's whole full-detail
+/// area (buried parts and patches that see nothing count as dark), as `solve` reports them
+/// and the path tracer measures them.
 pub(super) fn object_error(out: &BakeOutput, y: &[Rgb], reference: &[ObjectEstimate]) -> f64 {
-    let areas = &out.report.object_areas;
+    let areas = &out.report.object_surface_areas;
     let mut sums = vec![[0f64; 3]; out.file.objects.len()];
     for (p, h) in out.file.patches.iter().zip(y) {
         for k in 0..3 {

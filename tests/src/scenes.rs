@@ -157,6 +157,20 @@ pub fn resting_blocks_room(rho: f64) -> (Vec<Quad>, Vec<Material>, Vec<(&'static
     (quads, mats, exposed)
 }
 
+/// Each object's whole area in [`resting_blocks_room`], the parts in contact included: the
+/// room's faces 2 × 2, the block 0.6 × 0.7 × 0.6 (four sides 0.6 × 0.7, top and bottom
+/// 0.6 × 0.6), the cube 0.5 on a side.
+pub fn resting_blocks_surface_areas() -> Vec<(&'static str, f64)> {
+    let mut areas: Vec<(&'static str, f64)> =
+        ["floor", "left", "ceiling", "right", "back", "front"]
+            .into_iter()
+            .map(|f| (f, 4.0))
+            .collect();
+    areas.push(("standing", 4.0 * 0.42 + 2.0 * 0.36));
+    areas.push(("pressed", 6.0 * 0.25));
+    areas
+}
+
 /// Writes `name.obj` and `name.mtl` into `dir`; returns the OBJ path.
 pub fn write_scene(dir: &Path, name: &str, quads: &[Quad], materials: &[Material]) -> PathBuf {
     let mut mtl = String::new();

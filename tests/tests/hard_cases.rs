@@ -654,6 +654,23 @@ fn blocks_resting_on_surfaces_keep_a_closed_furnace_exact() {
             "{name}: exposed area {got} vs {want}"
         );
     }
+    // Whole areas and emitted power, exact sums over the triangles (E = π·Ke = 1 everywhere,
+    // f32 Ke: 1e-6 relative), buried parts included.
+    let whole = radiosity_tests::scenes::resting_blocks_surface_areas();
+    for (o, name) in out.file.objects.iter().enumerate() {
+        let want = whole.iter().find(|e| e.0 == name.as_ref()).unwrap().1;
+        let got = out.report.object_surface_areas[o];
+        assert!(
+            (got - want).abs() < 1e-9 * want,
+            "{name}: area {got} vs {want}"
+        );
+        for p in out.report.object_emitted_power[o] {
+            assert!(
+                (p - want).abs() < 1e-6 * want,
+                "{name}: power {p} vs {want}"
+            );
+        }
+    }
 }
 
 /// The furnace box [0, 2]³ of `split × split` quads a face, white at ρ = 0.999 and emitting

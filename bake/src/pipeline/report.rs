@@ -72,8 +72,15 @@ pub struct BakeReport {
     /// Warnings from loading and simplification.
     pub warnings: Vec<String>,
     /// Exposed area of each object (file object order): its full-detail area less the part
-    /// buried under other objects, dark patches included: what per-object means are taken over.
+    /// buried under other objects, dark patches included.
     pub object_areas: Vec<f64>,
+    /// Whole full-detail area of each object (file object order), buried and dropped parts
+    /// included: what `solve`'s per-object means are taken over.
+    pub object_surface_areas: Vec<f64>,
+    /// Power each object emits over its whole full-detail surface (file object order, RGB,
+    /// `Σ A·E` in W per scene unit² of area): `solve` counts the part outside the matrix with
+    /// radiosity `B = E` (it receives nothing).
+    pub object_emitted_power: Vec<[f64; 3]>,
 }
 
 /// Closure measurements.
@@ -271,7 +278,22 @@ pub(super) fn report(
             .enumerate()
             .map(|(o, a)| a - system.exposure.buried_area.get(o).copied().unwrap_or(0.0))
             .collect(),
+        object_surface_areas: scene.object_areas(),
+        object_emitted_power: emitted_power(scene),
     }
+}
+
+/// Power each object of `scene` emits over its whole full-detail surface (`Σ A·E` per channel).
+fn emitted_power(scene: &Scene) -> Vec<[f64; 3]> {
+    let mut p = vec![[0.0; 3]; scene.objects.len()];
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let e = scene.materials[tri.material as usize].emission;
+        let a = scene.triangle_area(t);
+        for (c, acc) in p[tri.object as usize].iter_mut().enumerate() {
+            *acc += a * f64::from(e.channel(c));
+        }
+    }
+    p
 }
 
 /// Stores `report` in `file`'s REPORT section with the file's size in it, and returns it.
