@@ -30,29 +30,50 @@ def read_out():
 threading.Thread(target=read_err, daemon=True).start()
 threading.Thread(target=read_out, daemon=True).start()
 start = time.time()
-while proc.poll() is None:
+hwm = 0
+
+
+def status(pid):
+    """VmRSS and VmHWM of `pid` in bytes (0 where it is gone)."""
+    rss = peak = 0
     try:
-        with open(f"/proc/{proc.pid}/status") as f:
+        with open(f"/proc/{pid}/status") as f:
             for l in f:
                 if l.startswith("VmRSS:"):
-                    samples.append((time.time(), int(l.split()[1]) * 1024))
+                    rss = int(l.split()[1]) * 1024
                 elif l.startswith("VmHWM:"):
-                    hwm = int(l.split()[1]) * 1024
+                    peak = int(l.split()[1]) * 1024
     except (FileNotFoundError, ProcessLookupError):
-        break
+        pass
+    return rss, peak
+
+
+while proc.poll() is None:
+    # The command and its children (the bake under `/usr/bin/time -v`).
+    pids = [proc.pid]
+    try:
+        with open(f"/proc/{proc.pid}/task/{proc.pid}/children") as f:
+            pids += [int(p) for p in f.read().split()]
+    except (FileNotFoundError, ProcessLookupError):
+        pass
+    now = [status(p) for p in pids]
+    samples.append((time.time(), sum(r for r, _ in now)))
+    hwm = max([hwm] + [h for _, h in now])
     time.sleep(0.05)
 proc.wait()
 time.sleep(0.2)
 stage = re.compile(r"^\w+: (.+?) (\d+(?:\.\d+)?) s$")
+# Lines of the stages that end within the first second are held and printed together later:
+# a stage ends where the next one starts, going back from the last line.
+stages = [(t, m.group(1), float(m.group(2))) for t, l in lines if (m := stage.match(l))]
+rows, next_start = [], float("inf")
+for t_line, name, secs in reversed(stages):
+    t_end = min(t_line, next_start)
+    next_start = t_end - secs
+    inside = [r for t, r in samples if next_start - 0.05 <= t <= t_end + 0.05]
+    rows.append((name, secs, max(inside) / 1e6 if inside else float("nan")))
 print(f"{'stage':<16} {'seconds':>9} {'peak RSS MB':>12}")
-for t_end, line in lines:
-    m = stage.match(line)
-    if not m:
-        continue
-    name, secs = m.group(1), float(m.group(2))
-    t0 = t_end - secs
-    inside = [r for t, r in samples if t0 - 0.05 <= t <= t_end + 0.05]
-    peak = max(inside) / 1e6 if inside else float("nan")
+for name, secs, peak in reversed(rows):
     print(f"{name:<16} {secs:>9.1f} {peak:>12.1f}")
 print(f"{'all':<16} {time.time() - start:>9.1f} {hwm / 1e6:>12.1f}  (VmHWM)")
 sys.exit(proc.returncode)

@@ -15,6 +15,7 @@
 //! [`enforce_closure`] balances F symmetrically so that every row sums to 1 while reciprocity
 //! `A_i F_ij = A_j F_ji` is kept exactly.
 
+use faer::reborrow::{IntoConst, ReborrowMut};
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -376,14 +377,14 @@ pub(crate) fn transfer(
     for c in 0..channels {
         let last = c + 1 == channels;
         let fr: &Dense = f.as_deref().expect("F is kept until the last channel");
-        // `G = F · diag(ρ_c)`, column-major.
-        let g = |i: usize, j: usize, v: f64| v * reflectance[j][c];
+        // `G = F · diag(ρ_c)`: entry `(i, j)` from `F_ij`.
+        let g = |j: usize, v: f64| v * reflectance[j][c];
         let plane = match k {
             Bounces::Infinite => {
                 // `I − G`, entry by entry as `δ_ij − G_ij` (so 0 − G, never −G: no −0).
                 let a = column_major(fr, |i, j, v| {
                     let delta = if i == j { 1.0 } else { 0.0 };
-                    delta - g(i, j, v)
+                    delta - g(j, v)
                 });
                 // The right-hand side F, column-major: F's own buffer for the last channel
                 // when it is ours.
@@ -402,7 +403,7 @@ pub(crate) fn transfer(
                 plane_of(MatRef::from_column_major_slice(&x, n, n))
             }
             Bounces::Finite(k) => {
-                let s = series_sum(Mat::from_fn(n, n, |i, j| g(i, j, fr.get(i, j))), k);
+                let s = series_sum(Mat::from_fn(n, n, |i, j| g(j, fr.get(i, j))), k);
                 let mut m = Mat::<f64>::zeros(n, n);
                 let ff = MatRef::from_row_major_slice(&fr.values, n, n);
                 faer::linalg::matmul::matmul(&mut m, Accum::Replace, &s, ff, 1.0, Par::rayon(0));
