@@ -17,9 +17,9 @@
 
 use faer::reborrow::{IntoConst, ReborrowMut};
 use faer::{Accum, Mat, MatMut, MatRef, Par};
+use radiosity_core::Bounces;
 use rayon::prelude::*;
 use std::borrow::Cow;
-use radiosity_core::Bounces;
 
 /// How many bounces to carry.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,7 +102,6 @@ impl Dense {
     pub fn row(&self, i: usize) -> &[f64] {
         &self.values[i * self.n..(i + 1) * self.n]
     }
-
 }
 
 /// Whether the form factors describe a closed enclosure, and how far from it.
@@ -423,7 +422,11 @@ pub(crate) fn transfer(
             .enumerate()
             .for_each(|(i, row)| {
                 for (c, plane) in planes.iter().enumerate() {
-                    for (o, v) in row[c..].iter_mut().step_by(channels).zip(&plane[i * n..][..n]) {
+                    for (o, v) in row[c..]
+                        .iter_mut()
+                        .step_by(channels)
+                        .zip(&plane[i * n..][..n])
+                    {
                         *o = *v;
                     }
                 }
@@ -480,40 +483,42 @@ fn transpose_in_place(v: &mut [f64], n: usize) {
 
 /// Factors the column-major `a` in its own buffer (partial pivoting, faer's `lu_in_place`,
 /// as `Mat::partial_piv_lu` does on its copy), calls `factored`, and solves `a · X = x` in
-/// `x` (column-major, `n` right-hand sides).
+/// `x` (column-major, `n` right-hand sides) as faer's `solve_in_place` does, but permuting
+/// the rows of `x` one column at a time: faer's permutes through a whole n × n copy.
 fn lu_solve_in_place(mut a: Vec<f64>, n: usize, x: &mut [f64], factored: impl FnOnce()) {
     use dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::lu::partial_pivoting::{factor, solve};
+    use faer::linalg::lu::partial_pivoting::factor;
+    use faer::linalg::triangular_solve;
     let par = faer::get_global_parallelism();
     let mut lu = MatMut::from_column_major_slice_mut(&mut a, n, n);
     let (mut fwd, mut bwd) = (vec![0usize; n], vec![0usize; n]);
-    let (_, perm) = factor::lu_in_place(
+    factor::lu_in_place(
         lu.rb_mut(),
         &mut fwd,
         &mut bwd,
         par,
-        MemStack::new(&mut MemBuffer::new(factor::lu_in_place_scratch::<usize, f64>(
-            n,
-            n,
-            par,
-            Default::default(),
-        ))),
+        MemStack::new(&mut MemBuffer::new(
+            factor::lu_in_place_scratch::<usize, f64>(n, n, par, Default::default()),
+        )),
         Default::default(),
     );
     factored();
-    // The unit lower factor and the upper one share the buffer: the solves read only their
-    // own triangle.
-    let lu = lu.into_const();
-    solve::solve_in_place(
-        lu,
-        lu,
-        perm,
-        MatMut::from_column_major_slice_mut(x, n, n),
-        par,
-        MemStack::new(&mut MemBuffer::new(solve::solve_in_place_scratch::<usize, f64>(
-            n, n, par,
-        ))),
+    // `P x`: row i takes row fwd[i] (faer's `permute_rows`).
+    x.par_chunks_mut(n.max(1)).for_each_init(
+        || vec![0f64; n],
+        |held, col| {
+            held.copy_from_slice(col);
+            for (v, &from) in col.iter_mut().zip(&fwd) {
+                *v = held[from];
+            }
+        },
     );
+    // The unit lower factor and the upper one share the buffer: each solve reads only its own
+    // triangle.
+    let lu = lu.into_const();
+    let mut rhs = MatMut::from_column_major_slice_mut(x, n, n);
+    triangular_solve::solve_unit_lower_triangular_in_place(lu, rhs.rb_mut(), par);
+    triangular_solve::solve_upper_triangular_in_place(lu, rhs.rb_mut(), par);
 }
 
 /// A channel of M as stored: row-major f32 from the f64 solution. LU round-off can leave
@@ -628,6 +633,86 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn owned_f_gives_the_bits_of_a_borrowed_one_and_of_faers_own_lu() {
+        // Five patches, rows below 1, three channels of different reflectance.
+        let n = 5;
+        let f = Dense::new(
+            n,
+            (0..n * n)
+                .map(|e| {
+                    if e / n == e % n {
+                        0.0
+                    } else {
+                        0.05 + 0.03 * ((e * 7) % 5) as f64
+                    }
+                })
+                .collect(),
+        );
+        let rho: Vec<[f64; 3]> = (0..n).map(|i| [0.3 + 0.1 * i as f64, 0.5, 0.9]).collect();
+        for spec in [
+            BounceSpec::Infinite,
+            BounceSpec::Fixed(3),
+            BounceSpec::Fixed(2),
+        ] {
+            let (borrowed, _) = transfer_matrix(&f, &rho, 3, spec).unwrap();
+            let calls = std::sync::Mutex::new(Vec::new());
+            let progress = |done: usize, total: usize| calls.lock().unwrap().push((done, total));
+            let (owned, _) =
+                transfer(Cow::Owned(f.clone()), &rho, 3, spec, Some(&progress)).unwrap();
+            assert_eq!(
+                owned.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                borrowed.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "{spec:?}"
+            );
+            let calls = calls.into_inner().unwrap();
+            assert_eq!(calls.last(), Some(&(12, 12)), "{calls:?}");
+            assert!(calls.windows(2).all(|w| w[0].0 < w[1].0), "{calls:?}");
+        }
+        // The in-place factorisation is faer's own partial-pivot LU, bit for bit.
+        let (m, _) = transfer_matrix(&f, &rho, 3, BounceSpec::Infinite).unwrap();
+        for c in 0..3 {
+            let a = Mat::from_fn(n, n, |i, j| {
+                let g = f.get(i, j) * rho[j][c];
+                if i == j { 1.0 - g } else { 0.0 - g }
+            });
+            let mut x = Mat::from_fn(n, n, |i, j| f.get(i, j));
+            faer::linalg::solvers::Solve::solve_in_place(&a.partial_piv_lu(), &mut x);
+            for i in 0..n {
+                for j in 0..n {
+                    assert_eq!(
+                        m[(i * n + j) * 3 + c].to_bits(),
+                        (x[(i, j)].max(0.0) as f32).to_bits(),
+                        "channel {c} ({i}, {j})"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tiled_copies_and_transposes_cover_every_entry() {
+        // A side that is not a multiple of the tile.
+        let n = TILE + 3;
+        let f = Dense::new(n, (0..n * n).map(|e| e as f64).collect());
+        let cm = column_major(&f, |_, _, v| v);
+        let mut t = f.values.clone();
+        transpose_in_place(&mut t, n);
+        assert_eq!(cm, t);
+        for i in 0..n {
+            for j in 0..n {
+                assert_eq!(cm[j * n + i], f.get(i, j));
+            }
+        }
+        let plane = plane_of(MatRef::from_column_major_slice(&cm, n, n));
+        assert!(
+            plane
+                .iter()
+                .zip(&f.values)
+                .all(|(p, v)| f64::from(*p) == *v)
+        );
     }
 
     #[test]

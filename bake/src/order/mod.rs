@@ -470,6 +470,18 @@ mod tests {
     }
 
     #[test]
+    fn permuting_in_place_matches_the_copy() {
+        // Several cycles (a 3-cycle, a swap, fixed points) and a random order.
+        let (n, ch) = (9, 3);
+        let dense: Vec<f32> = (0..n * n * ch).map(|v| v as f32).collect();
+        for perm in [vec![2u32, 0, 1, 4, 3, 5, 6, 8, 7], random_order(n, 7)] {
+            let mut inplace = dense.clone();
+            permute_in_place(&mut inplace, n, ch, &perm);
+            assert_eq!(inplace, permute(&dense, n, ch, &perm), "{perm:?}");
+        }
+    }
+
+    #[test]
     fn random_is_a_seeded_permutation() {
         let a = random_order(100, 1);
         assert!(is_permutation(&a, 100));

@@ -526,3 +526,22 @@ fn to_core_patch(patches: &Patches, i: usize) -> Patch {
         emission: p.emission,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn live_rows_keep_the_live_block_in_place() {
+        let n = 5;
+        let f = Dense::new(n, (0..n * n).map(|e| e as f64).collect());
+        for live in [vec![0, 2, 3], vec![1, 4], vec![0, 1, 2, 3, 4], vec![4]] {
+            let want: Vec<f64> = live
+                .iter()
+                .flat_map(|&i| live.iter().map(move |&j| (i * n + j) as f64))
+                .collect();
+            let got = live_rows(f.clone(), &live);
+            assert_eq!((got.n, &got.values), (live.len(), &want), "{live:?}");
+        }
+    }
+}
