@@ -20,7 +20,9 @@ const OVERSHOOT: f64 = 1.1;
 /// (K ≤ 2) F, the f32 planes, `I + G` and `M` (8 each), 32; the form factors hold their f32
 /// matrix and f64 upper triangle (12), the encode the f32 RGB matrix and its block scores
 /// (16), the measure the matrix and its decoded copy (24). MEASURED peak RSS minus the
-/// scene's (`radiosity bake` of the Cornell box, 2-core x86 VM, `docs/figures.md`): PEAK_TBD.
+/// scene's 11 MB (`radiosity bake` of the Cornell box, 2-core x86 VM, `docs/figures.md`):
+/// 30.4 bytes per entry at 4098 patches (510 MB; this estimate says 650 MB for `--patches
+/// 4096`), the rest over the count being faer's and rayon's working memory.
 const PEAK_BYTES_PER_ENTRY: f64 = 32.0;
 
 /// Bytes per matrix entry at the peak of a bake with a finite `--bounces K`: the series sums
