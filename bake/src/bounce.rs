@@ -457,9 +457,9 @@ fn column_major(f: &Dense, map: impl Fn(usize, usize, f64) -> f64 + Sync) -> Vec
             let j0 = band * TILE;
             for i0 in (0..n).step_by(TILE) {
                 for (jl, col) in cols.chunks_exact_mut(n).enumerate() {
-                    let j = j0 + jl;
-                    for i in i0..(i0 + TILE).min(n) {
-                        col[i] = map(i, j, f.values[i * n + j]);
+                    let (j, end) = (j0 + jl, (i0 + TILE).min(n));
+                    for (i, c) in (i0..end).zip(&mut col[i0..end]) {
+                        *c = map(i, j, f.values[i * n + j]);
                     }
                 }
             }
@@ -531,9 +531,10 @@ fn plane_of(x: MatRef<'_, f64>) -> Vec<f32> {
         .for_each(|(band, rows)| {
             let i0 = band * TILE;
             for j0 in (0..n).step_by(TILE) {
+                let end = (j0 + TILE).min(n);
                 for (il, row) in rows.chunks_exact_mut(n).enumerate() {
-                    for j in j0..(j0 + TILE).min(n) {
-                        row[j] = x[(i0 + il, j)].max(0.0) as f32;
+                    for (j, r) in (j0..end).zip(&mut row[j0..end]) {
+                        *r = x[(i0 + il, j)].max(0.0) as f32;
                     }
                 }
             }
