@@ -14,14 +14,14 @@ use std::time::Instant;
 /// Builds bake parameters from the shared flags (also used by `solve SCENE.obj`).
 pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
     let mut p = BakeParams::default();
+    p.bounces = parse_bounces(&args.bounces)?;
     if let Some(n) = args.patches {
         // Before anything is loaded or allocated: the dense matrices must fit in memory.
-        crate::limits::check_patches(n)?;
+        crate::limits::check_patches(n, p.bounces)?;
     }
     if let Some(v) = voxel_params(args.patches, args.voxel)? {
         p.voxel = v;
     }
-    p.bounces = parse_bounces(&args.bounces)?;
     p.form_factors = form_factor_params(&args.form_factors)?;
     p.format = match args.format.as_str() {
         "auto" => FormatChoice::Auto,

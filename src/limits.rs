@@ -3,6 +3,7 @@
 //! machine passes.
 
 use anyhow::bail;
+use radiosity_bake::bounce::BounceSpec;
 
 /// Largest patch target on any machine. A target is hit within +10%, and the matrix's n²
 /// entries must stay countable in 32 bits (the sparse rows' offsets are `u32`): 1.1 · 58 000
@@ -12,24 +13,40 @@ pub(crate) const MAX_PATCHES: usize = 58_000;
 /// How far over its target a bake may land (the simplification hits it within ±10%).
 const OVERSHOOT: f64 = 1.1;
 
-/// Bytes per matrix entry (per pair of patches) at the bake's peak, the transfer stage:
-/// F as f64 (8, kept by the discretised system) and its faer copy (8), the f32 RGB output
-/// (12), and per channel ρ-scaled F (8) with either the LU path's `I − G` (8), its factors
-/// (8) and the solution (8), or the series path's sum, power and product work (3 × 8) and its
-/// result (8). The series is the larger: 8 + 8 + 12 + 8 + 24 + 8 = 68. Later stages (order,
-/// encode, measure: f32 RGB copies, 12 each) stay below it.
-const PEAK_BYTES_PER_ENTRY: f64 = 68.0;
+/// Bytes per matrix entry (per pair of patches) at the bake's peak when the transfer solves all
+/// bounces by LU (`--bounces auto` or `inf`), over the scene's own memory. Counted from the
+/// code: the transfer's second channel holds F (8), `I − G` factored in place (8), the
+/// solution (8) and the first channel's f32 plane (4), 28 in all, and auto's short series
+/// (K ≤ 2) F, the f32 planes, `I + G` and `M` (8 each), 32; the form factors hold their f32
+/// matrix and f64 upper triangle (12), the encode the f32 RGB matrix and its block scores
+/// (16), the measure the matrix and its decoded copy (24). MEASURED peak RSS minus the
+/// scene's 11 MB (`radiosity bake` of the Cornell box, 2-core x86 VM, `docs/figures.md`):
+/// 30.4 bytes per entry at 4098 patches (510 MB; this estimate says 650 MB for `--patches
+/// 4096`), the rest over the count being faer's and rayon's working memory.
+const PEAK_BYTES_PER_ENTRY: f64 = 32.0;
 
-/// Estimated peak memory in bytes of a bake aimed at `patches` patches.
-pub(crate) fn bake_peak_bytes(patches: usize) -> f64 {
+/// Bytes per matrix entry at the peak of a bake with a finite `--bounces K`: the series sums
+/// by doubling, F, the f32 planes, G, its power, the sum and their product (8 each) = 48.
+const SERIES_PEAK_BYTES_PER_ENTRY: f64 = 48.0;
+
+/// Bytes per matrix entry at the peak of a bake under `bounces`.
+fn bytes_per_entry(bounces: BounceSpec) -> f64 {
+    match bounces {
+        BounceSpec::Fixed(k) if k > 2 => SERIES_PEAK_BYTES_PER_ENTRY,
+        _ => PEAK_BYTES_PER_ENTRY,
+    }
+}
+
+/// Estimated peak memory in bytes of a bake aimed at `patches` patches under `bounces`.
+pub(crate) fn bake_peak_bytes(patches: usize, bounces: BounceSpec) -> f64 {
     let n = patches as f64 * OVERSHOOT;
-    PEAK_BYTES_PER_ENTRY * n * n
+    bytes_per_entry(bounces) * n * n
 }
 
 /// The largest patch target whose estimated peak fits in `memory` bytes (at most
 /// [`MAX_PATCHES`]), rounded down to a hundred.
-pub(crate) fn largest_fitting(memory: u64) -> usize {
-    let n = (memory as f64 / PEAK_BYTES_PER_ENTRY).sqrt() / OVERSHOOT;
+pub(crate) fn largest_fitting(memory: u64, bounces: BounceSpec) -> usize {
+    let n = (memory as f64 / bytes_per_entry(bounces)).sqrt() / OVERSHOOT;
     ((n as usize) / 100 * 100).clamp(1, MAX_PATCHES)
 }
 
@@ -66,17 +83,22 @@ pub(crate) fn check_ceiling(patches: usize) -> anyhow::Result<()> {
 
 /// Refuses a patch target the bake cannot hold: above [`MAX_PATCHES`], or whose estimated
 /// peak ([`bake_peak_bytes`]) exceeds `memory` bytes of physical memory (when known).
-pub(crate) fn check_patches_in(patches: usize, memory: Option<u64>) -> anyhow::Result<()> {
+pub(crate) fn check_patches_in(
+    patches: usize,
+    memory: Option<u64>,
+    bounces: BounceSpec,
+) -> anyhow::Result<()> {
     check_ceiling(patches)?;
     if let Some(memory) = memory {
-        let peak = bake_peak_bytes(patches);
+        let peak = bake_peak_bytes(patches, bounces);
         if peak > memory as f64 {
             bail!(
-                "--patches {patches} needs about {:.1} GB at the bake's peak (dense matrices of {PEAK_BYTES_PER_ENTRY} bytes per pair of up to {} patches), more than this machine's {:.1} GB of memory: at most {} patches fit",
+                "--patches {patches} needs about {:.1} GB at the bake's peak (dense matrices of {} bytes per pair of up to {} patches), more than this machine's {:.1} GB of memory: at most {} patches fit",
                 peak / 1e9,
+                bytes_per_entry(bounces),
                 (patches as f64 * OVERSHOOT).round(),
                 memory as f64 / 1e9,
-                largest_fitting(memory)
+                largest_fitting(memory, bounces)
             );
         }
     }
@@ -84,8 +106,8 @@ pub(crate) fn check_patches_in(patches: usize, memory: Option<u64>) -> anyhow::R
 }
 
 /// [`check_patches_in`] this machine's physical memory.
-pub(crate) fn check_patches(patches: usize) -> anyhow::Result<()> {
-    check_patches_in(patches, physical_memory())
+pub(crate) fn check_patches(patches: usize, bounces: BounceSpec) -> anyhow::Result<()> {
+    check_patches_in(patches, physical_memory(), bounces)
 }
 
 #[cfg(test)]
@@ -94,25 +116,37 @@ mod tests {
 
     #[test]
     fn the_estimate_grows_as_the_square_and_names_what_fits() {
-        // 2048 patches: about 0.35 GB; 4096: four times that.
-        let a = bake_peak_bytes(2048);
-        assert!((0.3e9..0.4e9).contains(&a), "{a}");
-        assert!((bake_peak_bytes(4096) / a - 4.0).abs() < 1e-9);
+        let auto = BounceSpec::default();
+        // 2048 patches aimed at: up to 2253 in the matrix, 32 bytes each pair: 0.16 GB.
+        let a = bake_peak_bytes(2048, auto);
+        assert!((0.15e9..0.17e9).contains(&a), "{a}");
+        assert!((bake_peak_bytes(4096, auto) / a - 4.0).abs() < 1e-9);
+        // The doubling series holds more.
+        assert!(bake_peak_bytes(2048, BounceSpec::Fixed(3)) > a * 1.4);
+        assert_eq!(bake_peak_bytes(2048, BounceSpec::Fixed(2)), a);
         let gb23 = 23_000_000_000;
-        let fit = largest_fitting(gb23);
-        assert!(bake_peak_bytes(fit) <= gb23 as f64);
-        assert!(bake_peak_bytes(fit + 200) > gb23 as f64, "{fit}");
-        check_patches_in(fit, Some(gb23)).unwrap();
-        let err = check_patches_in(50_000, Some(gb23))
+        let fit = largest_fitting(gb23, auto);
+        assert!(bake_peak_bytes(fit, auto) <= gb23 as f64);
+        assert!(bake_peak_bytes(fit + 200, auto) > gb23 as f64, "{fit}");
+        // A 16384-patch bake fits a 23 GB machine (it did not at 68 bytes a pair).
+        assert!(fit >= 16_384, "{fit}");
+        check_patches_in(fit, Some(gb23), auto).unwrap();
+        let err = check_patches_in(50_000, Some(gb23), auto)
             .unwrap_err()
             .to_string();
         assert!(
-            err.contains("--patches 50000") && err.contains(&format!("at most {fit} patches")),
+            err.contains("--patches 50000")
+                && err.contains("needs about 96.8 GB")
+                && err.contains(&format!("at most {fit} patches")),
             "{err}"
         );
-        let err = check_patches_in(10_000_000, None).unwrap_err().to_string();
+        let series = largest_fitting(gb23, BounceSpec::Fixed(5));
+        assert!(series < fit, "{series} vs {fit}");
+        let err = check_patches_in(10_000_000, None, auto)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("at most 58000"), "{err}");
-        check_patches_in(50_000, None).unwrap();
+        check_patches_in(50_000, None, auto).unwrap();
     }
 
     #[test]

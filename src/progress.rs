@@ -3,8 +3,10 @@
 //!
 //! On a terminal this is a bar, cleared at the end. When stderr is not a terminal (a log, a CI
 //! job, a pipe) a bar cannot be drawn, so each stage prints one line when it ends, with its
-//! time: `bake: form factors 12.3 s`. A run that is over within [`QUIET_FOR`] prints none of
-//! them (a small scene, or an input refused early, keeps stderr to its one warning or error).
+//! time: `bake: form factors 12.3 s`, and a stage that counts its work prints where it stands
+//! every [`PROGRESS_EVERY`], with an estimate of the time left: `bake: transfer 4/12 (312 s,
+//! about 624 s left)`. A run that is over within [`QUIET_FOR`] prints none of them (a small
+//! scene, or an input refused early, keeps stderr to its one warning or error).
 
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -14,12 +16,17 @@ use std::time::{Duration, Instant};
 /// How long a run goes before its stage lines are printed (those of earlier stages then too).
 const QUIET_FOR: Duration = Duration::from_secs(1);
 
+/// How often a counting stage's line is printed when stderr is not a terminal.
+const PROGRESS_EVERY: Duration = Duration::from_secs(60);
+
 /// The stage lines of a run whose stderr is not a terminal.
 struct StageLog {
     /// What the lines start with: the subcommand (`bake`, `solve`, `bench`, …).
     label: String,
     start: Instant,
     current: Option<(String, Instant)>,
+    /// When the current stage last printed a progress line (its start before the first).
+    last_line: Instant,
     /// Lines of the stages ended within [`QUIET_FOR`], not printed yet.
     held: Vec<String>,
     printing: bool,
@@ -47,6 +54,30 @@ impl StageLog {
             self.emit(line);
         }
         self.current = next.map(|s| (s.to_owned(), Instant::now()));
+        self.last_line = Instant::now();
+    }
+
+    /// The current stage has done `done` of `total` units: a line every [`PROGRESS_EVERY`],
+    /// with the time left at the pace so far.
+    fn progress(&mut self, done: usize, total: usize) {
+        if let Some(line) = self.progress_line(done, total) {
+            self.emit(line);
+        }
+    }
+
+    /// The line [`StageLog::progress`] prints, when one is due.
+    fn progress_line(&mut self, done: usize, total: usize) -> Option<String> {
+        let (name, t) = self.current.as_ref()?;
+        if self.last_line.elapsed() < PROGRESS_EVERY || done == 0 || done >= total {
+            return None;
+        }
+        let spent = t.elapsed().as_secs_f64();
+        let left = spent * (total - done) as f64 / done as f64;
+        self.last_line = Instant::now();
+        Some(format!(
+            "{}: {name} {done}/{total} ({spent:.0} s, about {left:.0} s left)",
+            self.label
+        ))
     }
 }
 
@@ -99,6 +130,7 @@ pub(crate) fn stage_bar(width: usize, extra: &str, quiet: bool) -> StageBar {
             label: command_name(),
             start: Instant::now(),
             current: None,
+            last_line: Instant::now(),
             held: Vec::new(),
             printing: false,
         })
@@ -128,6 +160,11 @@ pub(crate) fn callbacks(
     let progress = move |done: usize, total: usize| {
         bar.bar.set_length(total as u64);
         bar.bar.set_position(done as u64);
+        if let Some(log) = &bar.log {
+            log.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .progress(done, total);
+        }
     };
     (stage, progress)
 }
@@ -142,6 +179,7 @@ mod tests {
             label: "bake".into(),
             start: Instant::now(),
             current: None,
+            last_line: Instant::now(),
             held: Vec::new(),
             printing: false,
         };
@@ -152,5 +190,30 @@ mod tests {
         log.start -= QUIET_FOR;
         log.next(None);
         assert!(log.printing && log.held.is_empty());
+    }
+
+    #[test]
+    fn a_long_counting_stage_prints_where_it_stands_and_the_time_left() {
+        let mut log = StageLog {
+            label: "bake".into(),
+            start: Instant::now() - QUIET_FOR,
+            current: None,
+            last_line: Instant::now(),
+            held: Vec::new(),
+            printing: true,
+        };
+        log.next(Some("transfer"));
+        // Within PROGRESS_EVERY of the stage's start: no line.
+        assert_eq!(log.progress_line(1, 4), None);
+        // A stage 100 s in, a quarter done: three times as long to go.
+        let (name, _) = log.current.take().unwrap();
+        log.current = Some((name, Instant::now() - Duration::from_secs(100)));
+        log.last_line -= PROGRESS_EVERY;
+        let line = log.progress_line(1, 4).expect("a line is due");
+        assert_eq!(line, "bake: transfer 1/4 (100 s, about 300 s left)");
+        // Right after a line, the next waits; nothing is printed for a finished count.
+        assert_eq!(log.progress_line(2, 4), None);
+        log.last_line -= PROGRESS_EVERY;
+        assert_eq!(log.progress_line(4, 4), None);
     }
 }

@@ -15,9 +15,11 @@
 //! [`enforce_closure`] balances F symmetrically so that every row sums to 1 while reciprocity
 //! `A_i F_ij = A_j F_ji` is kept exactly.
 
-use faer::linalg::solvers::Solve;
-use faer::{Accum, Mat, Par};
+use faer::reborrow::{IntoConst, ReborrowMut};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 use radiosity_core::Bounces;
+use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// How many bounces to carry.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,10 +102,6 @@ impl Dense {
     pub fn row(&self, i: usize) -> &[f64] {
         &self.values[i * self.n..(i + 1) * self.n]
     }
-
-    fn to_faer(&self) -> Mat<f64> {
-        Mat::from_fn(self.n, self.n, |i, j| self.get(i, j))
-    }
 }
 
 /// Whether the form factors describe a closed enclosure, and how far from it.
@@ -141,18 +139,26 @@ pub(crate) fn closure_of_sums(sums: impl Iterator<Item = f64>, tolerance: f64) -
     }
 }
 
-/// `W = (diag(A) F + (diag(A) F)ᵀ) / 2`, row-major: the exchange between patches with
-/// reciprocity made exact, which both row-sum corrections balance.
-fn reciprocal_exchange(f: &Dense, areas: &[f64]) -> Vec<f64> {
+/// Replaces F by `W = (diag(A) F + (diag(A) F)ᵀ) / 2` in its own buffer: the exchange
+/// between patches with reciprocity made exact, which both row-sum corrections balance. Each
+/// pair `(i, j)`, `(j, i)` gets the one value `(A_i F_ij + A_j F_ji) / 2` (the sum is the same
+/// in either order), tile by tile.
+fn reciprocal_exchange(f: &mut Dense, areas: &[f64]) {
     let n = f.n;
     assert_eq!(areas.len(), n, "one area per patch");
-    let mut w = vec![0.0; n * n];
-    for i in 0..n {
-        for j in 0..n {
-            w[i * n + j] = 0.5 * (areas[i] * f.get(i, j) + areas[j] * f.get(j, i));
+    let v = &mut f.values;
+    for i0 in (0..n).step_by(TILE) {
+        for j0 in (i0..n).step_by(TILE) {
+            for i in i0..(i0 + TILE).min(n) {
+                let from = if i0 == j0 { i } else { j0 };
+                for j in from..(j0 + TILE).min(n) {
+                    let w = 0.5 * (areas[i] * v[i * n + j] + areas[j] * v[j * n + i]);
+                    v[i * n + j] = w;
+                    v[j * n + i] = w;
+                }
+            }
         }
     }
-    w
 }
 
 /// Rebalances a closed scene's form factors so every row sums to 1 and reciprocity holds
@@ -163,8 +169,9 @@ fn reciprocal_exchange(f: &Dense, areas: &[f64]) -> Vec<f64> {
 /// until row sums agree to 1e-13; then `F' = diag(A)⁻¹ D W D`. Rows that see nothing stay zero.
 pub(crate) fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
     let n = f.n;
-    let w = reciprocal_exchange(f, areas);
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
+    reciprocal_exchange(f, areas);
+    let w = &f.values;
     let live: Vec<bool> = (0..n)
         .map(|i| w[i * n..(i + 1) * n].iter().any(|v| *v > 0.0))
         .collect();
@@ -195,7 +202,7 @@ pub(crate) fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
     for i in 0..n {
         let mut sum = 0.0;
         for j in 0..n {
-            let v = d[i] * w[i * n + j] * d[j] / areas[i];
+            let v = d[i] * f.values[i * n + j] * d[j] / areas[i];
             f.values[i * n + j] = v;
             sum += v;
         }
@@ -217,8 +224,9 @@ pub(crate) fn enforce_closure(f: &mut Dense, areas: &[f64]) -> f64 {
 /// `d` only decreases, so rows at or below 1 stay there. Rows that see nothing stay zero.
 pub(crate) fn cap_row_sums(f: &mut Dense, areas: &[f64]) -> f64 {
     let n = f.n;
-    let w = reciprocal_exchange(f, areas);
     let before: Vec<f64> = (0..n).map(|i| f.row(i).iter().sum()).collect();
+    reciprocal_exchange(f, areas);
+    let w = &f.values;
     let mut d = vec![1.0f64; n];
     let row = |d: &[f64], i: usize| -> f64 {
         d[i] * w[i * n..(i + 1) * n]
@@ -245,7 +253,7 @@ pub(crate) fn cap_row_sums(f: &mut Dense, areas: &[f64]) -> f64 {
     for i in 0..n {
         let mut sum = 0.0;
         for j in 0..n {
-            let v = d[i] * w[i * n + j] * d[j] / areas[i];
+            let v = d[i] * f.values[i * n + j] * d[j] / areas[i];
             f.values[i * n + j] = v;
             sum += v;
         }
@@ -275,13 +283,38 @@ fn max_gain(f: &Dense, reflectance: &[[f64; 3]], channels: usize) -> (f64, usize
     best
 }
 
+/// Calls `progress(done, total)` as the transfer's channels are solved.
+pub type TransferProgress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
 /// Computes `M` per channel (`channels` = 1 uses channel 0 of `reflectance`). Returns the
 /// row-major matrix with channels interleaved (`n·n·channels`, f32 as stored) and a report.
+///
+/// Keeps `f` and works on copies; the bake hands its F over instead ([`transfer`]).
 pub fn transfer_matrix(
     f: &Dense,
     reflectance: &[[f64; 3]],
     channels: usize,
     bounces: BounceSpec,
+) -> Result<(Vec<f32>, TransferReport), TransferError> {
+    transfer(Cow::Borrowed(f), reflectance, channels, bounces, None)
+}
+
+/// [`transfer_matrix`] on a borrowed or owned F: an owned one is consumed (the last channel is
+/// solved in its buffer); `progress` hears how far the solve is, in quarters of a channel. The
+/// same values bit for bit.
+///
+/// Memory (bytes per matrix entry) on the LU path with three channels: F (8), per channel
+/// `I − G` factored in place (8) and the solution (8), and the finished channels as f32
+/// planes (4 each), interleaved at the end (12). With F owned: 28 at the peak (the second
+/// channel's solve), 24 while interleaving; borrowed, 32 (the last channel's copy of F). One
+/// channel: 16 owned. The series path adds, during its doubling, the powers of G, their
+/// product and G itself (8 each): 48 at most.
+pub(crate) fn transfer(
+    f: Cow<'_, Dense>,
+    reflectance: &[[f64; 3]],
+    channels: usize,
+    bounces: BounceSpec,
+    progress: Option<TransferProgress<'_>>,
 ) -> Result<(Vec<f32>, TransferReport), TransferError> {
     let n = f.n;
     if reflectance.len() != n {
@@ -304,7 +337,7 @@ pub fn transfer_matrix(
             "reflectance must be finite and in [0, 1)",
         ));
     }
-    let (gain, row) = max_gain(f, reflectance, channels);
+    let (gain, row) = max_gain(&f, reflectance, channels);
     let (k, method) = match bounces {
         BounceSpec::Fixed(0) => return Err(TransferError::ZeroBounces),
         BounceSpec::Fixed(k) => (Bounces::Finite(k), "series"),
@@ -330,32 +363,76 @@ pub fn transfer_matrix(
         Bounces::Finite(k) => gain.powi(k as i32),
         Bounces::Infinite => 0.0,
     };
-    let ff = f.to_faer();
-    let mut out = vec![0f32; n * n * channels];
+    // F until the last channel has taken it (owned) or copied it (borrowed).
+    let mut f = Some(f);
+    let mut planes: Vec<Vec<f32>> = Vec::with_capacity(channels);
+    // Progress in quarters of a channel: the factorisation is about a quarter of its flops
+    // (2n³/3 of 8n³/3), the solve for n right-hand sides the rest.
+    let report = |quarters: usize| {
+        if let Some(p) = progress {
+            p(quarters, 4 * channels)
+        }
+    };
     for c in 0..channels {
-        let g = Mat::from_fn(n, n, |i, j| f.get(i, j) * reflectance[j][c]);
-        let m = match k {
+        let last = c + 1 == channels;
+        let fr: &Dense = f.as_deref().expect("F is kept until the last channel");
+        // `G = F · diag(ρ_c)`: entry `(i, j)` from `F_ij`.
+        let g = |j: usize, v: f64| v * reflectance[j][c];
+        let plane = match k {
             Bounces::Infinite => {
-                let a = Mat::from_fn(n, n, |i, j| if i == j { 1.0 } else { 0.0 }) - &g;
-                let lu = a.partial_piv_lu();
-                let mut m = ff.clone();
-                lu.solve_in_place(&mut m);
-                m
+                // `I − G`, entry by entry as `δ_ij − G_ij` (so 0 − G, never −G: no −0).
+                let a = column_major(fr, |i, j, v| {
+                    let delta = if i == j { 1.0 } else { 0.0 };
+                    delta - g(j, v)
+                });
+                // The right-hand side F, column-major: F's own buffer for the last channel
+                // when it is ours.
+                let mut x = if last {
+                    match f.take().expect("F is kept until the last channel") {
+                        Cow::Owned(mut d) => {
+                            transpose_in_place(&mut d.values, n);
+                            d.values
+                        }
+                        Cow::Borrowed(d) => column_major(d, |_, _, v| v),
+                    }
+                } else {
+                    column_major(fr, |_, _, v| v)
+                };
+                lu_solve_in_place(a, n, &mut x, || report(4 * c + 1));
+                plane_of(MatRef::from_column_major_slice(&x, n, n))
             }
             Bounces::Finite(k) => {
-                let s = series_sum(&g, k);
+                let s = series_sum(Mat::from_fn(n, n, |i, j| g(j, fr.get(i, j))), k);
                 let mut m = Mat::<f64>::zeros(n, n);
-                faer::linalg::matmul::matmul(&mut m, Accum::Replace, &s, &ff, 1.0, Par::rayon(0));
-                m
+                let ff = MatRef::from_row_major_slice(&fr.values, n, n);
+                faer::linalg::matmul::matmul(&mut m, Accum::Replace, &s, ff, 1.0, Par::rayon(0));
+                drop(s);
+                plane_of(m.as_ref())
             }
         };
-        for i in 0..n {
-            for j in 0..n {
-                // LU round-off can leave tiny negatives where M is zero; M ≥ 0 in exact arithmetic.
-                out[(i * n + j) * channels + c] = m[(i, j)].max(0.0) as f32;
-            }
-        }
+        planes.push(plane);
+        report(4 * c + 4);
     }
+    drop(f);
+    let out = if channels == 1 {
+        planes.pop().expect("one plane")
+    } else {
+        let mut out = vec![0f32; n * n * channels];
+        out.par_chunks_mut((n * channels).max(1))
+            .enumerate()
+            .for_each(|(i, row)| {
+                for (c, plane) in planes.iter().enumerate() {
+                    for (o, v) in row[c..]
+                        .iter_mut()
+                        .step_by(channels)
+                        .zip(&plane[i * n..][..n])
+                    {
+                        *o = *v;
+                    }
+                }
+            });
+        out
+    };
     Ok((
         out,
         TransferReport {
@@ -367,23 +444,153 @@ pub fn transfer_matrix(
     ))
 }
 
-/// `Σ_{b<k} G^b` by binary doubling: about 3·log2(k) matrix products.
-fn series_sum(g: &Mat<f64>, k: u32) -> Mat<f64> {
+/// Side of the square tiles the transposing copies work in (cache-sized: 64² f64 = 32 KiB).
+const TILE: usize = 64;
+
+/// `out[j·n + i] = map(i, j, F_ij)`: F's entries mapped, column-major, tile by tile.
+fn column_major(f: &Dense, map: impl Fn(usize, usize, f64) -> f64 + Sync) -> Vec<f64> {
+    let n = f.n;
+    let mut out = vec![0f64; n * n];
+    out.par_chunks_mut((n * TILE).max(1))
+        .enumerate()
+        .for_each(|(band, cols)| {
+            let j0 = band * TILE;
+            for i0 in (0..n).step_by(TILE) {
+                for (jl, col) in cols.chunks_exact_mut(n).enumerate() {
+                    let (j, end) = (j0 + jl, (i0 + TILE).min(n));
+                    for (i, c) in (i0..end).zip(&mut col[i0..end]) {
+                        *c = map(i, j, f.values[i * n + j]);
+                    }
+                }
+            }
+        });
+    out
+}
+
+/// Transposes a square row-major `n × n` matrix in its own buffer, tile by tile.
+fn transpose_in_place(v: &mut [f64], n: usize) {
+    for i0 in (0..n).step_by(TILE) {
+        for j0 in (i0..n).step_by(TILE) {
+            for i in i0..(i0 + TILE).min(n) {
+                let from = if i0 == j0 { i + 1 } else { j0 };
+                for j in from..(j0 + TILE).min(n) {
+                    v.swap(i * n + j, j * n + i);
+                }
+            }
+        }
+    }
+}
+
+/// Factors the column-major `a` in its own buffer (partial pivoting, faer's `lu_in_place`,
+/// as `Mat::partial_piv_lu` does on its copy), calls `factored`, and solves `a · X = x` in
+/// `x` (column-major, `n` right-hand sides) as faer's `solve_in_place` does, but permuting
+/// the rows of `x` one column at a time: faer's permutes through a whole n × n copy.
+fn lu_solve_in_place(mut a: Vec<f64>, n: usize, x: &mut [f64], factored: impl FnOnce()) {
+    use dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::lu::partial_pivoting::factor;
+    use faer::linalg::triangular_solve;
+    let par = faer::get_global_parallelism();
+    let mut lu = MatMut::from_column_major_slice_mut(&mut a, n, n);
+    let (mut fwd, mut bwd) = (vec![0usize; n], vec![0usize; n]);
+    factor::lu_in_place(
+        lu.rb_mut(),
+        &mut fwd,
+        &mut bwd,
+        par,
+        MemStack::new(&mut MemBuffer::new(
+            factor::lu_in_place_scratch::<usize, f64>(n, n, par, Default::default()),
+        )),
+        Default::default(),
+    );
+    factored();
+    // `P x`: row i takes row fwd[i] (faer's `permute_rows`).
+    x.par_chunks_mut(n.max(1)).for_each_init(
+        || vec![0f64; n],
+        |held, col| {
+            held.copy_from_slice(col);
+            for (v, &from) in col.iter_mut().zip(&fwd) {
+                *v = held[from];
+            }
+        },
+    );
+    // The unit lower factor and the upper one share the buffer: each solve reads only its own
+    // triangle.
+    let lu = lu.into_const();
+    let mut rhs = MatMut::from_column_major_slice_mut(x, n, n);
+    triangular_solve::solve_unit_lower_triangular_in_place(lu, rhs.rb_mut(), par);
+    triangular_solve::solve_upper_triangular_in_place(lu, rhs.rb_mut(), par);
+}
+
+/// A channel of M as stored: row-major f32 from the f64 solution. LU round-off can leave
+/// tiny negatives where M is zero; M ≥ 0 in exact arithmetic.
+fn plane_of(x: MatRef<'_, f64>) -> Vec<f32> {
+    let n = x.nrows();
+    let mut out = vec![0f32; n * n];
+    out.par_chunks_mut((n * TILE).max(1))
+        .enumerate()
+        .for_each(|(band, rows)| {
+            let i0 = band * TILE;
+            for j0 in (0..n).step_by(TILE) {
+                let end = (j0 + TILE).min(n);
+                for (il, row) in rows.chunks_exact_mut(n).enumerate() {
+                    for (j, r) in (j0..end).zip(&mut row[j0..end]) {
+                        *r = x[(i0 + il, j)].max(0.0) as f32;
+                    }
+                }
+            }
+        });
+    out
+}
+
+/// `Σ_{b<k} G^b` by binary doubling: about 3·log2(k) matrix products. Takes `G` so that it is
+/// freed as soon as it is no longer needed; holds the sum, the power, their product and (for
+/// a `k` with set bits below the top one, bit 0 aside) G: 32 bytes per entry at most, 16 for
+/// `k ≤ 2`.
+fn series_sum(g: Mat<f64>, k: u32) -> Mat<f64> {
     let n = g.nrows();
-    let identity = Mat::from_fn(n, n, |i, j| if i == j { 1.0 } else { 0.0 });
+    let mut s = Mat::from_fn(n, n, |i, j| if i == j { 1.0 } else { 0.0 });
+    if k == 1 {
+        return s;
+    }
+    let top = 31 - k.leading_zeros();
+    // G is multiplied in for the set bits below the top one, bit 0 excepted (nothing follows).
+    let needs_g = k & ((1 << top) - 1) & !1 != 0;
+    let (mut p, g) = if needs_g {
+        (g.clone(), Some(g))
+    } else {
+        (g, None)
+    };
+    let mut tmp = Mat::<f64>::new();
+    let product = |tmp: &mut Mat<f64>, a: &Mat<f64>, b: &Mat<f64>| {
+        if tmp.nrows() != n {
+            *tmp = Mat::zeros(n, n);
+        }
+        faer::linalg::matmul::matmul(tmp, Accum::Replace, a, b, 1.0, Par::rayon(0));
+    };
     // Invariant: s = Σ_{b<m} G^b and p = G^m for the prefix m of k's bits read so far.
-    let (mut s, mut p) = (identity, g.clone());
-    let mut tmp = Mat::<f64>::zeros(n, n);
-    for bit in (0..31 - k.leading_zeros()).rev() {
-        // m → 2m: s ← s + p·s, p ← p·p.
-        faer::linalg::matmul::matmul(&mut tmp, Accum::Replace, &p, &s, 1.0, Par::rayon(0));
-        s += &tmp;
-        faer::linalg::matmul::matmul(&mut tmp, Accum::Replace, &p, &p, 1.0, Par::rayon(0));
+    for bit in (0..top).rev() {
+        // m → 2m: s ← s + p·s, p ← p·p. At the first step s = I, and p·I is p exactly (every
+        // entry one product by 1 and sums of +0), so the product is skipped.
+        if bit + 1 == top {
+            s += &p;
+        } else {
+            product(&mut tmp, &p, &s);
+            s += &tmp;
+        }
+        if bit == 0 && k & 1 == 0 {
+            // p is not needed again.
+            break;
+        }
+        product(&mut tmp, &p, &p);
         std::mem::swap(&mut p, &mut tmp);
         if k & (1 << bit) != 0 {
             // m → m + 1: s ← s + p, p ← p·G.
             s += &p;
-            faer::linalg::matmul::matmul(&mut tmp, Accum::Replace, &p, g, 1.0, Par::rayon(0));
+            if bit == 0 {
+                break;
+            }
+            let g = g.as_ref().expect("kept while a bit is set");
+            product(&mut tmp, &p, g);
             std::mem::swap(&mut p, &mut tmp);
         }
     }
@@ -427,6 +634,86 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn owned_f_gives_the_bits_of_a_borrowed_one_and_of_faers_own_lu() {
+        // Five patches, rows below 1, three channels of different reflectance.
+        let n = 5;
+        let f = Dense::new(
+            n,
+            (0..n * n)
+                .map(|e| {
+                    if e / n == e % n {
+                        0.0
+                    } else {
+                        0.05 + 0.03 * ((e * 7) % 5) as f64
+                    }
+                })
+                .collect(),
+        );
+        let rho: Vec<[f64; 3]> = (0..n).map(|i| [0.3 + 0.1 * i as f64, 0.5, 0.9]).collect();
+        for spec in [
+            BounceSpec::Infinite,
+            BounceSpec::Fixed(3),
+            BounceSpec::Fixed(2),
+        ] {
+            let (borrowed, _) = transfer_matrix(&f, &rho, 3, spec).unwrap();
+            let calls = std::sync::Mutex::new(Vec::new());
+            let progress = |done: usize, total: usize| calls.lock().unwrap().push((done, total));
+            let (owned, _) =
+                transfer(Cow::Owned(f.clone()), &rho, 3, spec, Some(&progress)).unwrap();
+            assert_eq!(
+                owned.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                borrowed.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "{spec:?}"
+            );
+            let calls = calls.into_inner().unwrap();
+            assert_eq!(calls.last(), Some(&(12, 12)), "{calls:?}");
+            assert!(calls.windows(2).all(|w| w[0].0 < w[1].0), "{calls:?}");
+        }
+        // The in-place factorisation is faer's own partial-pivot LU, bit for bit.
+        let (m, _) = transfer_matrix(&f, &rho, 3, BounceSpec::Infinite).unwrap();
+        for c in 0..3 {
+            let a = Mat::from_fn(n, n, |i, j| {
+                let g = f.get(i, j) * rho[j][c];
+                if i == j { 1.0 - g } else { 0.0 - g }
+            });
+            let mut x = Mat::from_fn(n, n, |i, j| f.get(i, j));
+            faer::linalg::solvers::Solve::solve_in_place(&a.partial_piv_lu(), &mut x);
+            for i in 0..n {
+                for j in 0..n {
+                    assert_eq!(
+                        m[(i * n + j) * 3 + c].to_bits(),
+                        (x[(i, j)].max(0.0) as f32).to_bits(),
+                        "channel {c} ({i}, {j})"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tiled_copies_and_transposes_cover_every_entry() {
+        // A side that is not a multiple of the tile.
+        let n = TILE + 3;
+        let f = Dense::new(n, (0..n * n).map(|e| e as f64).collect());
+        let cm = column_major(&f, |_, _, v| v);
+        let mut t = f.values.clone();
+        transpose_in_place(&mut t, n);
+        assert_eq!(cm, t);
+        for i in 0..n {
+            for j in 0..n {
+                assert_eq!(cm[j * n + i], f.get(i, j));
+            }
+        }
+        let plane = plane_of(MatRef::from_column_major_slice(&cm, n, n));
+        assert!(
+            plane
+                .iter()
+                .zip(&f.values)
+                .all(|(p, v)| f64::from(*p) == *v)
+        );
     }
 
     #[test]

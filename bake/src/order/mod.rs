@@ -361,6 +361,45 @@ pub fn permute(dense: &[f32], n: usize, channels: usize, perm: &[u32]) -> Vec<f3
     out
 }
 
+/// [`permute`] in `dense`'s own buffer: the same values, with one row of scratch per thread
+/// instead of a second matrix. Each row's columns are renumbered first, then the rows are
+/// moved along the cycles of `perm`.
+pub fn permute_in_place(dense: &mut [f32], n: usize, channels: usize, perm: &[u32]) {
+    assert_eq!(dense.len(), n * n * channels, "dense matrix of side {n}");
+    check_permutation(perm, n);
+    let w = (n * channels).max(1);
+    dense.par_chunks_mut(w).for_each_init(
+        || vec![0f32; w],
+        |scratch, row| {
+            scratch.copy_from_slice(row);
+            for (j, &pj) in perm.iter().enumerate() {
+                let (d, s) = (j * channels, pj as usize * channels);
+                row[d..d + channels].copy_from_slice(&scratch[s..s + channels]);
+            }
+        },
+    );
+    // Row `i` takes old row `perm[i]`: along each cycle, hold its first row and shift.
+    let mut done = vec![false; n];
+    let mut held = vec![0f32; w];
+    for start in 0..n {
+        if done[start] {
+            continue;
+        }
+        held.copy_from_slice(&dense[start * w..][..w]);
+        let mut i = start;
+        loop {
+            done[i] = true;
+            let from = perm[i] as usize;
+            if from == start {
+                dense[i * w..][..w].copy_from_slice(&held);
+                break;
+            }
+            dense.copy_within(from * w..(from + 1) * w, i * w);
+            i = from;
+        }
+    }
+}
+
 /// A per-patch array renumbered by `perm`: `out[new] = items[perm[new]]`.
 pub fn permute_rows<T: Clone>(items: &[T], perm: &[u32]) -> Vec<T> {
     check_permutation(perm, items.len());
@@ -428,6 +467,18 @@ mod tests {
         }
         // Undoing with the inverse gives the original back.
         assert_eq!(permute(&out, n, ch, &inverse(&perm)), dense);
+    }
+
+    #[test]
+    fn permuting_in_place_matches_the_copy() {
+        // Several cycles (a 3-cycle, a swap, fixed points) and a random order.
+        let (n, ch) = (9, 3);
+        let dense: Vec<f32> = (0..n * n * ch).map(|v| v as f32).collect();
+        for perm in [vec![2u32, 0, 1, 4, 3, 5, 6, 8, 7], random_order(n, 7)] {
+            let mut inplace = dense.clone();
+            permute_in_place(&mut inplace, n, ch, &perm);
+            assert_eq!(inplace, permute(&dense, n, ch, &perm), "{perm:?}");
+        }
     }
 
     #[test]

@@ -18,7 +18,7 @@ pub use report::{BakeReport, Bytes, ClosureReport};
 use report::{BakeSummary, Measured};
 
 use crate::BakeError;
-use crate::bounce::{BounceSpec, Dense, TransferError, transfer_matrix};
+use crate::bounce::{BounceSpec, Dense, TransferError, transfer};
 use crate::effects::{self, Effect, Effects};
 use crate::encode::{
     EncodeError, EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
@@ -97,9 +97,13 @@ impl Discretised {
 }
 
 /// Bakes `scene`. Errors: an empty scene, impossible parameters, a transfer that cannot converge.
+///
+/// The system's F is handed to the transfer, which solves its last channel in F's own buffer:
+/// one n² f64 matrix less at the peak than [`bake_discretised`], the same bytes.
 pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
-    let system = discretise(scene, params, hooks)?;
-    bake_discretised(scene, &system, params, hooks)
+    let mut system = discretise(scene, params, hooks)?;
+    let f = std::mem::replace(&mut system.f, Dense::new(0, Vec::new()));
+    second_half(scene, &system, Cow::Owned(f), params, hooks)
 }
 
 /// The first half of [`bake`]: simplify, plan, form factors, closure, dark patches (uses
@@ -140,12 +144,19 @@ pub fn discretise(
     lap("plan", &mut timings);
 
     stage("form factors");
-    let ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
+    let mut ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
     lap("form_factors", &mut timings);
     form_factor_effects(&ff, ffp.exact_pieces, &mut effects);
 
     let n_all = patches.len();
-    let mut f = Dense::new(n_all, ff.matrix.iter().map(|v| f64::from(*v)).collect());
+    // F in f64 from here on; the f32 matrix goes as soon as it is converted.
+    let mut f = Dense::new(
+        n_all,
+        std::mem::take(&mut ff.matrix)
+            .into_iter()
+            .map(f64::from)
+            .collect(),
+    );
     let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let exposure = expose(&mut patches, occluders.as_ref(), &mut f, params.seed);
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
@@ -188,13 +199,7 @@ pub fn discretise(
             "no patch sees any other patch, so no light can travel between surfaces (a single surface, or every surface facing away from the rest)".into(),
         ));
     }
-    let f_live = Dense::new(
-        live.len(),
-        live.iter()
-            .flat_map(|&i| live.iter().map(move |&j| (i, j)))
-            .map(|(i, j)| f.get(i, j))
-            .collect(),
-    );
+    let f_live = live_rows(f, &live);
     let reflectance: Vec<[f64; 3]> = live
         .iter()
         .map(|&i| patches.patches[i].reflectance.to_array().map(f64::from))
@@ -215,6 +220,25 @@ pub fn discretise(
         reciprocity_error: ff.reciprocity_error,
         timings_ms: timings,
     })
+}
+
+/// F among the `live` patches (increasing indices), in F's own buffer: entry `(a, b)` of the
+/// result is `F[live[a]][live[b]]`. Moving entries forward in row-major order never overwrites
+/// one still to be read (the destination `a·m + b` is at most the source `live[a]·n +
+/// live[b]`, both increasing).
+fn live_rows(f: Dense, live: &[usize]) -> Dense {
+    let (n, m) = (f.n, live.len());
+    let mut values = f.values;
+    let mut to = 0;
+    for &i in live {
+        for &j in live {
+            values[to] = values[i * n + j];
+            to += 1;
+        }
+    }
+    values.truncate(m * m);
+    values.shrink_to_fit();
+    Dense::new(m, values)
 }
 
 /// The `flat_sites` and `clustered_pairs` decisions the form factors made, with their reasons.
@@ -270,6 +294,18 @@ pub fn bake_discretised(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<BakeOutput, BakeError> {
+    second_half(scene, system, Cow::Borrowed(&system.f), params, hooks)
+}
+
+/// [`bake_discretised`] with the system's F given apart (`f`), borrowed or owned: an owned F
+/// is consumed by the transfer.
+fn second_half(
+    scene: &Scene,
+    system: &Discretised,
+    f: Cow<'_, Dense>,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
     let stage = |s: &str| {
         if let Some(f) = hooks.stage {
             f(s)
@@ -287,14 +323,14 @@ pub fn bake_discretised(
     let n = system.live.len();
 
     stage("transfer");
-    let (m, transfer) = transfer_step(system, params, &mut effects)?;
+    let (mut m, transfer) = transfer_step(system, f, params, &mut effects, hooks)?;
     lap("transfer", &mut timings);
 
     let (format, encode_params) = encode_params_for(params, channels);
 
     stage("order");
     let (candidates, chosen) = choose_order(system, &m, params, encode_params)?;
-    let m = order::permute(&m, n, channels, &chosen.perm);
+    order::permute_in_place(&mut m, n, channels, &chosen.perm);
     lap("order", &mut timings);
 
     stage("encode");
@@ -361,14 +397,17 @@ pub fn bake_discretised(
 /// and the `bounces` decision in `effects`.
 fn transfer_step(
     system: &Discretised,
+    f: Cow<'_, Dense>,
     params: &BakeParams,
     effects: &mut Effects,
+    hooks: Hooks<'_>,
 ) -> Result<(Vec<f32>, crate::bounce::TransferReport), BakeError> {
-    let (m, transfer) = transfer_matrix(
-        &system.f,
+    let (m, transfer) = transfer(
+        f,
         &system.reflectance,
         system.channels,
         params.bounces,
+        hooks.progress,
     )
     .map_err(|e| match e {
         TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
@@ -499,5 +538,24 @@ fn to_core_patch(patches: &Patches, i: usize) -> Patch {
         object: p.object,
         reflectance: p.reflectance,
         emission: p.emission,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn live_rows_keep_the_live_block_in_place() {
+        let n = 5;
+        let f = Dense::new(n, (0..n * n).map(|e| e as f64).collect());
+        for live in [vec![0, 2, 3], vec![1, 4], vec![0, 1, 2, 3, 4], vec![4]] {
+            let want: Vec<f64> = live
+                .iter()
+                .flat_map(|&i| live.iter().map(move |&j| (i * n + j) as f64))
+                .collect();
+            let got = live_rows(f.clone(), &live);
+            assert_eq!((got.n, &got.values), (live.len(), &want), "{live:?}");
+        }
     }
 }
