@@ -62,6 +62,7 @@
 mod adapter;
 mod auto;
 mod conv;
+mod corner;
 mod device;
 mod gather;
 mod plan;
@@ -70,7 +71,8 @@ mod shader;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
 pub use auto::auto_gather;
-pub use gather::WgpuGather;
+pub use corner::{CornerBuffers, CornerPass};
+pub use gather::{HostGather, HostGatherBuffers, WgpuGather};
 pub use radiosity_core::DecodeMode;
 
 use std::fmt;

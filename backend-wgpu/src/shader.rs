@@ -20,6 +20,9 @@ pub(crate) enum Source {
     Texture,
 }
 
+/// Invocations per workgroup of every kernel (`WG` in `gather.wgsl`, `@workgroup_size(64)`).
+pub(crate) const WORKGROUP: u32 = 64;
+
 /// Block rows one workgroup gathers: each block column's `x` is loaded once for all of them,
 /// which divides the kernel's `x` traffic (12 bytes a column against a BC1 block's 8 bytes
 /// for four) by this much.
