@@ -51,6 +51,19 @@ pub struct CornerPass {
     device_bytes: u64,
 }
 
+/// The first `bytes` of `buffer` (at least 4: an empty binding is invalid; the pass then
+/// dispatches nothing, see `record`).
+fn sized(binding: u32, buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer,
+            offset: 0,
+            size: wgpu::BufferSize::new(bytes.max(4).min(buffer.size())),
+        }),
+    }
+}
+
 /// Checks one host buffer: at least `bytes` long, with `usage`.
 fn check_buffer(
     what: &str,
@@ -222,14 +235,6 @@ impl CornerPass {
         );
         // Bindings of at least 4 bytes: an empty one is invalid (the pass then dispatches
         // nothing, see `record`).
-        let sized = |binding: u32, buffer: &wgpu::Buffer, bytes: u64| wgpu::BindGroupEntry {
-            binding,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer,
-                offset: 0,
-                size: wgpu::BufferSize::new(bytes.max(4).min(buffer.size())),
-            }),
-        };
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("corners"),
             layout: &layout,

@@ -17,6 +17,8 @@ pub(crate) use setup::{
     READ, UNIFORM, WRITE, buffer_ty, layout_entry, pipeline, storage, storage_binding_limit,
     upload_texture,
 };
+#[cfg(test)]
+pub(crate) use setup::workgroup_bytes;
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
 use crate::device::{self, SerialDevice};
