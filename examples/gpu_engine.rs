@@ -63,7 +63,10 @@ impl Options {
         let (mut rad, mut camera, mut frames, mut out) = (None, None, 8, None);
         let mut it = args.iter();
         while let Some(a) = it.next() {
-            let mut value = || it.next().ok_or_else(|| format!("{a} needs a value; {usage}"));
+            let mut value = || {
+                it.next()
+                    .ok_or_else(|| format!("{a} needs a value; {usage}"))
+            };
             match a.as_str() {
                 "--camera" => camera = Some(PathBuf::from(value()?)),
                 "--out" => out = Some(PathBuf::from(value()?)),
@@ -75,7 +78,9 @@ impl Options {
                         .filter(|f| (1..=10_000).contains(f))
                         .ok_or_else(|| format!("--frames must be 1 to 10000, not {v:?}"))?;
                 }
-                s if s.starts_with("--") => return Err(format!("unknown option {s}; {usage}").into()),
+                s if s.starts_with("--") => {
+                    return Err(format!("unknown option {s}; {usage}").into());
+                }
                 s if rad.is_none() => rad = Some(PathBuf::from(s)),
                 s => return Err(format!("unexpected argument {s:?}; {usage}").into()),
             }
@@ -268,7 +273,12 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         })
 }
 
-fn buffer(device: &wgpu::Device, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+fn buffer(
+    device: &wgpu::Device,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: size.max(4),
@@ -327,22 +337,42 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
             ..Default::default()
         },
     ))?;
-    eprintln!("{}: {n} patches, {} triangles on {}", options.rad.display(), mesh.triangles.len(), adapter.info);
+    eprintln!(
+        "{}: {n} patches, {} triangles on {}",
+        options.rad.display(),
+        mesh.triangles.len(),
+        adapter.info
+    );
 
     // The engine's buffers, and the radiosity passes bound to them once.
     use wgpu::BufferUsages as U;
     let corners = mesh.corner_count();
     let x_buf = buffer(&device, "x", 12 * n as u64, U::COPY_DST | U::COPY_SRC);
     let y_buf = buffer(&device, "y", 12 * n as u64, U::STORAGE);
-    let indirect = buffer(&device, "indirect", 12 * corners as u64, U::STORAGE | U::VERTEX);
+    let indirect = buffer(
+        &device,
+        "indirect",
+        12 * corners as u64,
+        U::STORAGE | U::VERTEX,
+    );
     let gather = HostGather::new(
         &device,
         &queue,
         &file.matrix,
         &GpuOptions::default(),
-        HostGatherBuffers { x: &x_buf, y: &y_buf },
+        HostGatherBuffers {
+            x: &x_buf,
+            y: &y_buf,
+        },
     )?;
-    let corner_pass = CornerPass::new(&device, mesh, CornerBuffers { y: &y_buf, out: &indirect })?;
+    let corner_pass = CornerPass::new(
+        &device,
+        mesh,
+        CornerBuffers {
+            y: &y_buf,
+            out: &indirect,
+        },
+    )?;
 
     // The mesh, one vertex per corner.
     let vertices: Vec<Vertex> = (0..mesh.triangles.len())
@@ -395,7 +425,8 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
             },
         ],
     });
-    let corner_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3];
+    let corner_attributes =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3];
     let indirect_attributes = wgpu::vertex_attr_array![4 => Float32x3];
     let mesh_layout = wgpu::VertexBufferLayout {
         array_stride: size_of::<Vertex>() as u64,
@@ -488,11 +519,31 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
     };
     use wgpu::TextureUsages as T;
     let s = SHADOW_SIDE;
-    let cube = texture("shadow cube", (s, s, 6), wgpu::TextureFormat::R32Float, T::RENDER_ATTACHMENT | T::TEXTURE_BINDING);
-    let cube_depth = texture("shadow depth", (s, s, 1), wgpu::TextureFormat::Depth32Float, T::RENDER_ATTACHMENT);
+    let cube = texture(
+        "shadow cube",
+        (s, s, 6),
+        wgpu::TextureFormat::R32Float,
+        T::RENDER_ATTACHMENT | T::TEXTURE_BINDING,
+    );
+    let cube_depth = texture(
+        "shadow depth",
+        (s, s, 1),
+        wgpu::TextureFormat::Depth32Float,
+        T::RENDER_ATTACHMENT,
+    );
     let (w, h) = (cam.width, cam.height);
-    let image = texture("image", (w, h, 1), wgpu::TextureFormat::Rgba32Float, T::RENDER_ATTACHMENT | T::COPY_SRC);
-    let image_depth = texture("image depth", (w, h, 1), wgpu::TextureFormat::Depth32Float, T::RENDER_ATTACHMENT);
+    let image = texture(
+        "image",
+        (w, h, 1),
+        wgpu::TextureFormat::Rgba32Float,
+        T::RENDER_ATTACHMENT | T::COPY_SRC,
+    );
+    let image_depth = texture(
+        "image depth",
+        (w, h, 1),
+        wgpu::TextureFormat::Depth32Float,
+        T::RENDER_ATTACHMENT,
+    );
     let face_views: Vec<wgpu::TextureView> = (0..6)
         .map(|f| {
             cube.create_view(&wgpu::TextureViewDescriptor {
@@ -511,7 +562,14 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
     let image_view = image.create_view(&Default::default());
     let image_depth_view = image_depth.create_view(&Default::default());
     let sampler = device.create_sampler(&wgpu::SamplerDescriptor::default());
-    let uniform = |label| buffer(&device, label, size_of::<SceneUniform>() as u64, U::UNIFORM | U::COPY_DST);
+    let uniform = |label| {
+        buffer(
+            &device,
+            label,
+            size_of::<SceneUniform>() as u64,
+            U::UNIFORM | U::COPY_DST,
+        )
+    };
     let face_uniforms: Vec<wgpu::Buffer> = (0..6).map(|_| uniform("face")).collect();
     let main_uniform = uniform("camera");
     let face_groups: Vec<wgpu::BindGroup> = face_uniforms
@@ -546,7 +604,12 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
         ],
     });
     let row_bytes = (16 * w).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let readback = buffer(&device, "readback", u64::from(row_bytes) * u64::from(h), U::MAP_READ | U::COPY_DST);
+    let readback = buffer(
+        &device,
+        "readback",
+        u64::from(row_bytes) * u64::from(h),
+        U::MAP_READ | U::COPY_DST,
+    );
 
     // Depth range of both projections: the whole scene from anywhere inside its bounds.
     let extent = (hi - lo).length().max(1e-6);
@@ -556,7 +619,11 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     for f in 0..options.frames {
         let light = light_at(lo, hi, f, options.frames);
-        let Light::Point { position, intensity } = light else {
+        let Light::Point {
+            position,
+            intensity,
+        } = light
+        else {
             unreachable!("light_at makes point lights")
         };
         // 1. CPU: the light's direct irradiance per patch and the first exitance.
@@ -575,7 +642,11 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
         for (u, v) in face_uniforms.iter().zip(cube_views(position)) {
             queue.write_buffer(u, 0, bytemuck::bytes_of(&scene(face_proj * v)));
         }
-        queue.write_buffer(&main_uniform, 0, bytemuck::bytes_of(&scene(cam.view_proj(near, far))));
+        queue.write_buffer(
+            &main_uniform,
+            0,
+            bytemuck::bytes_of(&scene(cam.view_proj(near, far))),
+        );
 
         // 2. GPU: gather, corner pass, shadow cube, image; one encoder, one submission.
         let t = std::time::Instant::now();
@@ -689,15 +760,20 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
         let gpu_ms = t.elapsed().as_secs_f64() * 1e3;
         let png = options.out.join(format!("frame-{f:03}.png"));
         let mut encoded = Vec::new();
-        tone_map(&pixels, w, h)
-            .write_to(&mut std::io::Cursor::new(&mut encoded), image::ImageFormat::Png)?;
+        tone_map(&pixels, w, h).write_to(
+            &mut std::io::Cursor::new(&mut encoded),
+            image::ImageFormat::Png,
+        )?;
         write_atomic(&png, &encoded)?;
         let [px, py, pz] = position.to_array();
         let lights = format!(
             "{{\"lights\":[{{\"type\":\"point\",\"position\":[{px:?},{py:?},{pz:?}],\"intensity\":[{:?},{:?},{:?}]}}]}}\n",
             intensity.r, intensity.g, intensity.b
         );
-        write_atomic(&options.out.join(format!("lights-{f:03}.json")), lights.as_bytes())?;
+        write_atomic(
+            &options.out.join(format!("lights-{f:03}.json")),
+            lights.as_bytes(),
+        )?;
         eprintln!(
             "frame {f}: light at [{px:.3}, {py:.3}, {pz:.3}], direct light {cpu_ms:.1} ms, GPU frame and readback {gpu_ms:.1} ms, wrote {}",
             png.display()

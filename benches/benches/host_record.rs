@@ -49,8 +49,14 @@ fn mesh(n: usize) -> Mesh<'static> {
 
 fn bench(c: &mut Criterion) {
     let list = adapters();
-    let Some(adapter) = list.iter().find(|a| a.info.backend != "gl").or(list.first()) else {
-        eprintln!("host_record bench: no GPU adapter (install mesa-vulkan-drivers libvulkan1): skipped");
+    let Some(adapter) = list
+        .iter()
+        .find(|a| a.info.backend != "gl")
+        .or(list.first())
+    else {
+        eprintln!(
+            "host_record bench: no GPU adapter (install mesa-vulkan-drivers libvulkan1): skipped"
+        );
         return;
     };
     let matrix = encode_dense(

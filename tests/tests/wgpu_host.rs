@@ -77,7 +77,11 @@ fn gather_buffers(device: &wgpu::Device, n: usize) -> (wgpu::Buffer, wgpu::Buffe
     use wgpu::BufferUsages as U;
     (
         buffer(device, 12 * n as u64, U::COPY_DST | U::COPY_SRC),
-        buffer(device, 12 * n as u64, U::STORAGE | U::COPY_SRC | U::COPY_DST),
+        buffer(
+            device,
+            12 * n as u64,
+            U::STORAGE | U::COPY_SRC | U::COPY_DST,
+        ),
     )
 }
 
@@ -121,8 +125,14 @@ fn host_frame(
 ) -> (Vec<Rgb>, HostGather) {
     let n = m.layout.n();
     let (xb, yb) = gather_buffers(device, n);
-    let g = HostGather::new(device, queue, m, options, HostGatherBuffers { x: &xb, y: &yb })
-        .unwrap_or_else(|e| panic!("{e}"));
+    let g = HostGather::new(
+        device,
+        queue,
+        m,
+        options,
+        HostGatherBuffers { x: &xb, y: &yb },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     queue.write_buffer(&xb, 0, bytemuck::cast_slice(x));
     let mut e = encoder(device);
     g.record(&mut e);
@@ -245,10 +255,26 @@ fn wrong_host_buffers_are_errors_not_panics() {
         let no_storage = buffer(&device, 12 * 37, U::COPY_SRC | U::VERTEX);
         let o = GpuOptions::default();
         let cases = [
-            (&short, &y, "the host's x buffer has 432 bytes, the gather needs 444"),
-            (&no_copy, &y, "the host's x buffer lacks usage BufferUsages(COPY_SRC)"),
-            (&x, &short, "the host's y buffer has 432 bytes, the gather needs 444"),
-            (&x, &no_storage, "the host's y buffer lacks usage BufferUsages(STORAGE)"),
+            (
+                &short,
+                &y,
+                "the host's x buffer has 432 bytes, the gather needs 444",
+            ),
+            (
+                &no_copy,
+                &y,
+                "the host's x buffer lacks usage BufferUsages(COPY_SRC)",
+            ),
+            (
+                &x,
+                &short,
+                "the host's y buffer has 432 bytes, the gather needs 444",
+            ),
+            (
+                &x,
+                &no_storage,
+                "the host's y buffer lacks usage BufferUsages(STORAGE)",
+            ),
         ];
         for (xb, yb, want) in cases {
             match HostGather::new(&device, &queue, m, &o, HostGatherBuffers { x: xb, y: yb }) {
@@ -260,9 +286,21 @@ fn wrong_host_buffers_are_errors_not_panics() {
         let out = buffer(&device, 12 * 6, U::STORAGE | U::VERTEX);
         let small_out = buffer(&device, 12 * 5, U::STORAGE | U::VERTEX);
         let cases = [
-            (&y, &small_out, "the host's out buffer has 60 bytes, the corner pass needs 72"),
-            (&no_storage, &out, "the host's y buffer lacks usage BufferUsages(STORAGE)"),
-            (&x, &out, "the host's y buffer lacks usage BufferUsages(STORAGE)"),
+            (
+                &y,
+                &small_out,
+                "the host's out buffer has 60 bytes, the corner pass needs 72",
+            ),
+            (
+                &no_storage,
+                &out,
+                "the host's y buffer lacks usage BufferUsages(STORAGE)",
+            ),
+            (
+                &x,
+                &out,
+                "the host's y buffer lacks usage BufferUsages(STORAGE)",
+            ),
         ];
         for (yb, ob, want) in cases {
             match CornerPass::new(&device, mesh, CornerBuffers { y: yb, out: ob }) {
@@ -330,7 +368,11 @@ fn assert_corners_match(adapter: &Adapter, mesh: &Mesh<'_>, y: &[Rgb], got: &[Rg
             let tol = 2.0 * (k + 1.0) * f32::EPSILON * abs + k * f32::MIN_POSITIVE;
             let (g, w) = (g.to_array()[ch], w.to_array()[ch]);
             if adapter.info.is_mesa_software() {
-                assert_eq!(g.to_bits(), w.to_bits(), "corner {r} ch {ch}: {g} against {w}");
+                assert_eq!(
+                    g.to_bits(),
+                    w.to_bits(),
+                    "corner {r} ch {ch}: {g} against {w}"
+                );
             }
             assert!(
                 (g - w).abs() <= tol,
@@ -354,7 +396,11 @@ fn corner_pass_equals_the_cores_corner_indirect() {
             let yb = buffer(&device, 12 * patches as u64, U::STORAGE | U::COPY_DST);
             queue.write_buffer(&yb, 0, bytemuck::cast_slice(&y));
             let corners = mesh.corner_count();
-            let out = buffer(&device, 12 * corners as u64, U::STORAGE | U::COPY_SRC | U::VERTEX);
+            let out = buffer(
+                &device,
+                12 * corners as u64,
+                U::STORAGE | U::COPY_SRC | U::VERTEX,
+            );
             let pass = CornerPass::new(&device, &mesh, CornerBuffers { y: &yb, out: &out })
                 .unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(pass.corners(), corners);

@@ -13,12 +13,12 @@ mod setup;
 
 pub use host::{HostGather, HostGatherBuffers};
 
+#[cfg(test)]
+pub(crate) use setup::workgroup_bytes;
 pub(crate) use setup::{
     READ, UNIFORM, WRITE, buffer_ty, layout_entry, pipeline, storage, storage_binding_limit,
     upload_texture,
 };
-#[cfg(test)]
-pub(crate) use setup::workgroup_bytes;
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
 use crate::device::{self, SerialDevice};

@@ -195,10 +195,7 @@ pub(crate) fn workgroup_bytes(channels: usize) -> u32 {
 /// invocations, [`STORAGE_BINDINGS`] storage buffers and a uniform per stage, and the
 /// workgroup memory of [`workgroup_bytes`]. The error names the limit that is short (a
 /// downlevel device, such as WebGL2's, has no compute at all).
-pub(crate) fn check_compute_limits(
-    dl: &wgpu::Limits,
-    channels: usize,
-) -> Result<(), GpuError> {
+pub(crate) fn check_compute_limits(dl: &wgpu::Limits, channels: usize) -> Result<(), GpuError> {
     let needs = [
         (
             "max_compute_workgroup_size_x",
@@ -371,8 +368,10 @@ pub(super) struct Pipelines {
 }
 
 pub(crate) const UNIFORM: wgpu::BufferBindingType = wgpu::BufferBindingType::Uniform;
-pub(crate) const READ: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: true };
-pub(crate) const WRITE: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: false };
+pub(crate) const READ: wgpu::BufferBindingType =
+    wgpu::BufferBindingType::Storage { read_only: true };
+pub(crate) const WRITE: wgpu::BufferBindingType =
+    wgpu::BufferBindingType::Storage { read_only: false };
 
 impl Pipelines {
     /// The kernels for a matrix of layout `l` reading blocks from `source`; `software_mode`
