@@ -186,7 +186,7 @@ fn host_gather_adapts_to_small_device_limits() {
             ..adapter.wgpu_adapter().limits()
         };
         let (device, queue) = host_device(&adapter, limits);
-        let m = sample_file(130, 3, radiosity_core::Format::Bc1, 32).matrix;
+        let m = sample_file(130, 3, radiosity_core::Format::Bc1, 8192).matrix;
         let options = GpuOptions {
             path: DecodePath::Software,
             max_binding_bytes: Some(cap),
