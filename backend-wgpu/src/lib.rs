@@ -58,10 +58,65 @@
 //!     Err(e) => println!("{e}"),
 //! }
 //! ```
+//!
+//! # On the engine's own device
+//!
+//! An engine that already has a `wgpu::Device` keeps the frame there: [`HostGather`] reads
+//! `x` from the engine's buffer and writes `y` into another, [`CornerPass`] turns `y` into
+//! per-corner light of the file's mesh in a vertex buffer; both only record into the engine's
+//! encoder (no submission, no readback, no wait). Layouts and usages: [`HostGatherBuffers`],
+//! [`CornerBuffers`].
+//!
+//! ```
+//! use radiosity_backend_wgpu::{GpuOptions, HostGather, HostGatherBuffers, adapters};
+//! use radiosity_core::{
+//!     BlockCorrections, Format, LogScale, MatrixLayout, Rgb, SparseRows, TransferMatrix,
+//! };
+//! use std::borrow::Cow;
+//!
+//! let matrix = TransferMatrix {
+//!     layout: MatrixLayout::new(4, 1, Format::U8, 8192).unwrap(),
+//!     scales: Cow::Owned(vec![LogScale::new(0.5, 6.9)]),
+//!     blocks: Cow::Owned(vec![255; 16]),
+//!     sparse: SparseRows::empty(4),
+//!     corrections: BlockCorrections::empty(4),
+//! };
+//! let Some(adapter) = adapters().into_iter().next() else {
+//!     return println!("no adapter on this machine");
+//! };
+//! // The engine's device, queue and buffers (n RGB f32 each).
+//! let (device, queue) = pollster::block_on(
+//!     adapter.wgpu_adapter().request_device(&wgpu::DeviceDescriptor::default()),
+//! )
+//! .unwrap();
+//! let buffer = |usage| {
+//!     device.create_buffer(&wgpu::BufferDescriptor {
+//!         label: None,
+//!         size: 4 * 12,
+//!         usage,
+//!         mapped_at_creation: false,
+//!     })
+//! };
+//! use wgpu::BufferUsages as U;
+//! let x = buffer(U::COPY_DST | U::COPY_SRC);
+//! let y = buffer(U::STORAGE | U::COPY_SRC);
+//! // Once: the matrix goes up, the bind groups are made.
+//! let options = GpuOptions::default();
+//! let gather =
+//!     HostGather::new(&device, &queue, &matrix, &options, HostGatherBuffers { x: &x, y: &y })
+//!         .unwrap();
+//! // Every frame: the engine writes x, records the gather among its own passes, submits.
+//! queue.write_buffer(&x, 0, bytemuck::cast_slice(&[Rgb::new(1.0, 2.0, 0.0); 4]));
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! gather.record(&mut encoder);
+//! // ... the engine's passes read y here (a CornerPass, its shading) ...
+//! queue.submit([encoder.finish()]);
+//! ```
 
 mod adapter;
 mod auto;
 mod conv;
+mod corner;
 mod device;
 mod gather;
 mod plan;
@@ -70,7 +125,8 @@ mod shader;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
 pub use auto::auto_gather;
-pub use gather::WgpuGather;
+pub use corner::{CornerBuffers, CornerPass};
+pub use gather::{HostGather, HostGatherBuffers, WgpuGather};
 pub use radiosity_core::DecodeMode;
 
 use std::fmt;

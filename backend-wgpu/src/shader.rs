@@ -20,6 +20,9 @@ pub(crate) enum Source {
     Texture,
 }
 
+/// Invocations per workgroup of every kernel (`WG` in `gather.wgsl`, `@workgroup_size(64)`).
+pub(crate) const WORKGROUP: u32 = 64;
+
 /// Block rows one workgroup gathers: each block column's `x` is loaded once for all of them,
 /// which divides the kernel's `x` traffic (12 bytes a column against a BC1 block's 8 bytes
 /// for four) by this much.
@@ -328,6 +331,7 @@ mod tests {
         }
         variants.push(finish(1));
         variants.push(finish(3));
+        variants.push(include_str!("shaders/corner.wgsl").to_owned());
         for src in variants {
             let module = match naga::front::wgsl::parse_str(&src) {
                 Ok(m) => m,
@@ -339,6 +343,35 @@ mod tests {
             )
             .validate(&module)
             .unwrap_or_else(|e| panic!("{e:?}\n{src}"));
+        }
+    }
+
+    /// The workgroup memory the device is asked for (`check_compute_limits`) covers every
+    /// gather variant's workgroup variables, as naga lays them out.
+    #[test]
+    fn workgroup_memory_is_what_the_limit_check_asks_for() {
+        for (format, channels) in Format::CASES {
+            for source in [Source::Buffer, Source::Texture] {
+                if source == Source::Texture && !format.is_block_compressed() {
+                    continue;
+                }
+                let src = gather(format, channels, source, DecodeMode::D3d10);
+                let module = naga::front::wgsl::parse_str(&src).unwrap();
+                let mut layouter = naga::proc::Layouter::default();
+                layouter.update(module.to_ctx()).unwrap();
+                let bytes: u32 = module
+                    .global_variables
+                    .iter()
+                    .filter(|(_, g)| g.space == naga::AddressSpace::WorkGroup)
+                    .map(|(_, g)| layouter[g.ty].size)
+                    .sum();
+                let asked = crate::gather::workgroup_bytes(channels);
+                assert!(bytes <= asked, "{format} ×{channels}: {bytes} > {asked}");
+                // Tight for the log formats, which keep their tables in workgroup memory.
+                if format.is_log() && source == Source::Buffer {
+                    assert_eq!(bytes, asked, "{format} ×{channels}");
+                }
+            }
         }
     }
 }

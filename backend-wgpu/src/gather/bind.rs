@@ -210,7 +210,15 @@ pub(super) fn finish_dispatches(
                 entry(3, &ptr),
                 entry(4, &cols),
                 entry(5, &vals),
-                entry(6, &buffers.y),
+                // The host's `y` may be larger than the gather's share of it.
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &buffers.y,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(buffers.y_bytes),
+                    }),
+                },
             ],
         });
         finishes.push(Dispatch {

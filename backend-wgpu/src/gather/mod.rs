@@ -3,12 +3,22 @@
 //! Building runs in steps that each take the device, queue and plan they need: `setup.rs`
 //! plans the cut of the matrix within the device's limits and makes the shared buffers and
 //! the pipelines, `bind.rs` uploads each dispatch's share of the matrix and makes its bind
-//! group. Each frame [`WgpuGather::record_pass`] records the dispatches into a command encoder.
+//! group. Each frame [`Frame::record_pass`] records the dispatches into a command encoder: the
+//! own-device [`WgpuGather`] then copies `y` back, the host-device [`HostGather`] (`host.rs`)
+//! leaves it in the host's buffer.
 
 mod bind;
+mod host;
 mod setup;
 
-pub(crate) use setup::upload_texture;
+pub use host::{HostGather, HostGatherBuffers};
+
+#[cfg(test)]
+pub(crate) use setup::workgroup_bytes;
+pub(crate) use setup::{
+    READ, UNIFORM, WRITE, buffer_ty, layout_entry, pipeline, storage, storage_binding_limit,
+    upload_texture,
+};
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
 use crate::device::{self, SerialDevice};
@@ -16,7 +26,7 @@ use crate::probe;
 use crate::{DecodePath, GpuError, GpuOptions};
 use bind::Dispatch;
 use radiosity_core::{DecodeMode, Gather, GatherError, Rgb, TransferMatrix, check_gather_args};
-use setup::{Buffers, FramePlan, Pipelines};
+use setup::{Buffers, FramePlan, Pipelines, Readback, Timer};
 use std::sync::{Arc, Mutex, mpsc};
 
 /// The wgpu compute gather. Build once per matrix ([`WgpuGather::new`] uploads everything);
@@ -28,10 +38,8 @@ pub struct WgpuGather {
     model: Option<DecodeMode>,
     n: usize,
     name: String,
-    pipelines: Pipelines,
-    bands: Vec<Dispatch>,
-    finishes: Vec<Dispatch>,
-    buffers: Buffers,
+    frame: Frame,
+    readback: Readback,
     device_bytes: u64,
     errors: Arc<Mutex<Vec<String>>>,
     kernel_ms: Option<f64>,
@@ -145,9 +153,7 @@ impl WgpuGather {
         Ok(built)
     }
 
-    /// Builds the gather on `dev` in steps that each take what they need: the plan (how the
-    /// matrix is cut within the device's limits), the buffers every dispatch shares, the two
-    /// pipelines, then each dispatch's share of the matrix and its bind group.
+    /// Builds the gather on `dev`: the frame's dispatches ([`Frame::build`]) and the readback.
     fn build(
         matrix: &TransferMatrix<'_>,
         dev: SerialDevice,
@@ -157,54 +163,28 @@ impl WgpuGather {
         options: &GpuOptions,
         errors: Arc<Mutex<Vec<String>>>,
     ) -> Result<Self, GpuError> {
-        let l = matrix.layout;
-        assert_eq!(
-            matrix.blocks.len() as u64,
-            l.block_bytes(),
-            "block data does not match the layout"
-        );
-        assert_eq!(matrix.scales.len(), l.scale_count(), "scale count");
         let (device, queue) = (dev.device(), dev.queue());
-        // The block corrections ride along in the sparse list (16 entries each at most): the
-        // finish pass then adds them without bindings of their own.
-        let merged;
-        let sparse = if matrix.corrections.is_empty() {
-            &matrix.sparse
-        } else {
-            merged = matrix.sparse_with_corrections();
-            &merged
-        };
-        let lim = setup::plan_limits(device, options);
-        let plan = FramePlan::new(&l, sparse, &lim, path, options, adapter.is_hardware())?;
-        let buffers = Buffers::new(device, queue, matrix, &plan);
-        let pipelines = Pipelines::new(device, &l, plan.source, options.software_mode);
-        let (bands, band_bytes) = bind::band_dispatches(
+        let frame = Frame::build(
+            matrix,
             device,
             queue,
-            matrix,
-            &plan,
-            &buffers,
-            &pipelines.gather_layout,
+            path,
+            options,
+            adapter.is_hardware(),
+            None,
         )?;
-        let (finishes, sparse_bytes) = bind::finish_dispatches(
-            device,
-            sparse,
-            l.channels(),
-            &plan,
-            &buffers,
-            &pipelines.finish_layout,
-        );
+        let readback = Readback::new(device, queue, frame.buffers.y_bytes);
+        let l = matrix.layout;
         Ok(WgpuGather {
             name: format!("gpu-{}", l.format().name()),
             adapter,
             path,
             model,
             n: l.n(),
-            device_bytes: buffers.bytes + band_bytes + sparse_bytes,
-            pipelines,
-            bands,
-            finishes,
-            buffers,
+            // The readback holds one more copy of `y`.
+            device_bytes: frame.device_bytes + frame.buffers.y_bytes,
+            frame,
+            readback,
             errors,
             kernel_ms: None,
             declined: false,
@@ -255,7 +235,7 @@ impl WgpuGather {
     /// Dispatches per frame (bands plus sparse bands): more than two means the matrix was cut
     /// to respect the device's limits.
     pub fn dispatches(&self) -> usize {
-        self.bands.len() + self.finishes.len()
+        self.frame.dispatches()
     }
 
     /// Bytes held on the device: blocks, tables, sparse part, `x`, `y` and scratch.
@@ -281,20 +261,94 @@ impl WgpuGather {
     }
 }
 
-impl WgpuGather {
+/// What a frame records on either path: the pipelines, each dispatch's bind group, and the
+/// buffers they share.
+#[derive(Debug)]
+pub(crate) struct Frame {
+    pipelines: Pipelines,
+    bands: Vec<Dispatch>,
+    finishes: Vec<Dispatch>,
+    buffers: Buffers,
+    /// Bytes held on the device: blocks, tables, sparse part, `x`, the own `y` and scratch.
+    device_bytes: u64,
+}
+
+impl Frame {
+    /// Builds a frame over `matrix` on `device` in steps that each take what they need: the
+    /// plan (how the matrix is cut within the device's limits), the buffers every dispatch
+    /// shares, the two pipelines, then each dispatch's share of the matrix and its bind
+    /// group. `hardware` says whether the device is a hardware GPU (column splits); `host_y`
+    /// is the host's `y`, bound instead of a buffer of the frame's own.
+    fn build(
+        matrix: &TransferMatrix<'_>,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        path: DecodePath,
+        options: &GpuOptions,
+        hardware: bool,
+        host_y: Option<&wgpu::Buffer>,
+    ) -> Result<Self, GpuError> {
+        let l = matrix.layout;
+        assert_eq!(
+            matrix.blocks.len() as u64,
+            l.block_bytes(),
+            "block data does not match the layout"
+        );
+        assert_eq!(matrix.scales.len(), l.scale_count(), "scale count");
+        // The block corrections ride along in the sparse list (16 entries each at most): the
+        // finish pass then adds them without bindings of their own.
+        let merged;
+        let sparse = if matrix.corrections.is_empty() {
+            &matrix.sparse
+        } else {
+            merged = matrix.sparse_with_corrections();
+            &merged
+        };
+        setup::check_compute_limits(&device.limits(), l.channels())?;
+        let lim = setup::plan_limits(device, options);
+        let plan = FramePlan::new(&l, sparse, &lim, path, options, hardware)?;
+        let buffers = Buffers::new(device, matrix, &plan, host_y);
+        let pipelines = Pipelines::new(device, &l, plan.source, options.software_mode);
+        let (bands, band_bytes) = bind::band_dispatches(
+            device,
+            queue,
+            matrix,
+            &plan,
+            &buffers,
+            &pipelines.gather_layout,
+        )?;
+        let (finishes, sparse_bytes) = bind::finish_dispatches(
+            device,
+            sparse,
+            l.channels(),
+            &plan,
+            &buffers,
+            &pipelines.finish_layout,
+        );
+        Ok(Frame {
+            device_bytes: buffers.bytes + band_bytes + sparse_bytes,
+            pipelines,
+            bands,
+            finishes,
+            buffers,
+        })
+    }
+
+    fn dispatches(&self) -> usize {
+        self.bands.len() + self.finishes.len()
+    }
+
     /// Records the frame's compute pass into `encoder`: every gather dispatch, then every
-    /// finish dispatch, between the pass's timestamps where the adapter has them. The pass
-    /// reads `x` and writes `y`; it uploads and reads back nothing.
-    fn record_pass(&self, encoder: &mut wgpu::CommandEncoder) {
+    /// finish dispatch, between the pass's timestamps where `timer` is given. The pass reads
+    /// `x` and writes `y`; it uploads and reads back nothing.
+    fn record_pass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("gather"),
-            timestamp_writes: self.buffers.timer.as_ref().map(|t| {
-                wgpu::ComputePassTimestampWrites {
-                    query_set: &t.queries,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
-                }
-            }),
+            timestamp_writes: timestamps,
         });
         pass.set_pipeline(&self.pipelines.gather);
         for d in &self.bands {
@@ -307,19 +361,21 @@ impl WgpuGather {
             pass.dispatch_workgroups(d.workgroups, d.splits, 1);
         }
     }
+}
 
+impl WgpuGather {
     /// Byte offset of the two timestamps in the readback buffer, after `y`.
     fn stamps_at(&self) -> u64 {
-        self.buffers.y.size().next_multiple_of(8)
+        self.frame.buffers.y_bytes.next_multiple_of(8)
     }
 
     /// Records the copies of `y` and the resolved timestamps into the readback buffer.
     fn record_readback(&self, encoder: &mut wgpu::CommandEncoder) {
-        let b = &self.buffers;
-        encoder.copy_buffer_to_buffer(&b.y, 0, &b.readback, 0, b.y.size());
-        if let Some(t) = &b.timer {
+        let (b, r) = (&self.frame.buffers, &self.readback);
+        encoder.copy_buffer_to_buffer(&b.y, 0, &r.buffer, 0, b.y_bytes);
+        if let Some(t) = &r.timer {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolve, 0);
-            encoder.copy_buffer_to_buffer(&t.resolve, 0, &b.readback, self.stamps_at(), 16);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &r.buffer, self.stamps_at(), 16);
         }
     }
 
@@ -327,8 +383,8 @@ impl WgpuGather {
     /// time into `kernel_ms`.
     fn read_back(&mut self, irradiance: &mut [Rgb]) -> Result<(), GatherError> {
         let (tx, rx) = mpsc::channel();
-        self.buffers
-            .readback
+        self.readback
+            .buffer
             .map_async(wgpu::MapMode::Read, .., move |r| {
                 let _ = tx.send(r);
             });
@@ -343,14 +399,16 @@ impl WgpuGather {
         mapped.map_err(|e| GatherError::Backend(format!("readback failed: {e}")))?;
         let stamps_at = self.stamps_at() as usize;
         {
-            let b = &self.buffers;
-            let view = b
-                .readback
+            let r = &self.readback;
+            let view = r
+                .buffer
                 .get_mapped_range(..)
                 .map_err(|e| GatherError::Backend(format!("readback failed: {e}")))?;
             let y: &mut [f32] = bytemuck::cast_slice_mut(irradiance);
-            y.copy_from_slice(bytemuck::cast_slice(&view[..b.y.size() as usize]));
-            if let Some(t) = &b.timer {
+            y.copy_from_slice(bytemuck::cast_slice(
+                &view[..self.frame.buffers.y_bytes as usize],
+            ));
+            if let Some(t) = &r.timer {
                 let stamp = |i: usize| {
                     let at = stamps_at + 8 * i;
                     u64::from_le_bytes(view[at..at + 8].try_into().unwrap())
@@ -359,7 +417,7 @@ impl WgpuGather {
                 self.kernel_ms = Some(ticks as f64 * t.period * 1e-6);
             }
         }
-        self.buffers.readback.unmap();
+        self.readback.buffer.unmap();
         Ok(())
     }
 }
@@ -377,14 +435,15 @@ impl Gather for WgpuGather {
         check_gather_args(self.n, exitance, irradiance)?;
         self.dev
             .queue()
-            .write_buffer(&self.buffers.x, 0, bytemuck::cast_slice(exitance));
+            .write_buffer(&self.frame.buffers.x, 0, bytemuck::cast_slice(exitance));
         let mut encoder =
             self.dev
                 .device()
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("gather"),
                 });
-        self.record_pass(&mut encoder);
+        let stamps = self.readback.timer.as_ref().map(Timer::writes);
+        self.frame.record_pass(&mut encoder, stamps);
         self.record_readback(&mut encoder);
         self.dev.queue().submit([encoder.finish()]);
         self.read_back(irradiance)

@@ -35,15 +35,17 @@ pub(super) fn u32_of(v: usize, what: &str) -> Result<u32, GpuError> {
     u32::try_from(v).map_err(|_| GpuError::Unsupported(format!("{what} {v} does not fit 32 bits")))
 }
 
+/// Bytes one storage binding may have on a device of limits `dl`.
+pub(crate) fn storage_binding_limit(dl: &wgpu::Limits) -> u64 {
+    dl.max_storage_buffer_binding_size.min(dl.max_buffer_size)
+}
+
 /// The limits a plan respects: the device's, lowered by the caps of `options`.
 pub(super) fn plan_limits(device: &wgpu::Device, options: &GpuOptions) -> PlanLimits {
     let dl = device.limits();
     let cap = |own: u64, opt: Option<u64>| opt.map_or(own, |o| o.min(own));
     PlanLimits {
-        binding_bytes: cap(
-            dl.max_storage_buffer_binding_size.min(dl.max_buffer_size),
-            options.max_binding_bytes,
-        ),
+        binding_bytes: cap(storage_binding_limit(&dl), options.max_binding_bytes),
         texture_side: cap(
             u64::from(dl.max_texture_dimension_2d),
             options.max_texture_side.map(u64::from),
@@ -168,32 +170,134 @@ pub(super) struct Timer {
     pub(super) period: f64,
 }
 
+impl Timer {
+    /// The pass's timestamp writes: query 0 at its start, 1 at its end.
+    pub(super) fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+}
+
+/// Storage buffers the finish kernel binds (the most of the gather's kernels: partial sums,
+/// `x`, the sparse rows' three arrays, `y`).
+pub(crate) const STORAGE_BINDINGS: u32 = 6;
+
+/// Workgroup memory of the gather kernel: the reduction's 256 `vec3<f32>` (16-byte stride)
+/// and one 256-entry decode table per stored channel.
+pub(crate) fn workgroup_bytes(channels: usize) -> u32 {
+    256 * 16 + 256 * 4 * channels as u32
+}
+
+/// Checks that a device runs the gather's kernels at all: compute workgroups of 64
+/// invocations, [`STORAGE_BINDINGS`] storage buffers and a uniform per stage, and the
+/// workgroup memory of [`workgroup_bytes`]. The error names the limit that is short (a
+/// downlevel device, such as WebGL2's, has no compute at all).
+pub(crate) fn check_compute_limits(dl: &wgpu::Limits, channels: usize) -> Result<(), GpuError> {
+    let needs = [
+        (
+            "max_compute_workgroup_size_x",
+            dl.max_compute_workgroup_size_x,
+            shader::WORKGROUP,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            dl.max_compute_invocations_per_workgroup,
+            shader::WORKGROUP,
+        ),
+        (
+            "max_storage_buffers_per_shader_stage",
+            dl.max_storage_buffers_per_shader_stage,
+            STORAGE_BINDINGS,
+        ),
+        (
+            "max_uniform_buffers_per_shader_stage",
+            dl.max_uniform_buffers_per_shader_stage,
+            1,
+        ),
+        (
+            "max_compute_workgroup_storage_size",
+            dl.max_compute_workgroup_storage_size,
+            workgroup_bytes(channels),
+        ),
+    ];
+    for (name, has, needs) in needs {
+        if has < needs {
+            return Err(GpuError::Unsupported(format!(
+                "the device's {name} is {has}, the gather needs {needs}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Where a gather's `y` comes back to the CPU: the own-device path only.
+#[derive(Debug)]
+pub(super) struct Readback {
+    /// `y`, then (with timestamps) the pass's two u64 timestamps at an 8-aligned offset.
+    pub(super) buffer: wgpu::Buffer,
+    pub(super) timer: Option<Timer>,
+}
+
+impl Readback {
+    /// A readback buffer for `y_bytes` of `y` and (where `device` has `TIMESTAMP_QUERY`) the
+    /// timestamp queries.
+    pub(super) fn new(device: &wgpu::Device, queue: &wgpu::Queue, y_bytes: u64) -> Self {
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("y readback"),
+            size: y_bytes.next_multiple_of(8) + 16,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let timer = device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| Timer {
+                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("gather timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                }),
+                resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                period: f64::from(queue.get_timestamp_period()),
+            });
+        Readback { buffer, timer }
+    }
+}
+
 /// The buffers every dispatch of a frame shares.
 #[derive(Debug)]
 pub(super) struct Buffers {
     /// Decode tables, one buffer per tile row.
     pub(super) tables: Vec<wgpu::Buffer>,
-    /// The exitance, RGB f32 over the padded patches.
+    /// The exitance, RGB f32 over the padded patches, zero past `n`.
     pub(super) x: wgpu::Buffer,
-    /// The irradiance, RGB f32 over the patches.
+    /// The irradiance, RGB f32 over the patches: the gather's own, or the host's (of which
+    /// the first `12·n` bytes are bound).
     pub(super) y: wgpu::Buffer,
-    /// `y`, then (with timestamps) the pass's two u64 timestamps at an 8-aligned offset.
-    pub(super) readback: wgpu::Buffer,
+    /// Bytes of `y` that are bound and written: `12·n`.
+    pub(super) y_bytes: u64,
     /// The column groups' partial sums.
     pub(super) partial: wgpu::Buffer,
-    pub(super) timer: Option<Timer>,
-    /// Bytes they hold on the device (`readback` counted as `y`'s size).
+    /// Bytes they hold on the device (the host's `y` not counted).
     pub(super) bytes: u64,
 }
 
 impl Buffers {
-    /// Uploads the decode tables of `matrix` and creates `x`, `y`, the readback, the partial
-    /// sums and (where `device` has `TIMESTAMP_QUERY`) the timestamp queries.
+    /// Uploads the decode tables of `matrix` and creates `x`, the partial sums and, unless
+    /// the host lends its own (`host_y`), `y`.
     pub(super) fn new(
         device: &wgpu::Device,
-        queue: &wgpu::Queue,
         matrix: &TransferMatrix<'_>,
         plan: &FramePlan,
+        host_y: Option<&wgpu::Buffer>,
     ) -> Self {
         let l = &matrix.layout;
         let row_tables = plan.row_tables;
@@ -219,7 +323,8 @@ impl Buffers {
         let mk = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size,
+                // An empty binding is invalid: at least one float.
+                size: size.max(4),
                 usage,
                 mapped_at_creation: false,
             })
@@ -229,42 +334,26 @@ impl Buffers {
             x_bytes,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
-        let y = mk(
-            "y",
-            y_bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let readback = mk(
-            "y readback",
-            y_bytes.next_multiple_of(8) + 16,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        let timer = device
-            .features()
-            .contains(wgpu::Features::TIMESTAMP_QUERY)
-            .then(|| Timer {
-                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
-                    label: Some("gather timestamps"),
-                    ty: wgpu::QueryType::Timestamp,
-                    count: 2,
-                }),
-                resolve: mk(
-                    "timestamps",
-                    16,
-                    wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+        let (y, own_y) = match host_y {
+            Some(y) => (y.clone(), 0),
+            None => (
+                mk(
+                    "y",
+                    y_bytes,
+                    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 ),
-                period: f64::from(queue.get_timestamp_period()),
-            });
+                y_bytes,
+            ),
+        };
         let partial_bytes = plan.partial_bytes();
         let partial = mk("partial sums", partial_bytes, wgpu::BufferUsages::STORAGE);
         Buffers {
             tables,
             x,
             y,
-            readback,
+            y_bytes,
             partial,
-            timer,
-            bytes: table_bytes + x_bytes + 2 * y_bytes + partial_bytes,
+            bytes: table_bytes + x_bytes + own_y + partial_bytes,
         }
     }
 }
@@ -278,9 +367,11 @@ pub(super) struct Pipelines {
     pub(super) finish_layout: wgpu::BindGroupLayout,
 }
 
-const UNIFORM: wgpu::BufferBindingType = wgpu::BufferBindingType::Uniform;
-const READ: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: true };
-const WRITE: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: false };
+pub(crate) const UNIFORM: wgpu::BufferBindingType = wgpu::BufferBindingType::Uniform;
+pub(crate) const READ: wgpu::BufferBindingType =
+    wgpu::BufferBindingType::Storage { read_only: true };
+pub(crate) const WRITE: wgpu::BufferBindingType =
+    wgpu::BufferBindingType::Storage { read_only: false };
 
 impl Pipelines {
     /// The kernels for a matrix of layout `l` reading blocks from `source`; `software_mode`
@@ -359,7 +450,7 @@ impl Pipelines {
 }
 
 /// A storage buffer of at least 4 bytes (an empty binding is invalid) with `data` in it.
-pub(super) fn storage(
+pub(crate) fn storage(
     device: &wgpu::Device,
     label: &str,
     data: &[u8],
@@ -379,7 +470,7 @@ pub(super) fn storage(
     })
 }
 
-fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -388,7 +479,7 @@ fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEnt
     }
 }
 
-fn buffer_ty(ty: wgpu::BufferBindingType) -> wgpu::BindingType {
+pub(crate) fn buffer_ty(ty: wgpu::BufferBindingType) -> wgpu::BindingType {
     wgpu::BindingType::Buffer {
         ty,
         has_dynamic_offset: false,
@@ -396,7 +487,7 @@ fn buffer_ty(ty: wgpu::BufferBindingType) -> wgpu::BindingType {
     }
 }
 
-fn pipeline(
+pub(crate) fn pipeline(
     device: &wgpu::Device,
     label: &str,
     source: &str,

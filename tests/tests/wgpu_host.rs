@@ -1,0 +1,451 @@
+//! The gather and the corner pass on a device the host owns ([`HostGather`], [`CornerPass`]),
+//! on every adapter found except GL ones (as in `wgpu_gather.rs`, whose reasons apply).
+//!
+//! With no adapter these tests print why and pass, except when `CI=true`: CI installs the
+//! software Vulkan driver (scripts/test.sh), so a missing adapter there is a failure.
+//!
+//! Tolerances.
+//! - **The host gather** runs the same kernels over the same plan as the own-device
+//!   [`WgpuGather`] (same limits, same column splits): its `y` must be the same bits.
+//! - **The corner pass** sums each corner's row in the core's order
+//!   ([`Mesh::corner_indirect`]); the only freedom left is a driver fusing a multiply and an
+//!   add (WGSL allows it), which changes the rounding of each product by at most half an ulp
+//!   of that product. A row of k terms then differs by at most γ_(k+1)·Σ|y·w| (the recursive
+//!   summation bound over the products and the k adds), with a factor 2 of margin and
+//!   k·`f32::MIN_POSITIVE` for subnormal products a GPU may flush. On lavapipe the values are
+//!   bit-identical (asserted there: `is_mesa_software`).
+
+use radiosity_backend_wgpu::{
+    Adapter, CornerBuffers, CornerPass, DecodePath, GpuError, GpuOptions, HostGather,
+    HostGatherBuffers, WgpuGather, adapters,
+};
+use radiosity_core::{CornerWeight, Gather, Mesh, MeshTriangle, Rgb, TransferMatrix};
+use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, exitance, sample_file};
+use std::borrow::Cow;
+use std::sync::Mutex;
+
+/// Devices are opened one test at a time: the crate's own devices are serialised by its
+/// lifecycle lock, the tests' by this one (see the crate's `device` module for why).
+static DEVICES: Mutex<()> = Mutex::new(());
+
+/// Every adapter but GL ones (all GL ones if there is nothing else), or none when there is
+/// none and this is not CI (a note is printed).
+fn gpu_adapters() -> Vec<Adapter> {
+    let list = adapters();
+    if list.iter().any(|a| a.info.backend != "gl") {
+        return list
+            .into_iter()
+            .filter(|a| a.info.backend != "gl")
+            .collect();
+    }
+    if list.is_empty() {
+        let ci = std::env::var("CI").is_ok_and(|v| v == "true");
+        assert!(
+            !ci,
+            "CI=true but wgpu finds no adapter: scripts/test.sh installs mesa-vulkan-drivers and libvulkan1"
+        );
+        eprintln!("no GPU adapter (install mesa-vulkan-drivers libvulkan1): skipping");
+    }
+    list
+}
+
+/// A device of the host's own on `adapter`, with `limits`.
+fn host_device(adapter: &Adapter, limits: wgpu::Limits) -> (wgpu::Device, wgpu::Queue) {
+    pollster::block_on(
+        adapter
+            .wgpu_adapter()
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("host"),
+                required_limits: limits,
+                ..Default::default()
+            }),
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", adapter.info))
+}
+
+fn buffer(device: &wgpu::Device, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: bytes,
+        usage,
+        mapped_at_creation: false,
+    })
+}
+
+/// The host's `x` and `y` for `n` patches, as an engine would make them.
+fn gather_buffers(device: &wgpu::Device, n: usize) -> (wgpu::Buffer, wgpu::Buffer) {
+    use wgpu::BufferUsages as U;
+    (
+        buffer(device, 12 * n as u64, U::COPY_DST | U::COPY_SRC),
+        buffer(
+            device,
+            12 * n as u64,
+            U::STORAGE | U::COPY_SRC | U::COPY_DST,
+        ),
+    )
+}
+
+/// Submits `encoder` after recording a copy of `src`'s first `len` triples, then waits and
+/// returns them (the test's readback; the host path itself never waits).
+fn submit_and_read(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mut encoder: wgpu::CommandEncoder,
+    src: &wgpu::Buffer,
+    len: usize,
+) -> Vec<Rgb> {
+    let bytes = (12 * len).max(4) as u64;
+    let read = buffer(
+        device,
+        bytes,
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    encoder.copy_buffer_to_buffer(src, 0, &read, 0, 12 * len as u64);
+    queue.submit([encoder.finish()]);
+    read.map_async(wgpu::MapMode::Read, .., |r| r.expect("maps"));
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("device polls");
+    let view = read.get_mapped_range(..).expect("mapped");
+    bytemuck::cast_slice::<u8, Rgb>(&view[..12 * len]).to_vec()
+}
+
+fn encoder(device: &wgpu::Device) -> wgpu::CommandEncoder {
+    device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+}
+
+/// One frame of a [`HostGather`] over `m` on the host's device: `x` written through the
+/// queue, the gather recorded, `y` read back.
+fn host_frame(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    m: &TransferMatrix<'_>,
+    options: &GpuOptions,
+    x: &[Rgb],
+) -> (Vec<Rgb>, HostGather) {
+    let n = m.layout.n();
+    let (xb, yb) = gather_buffers(device, n);
+    let g = HostGather::new(
+        device,
+        queue,
+        m,
+        options,
+        HostGatherBuffers { x: &xb, y: &yb },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    queue.write_buffer(&xb, 0, bytemuck::cast_slice(x));
+    let mut e = encoder(device);
+    g.record(&mut e);
+    (submit_and_read(device, queue, e, &yb, n), g)
+}
+
+fn bits(v: &[Rgb]) -> Vec<[u32; 3]> {
+    v.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+}
+
+#[test]
+fn host_gather_equals_the_own_device_gather_bit_for_bit() {
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        for (format, channels) in FORMAT_CASES {
+            for (n, max_tile) in [(1, 8), (37, 16), (130, 8192)] {
+                let m = sample_file(n, channels, format, max_tile).matrix;
+                let options = GpuOptions {
+                    path: DecodePath::Software,
+                    ..GpuOptions::default()
+                };
+                let x = exitance(n, n as u64);
+                let mut want = vec![Rgb::ZERO; n];
+                let mut own = WgpuGather::on_adapter(&m, &adapter, &options).unwrap();
+                own.gather(&x, &mut want).unwrap();
+                let (got, g) = host_frame(&device, &queue, &m, &options, &x);
+                assert_eq!(g.patches(), n);
+                assert_eq!(g.path(), DecodePath::Software);
+                assert_eq!(g.dispatches(), own.dispatches());
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "{format} ×{channels} n={n} tile={max_tile} on {}",
+                    adapter.info
+                );
+            }
+        }
+    }
+}
+
+/// A device with a storage binding of 4 KiB: the host gather cuts the matrix into bands (as
+/// the own-device gather does under the same cap) and gives the same bits.
+#[test]
+fn host_gather_adapts_to_small_device_limits() {
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let cap = 4096;
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: cap,
+            ..adapter.wgpu_adapter().limits()
+        };
+        let (device, queue) = host_device(&adapter, limits);
+        let m = sample_file(130, 3, radiosity_core::Format::Bc1, 8192).matrix;
+        let options = GpuOptions {
+            path: DecodePath::Software,
+            max_binding_bytes: Some(cap),
+            ..GpuOptions::default()
+        };
+        let x = exitance(130, 9);
+        let mut want = vec![Rgb::ZERO; 130];
+        let mut own = WgpuGather::on_adapter(&m, &adapter, &options).unwrap();
+        own.gather(&x, &mut want).unwrap();
+        let host_options = GpuOptions {
+            max_binding_bytes: None,
+            ..options
+        };
+        let (got, g) = host_frame(&device, &queue, &m, &host_options, &x);
+        assert!(g.dispatches() > 2, "{} dispatches", g.dispatches());
+        assert_eq!(g.dispatches(), own.dispatches());
+        assert_eq!(bits(&got), bits(&want), "{}", adapter.info);
+    }
+}
+
+/// A device of WebGPU's downlevel limits has 4 storage buffers per stage: the gather says
+/// so. A device without BC compression refuses the hardware path by name.
+#[test]
+fn host_gather_names_what_the_device_lacks() {
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let m = sample_file(37, 3, radiosity_core::Format::Bc1, 16).matrix;
+        let (device, queue) = host_device(&adapter, wgpu::Limits::downlevel_defaults());
+        let (x, y) = gather_buffers(&device, 37);
+        let buffers = HostGatherBuffers { x: &x, y: &y };
+        match HostGather::new(&device, &queue, &m, &GpuOptions::default(), buffers) {
+            Err(GpuError::Unsupported(why)) => assert_eq!(
+                why,
+                "the device's max_storage_buffers_per_shader_stage is 4, the gather needs 6"
+            ),
+            other => panic!("{other:?}"),
+        }
+        // Devices are made without optional features here.
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        let (x, y) = gather_buffers(&device, 37);
+        let options = GpuOptions {
+            path: DecodePath::HardwareBc,
+            ..GpuOptions::default()
+        };
+        let buffers = HostGatherBuffers { x: &x, y: &y };
+        match HostGather::new(&device, &queue, &m, &options, buffers) {
+            Err(GpuError::Unsupported(why)) => {
+                assert!(why.contains("TEXTURE_COMPRESSION_BC"), "{why}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+#[test]
+fn wrong_host_buffers_are_errors_not_panics() {
+    use wgpu::BufferUsages as U;
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        let file = sample_file(37, 3, radiosity_core::Format::Bc1, 16);
+        let m = &file.matrix;
+        let (x, y) = gather_buffers(&device, 37);
+        let short = buffer(&device, 12 * 36, U::STORAGE | U::COPY_SRC);
+        let no_copy = buffer(&device, 12 * 37, U::STORAGE);
+        let no_storage = buffer(&device, 12 * 37, U::COPY_SRC | U::VERTEX);
+        let o = GpuOptions::default();
+        let cases = [
+            (
+                &short,
+                &y,
+                "the host's x buffer has 432 bytes, the gather needs 444",
+            ),
+            (
+                &no_copy,
+                &y,
+                "the host's x buffer lacks usage BufferUsages(COPY_SRC)",
+            ),
+            (
+                &x,
+                &short,
+                "the host's y buffer has 432 bytes, the gather needs 444",
+            ),
+            (
+                &x,
+                &no_storage,
+                "the host's y buffer lacks usage BufferUsages(STORAGE)",
+            ),
+        ];
+        for (xb, yb, want) in cases {
+            match HostGather::new(&device, &queue, m, &o, HostGatherBuffers { x: xb, y: yb }) {
+                Err(GpuError::Unsupported(why)) => assert!(why.starts_with(want), "{why}"),
+                other => panic!("{want}: {other:?}"),
+            }
+        }
+        let mesh = file.mesh.as_ref().unwrap();
+        let out = buffer(&device, 12 * 6, U::STORAGE | U::VERTEX);
+        let small_out = buffer(&device, 12 * 5, U::STORAGE | U::VERTEX);
+        let cases = [
+            (
+                &y,
+                &small_out,
+                "the host's out buffer has 60 bytes, the corner pass needs 72",
+            ),
+            (
+                &no_storage,
+                &out,
+                "the host's y buffer lacks usage BufferUsages(STORAGE)",
+            ),
+            (
+                &x,
+                &out,
+                "the host's y buffer lacks usage BufferUsages(STORAGE)",
+            ),
+        ];
+        for (yb, ob, want) in cases {
+            match CornerPass::new(&device, mesh, CornerBuffers { y: yb, out: ob }) {
+                Err(GpuError::Unsupported(why)) => assert!(why.starts_with(want), "{why}"),
+                other => panic!("{want}: {other:?}"),
+            }
+        }
+        let mut bad = mesh.clone();
+        bad.corner_weights.to_mut()[0].patch = 37;
+        match CornerPass::new(&device, &bad, CornerBuffers { y: &y, out: &out }) {
+            Err(GpuError::Unsupported(why)) => {
+                assert_eq!(why, "a corner weight names patch 37 of 37")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+/// A mesh over `patches` patches of `triangles` triangles whose corner rows hold 0 to 9
+/// weights on random patches (weights of a row summing to about 1).
+fn random_mesh(patches: usize, triangles: usize, seed: u64) -> Mesh<'static> {
+    let mut rng = SplitMix64(seed);
+    let mut rows = vec![0u32];
+    let mut weights = Vec::new();
+    for _ in 0..3 * triangles {
+        let k = (rng.next_f32() * 10.0) as usize;
+        for _ in 0..k {
+            weights.push(CornerWeight {
+                patch: ((rng.next_f32() * patches as f32) as u32).min(patches as u32 - 1),
+                weight: rng.next_f32() / k as f32,
+            });
+        }
+        rows.push(weights.len() as u32);
+    }
+    Mesh {
+        positions: Cow::Owned(vec![[0.0; 3]; 3]),
+        triangles: Cow::Owned(vec![
+            MeshTriangle {
+                vertices: [0, 1, 2],
+                ..MeshTriangle::default()
+            };
+            triangles
+        ]),
+        corner_rows: Cow::Owned(rows),
+        corner_weights: Cow::Owned(weights),
+        sample_rows: Cow::Owned(vec![0; patches + 1]),
+        samples: Cow::Owned(Vec::new()),
+    }
+}
+
+/// The GPU corner values against the core's, under the bound of the module docs; bit for
+/// bit on Mesa's software driver.
+fn assert_corners_match(adapter: &Adapter, mesh: &Mesh<'_>, y: &[Rgb], got: &[Rgb]) {
+    let mut want = vec![Rgb::ZERO; mesh.corner_count()];
+    mesh.corner_indirect(y, &mut want).unwrap();
+    assert_eq!(got.len(), want.len());
+    for (r, (g, w)) in got.iter().zip(&want).enumerate() {
+        let row = mesh.corner(r / 3, r % 3);
+        let k = row.len() as f32;
+        for ch in 0..3 {
+            let abs: f32 = row
+                .iter()
+                .map(|e| (y[e.patch as usize].to_array()[ch] * e.weight).abs())
+                .sum();
+            let tol = 2.0 * (k + 1.0) * f32::EPSILON * abs + k * f32::MIN_POSITIVE;
+            let (g, w) = (g.to_array()[ch], w.to_array()[ch]);
+            if adapter.info.is_mesa_software() {
+                assert_eq!(
+                    g.to_bits(),
+                    w.to_bits(),
+                    "corner {r} ch {ch}: {g} against {w}"
+                );
+            }
+            assert!(
+                (g - w).abs() <= tol,
+                "corner {r} ch {ch} on {}: gpu {g} core {w} tolerance {tol:e}",
+                adapter.info
+            );
+        }
+    }
+}
+
+#[test]
+fn corner_pass_equals_the_cores_corner_indirect() {
+    use wgpu::BufferUsages as U;
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        // 5000 triangles: 15 000 corners, 235 workgroups, rows from empty to 9 weights.
+        for (patches, triangles) in [(1, 1), (300, 5000)] {
+            let mesh = random_mesh(patches, triangles, patches as u64);
+            let y = exitance(patches, 4);
+            let yb = buffer(&device, 12 * patches as u64, U::STORAGE | U::COPY_DST);
+            queue.write_buffer(&yb, 0, bytemuck::cast_slice(&y));
+            let corners = mesh.corner_count();
+            let out = buffer(
+                &device,
+                12 * corners as u64,
+                U::STORAGE | U::COPY_SRC | U::VERTEX,
+            );
+            let pass = CornerPass::new(&device, &mesh, CornerBuffers { y: &yb, out: &out })
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(pass.corners(), corners);
+            let mut e = encoder(&device);
+            pass.record(&mut e);
+            let got = submit_and_read(&device, &queue, e, &out, corners);
+            assert_corners_match(&adapter, &mesh, &y, &got);
+        }
+    }
+}
+
+/// The whole frame on the host's device, as an engine records it: `x` uploaded, the gather and
+/// the corner pass in one encoder, one submission. The corners equal the core's corner light
+/// of the `y` the same frame wrote.
+#[test]
+fn gather_then_corner_pass_in_one_encoder() {
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        let n = 70;
+        let file = sample_file(n, 3, radiosity_core::Format::Bc1, 32);
+        let mesh = file.mesh.as_ref().unwrap();
+        let (xb, yb) = gather_buffers(&device, n);
+        let out = buffer(
+            &device,
+            12 * mesh.corner_count() as u64,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let options = GpuOptions::default();
+        let buffers = HostGatherBuffers { x: &xb, y: &yb };
+        let gather = HostGather::new(&device, &queue, &file.matrix, &options, buffers).unwrap();
+        let corners = CornerPass::new(&device, mesh, CornerBuffers { y: &yb, out: &out }).unwrap();
+        let x = exitance(n, 11);
+        queue.write_buffer(&xb, 0, bytemuck::cast_slice(&x));
+        let mut e = encoder(&device);
+        gather.record(&mut e);
+        corners.record(&mut e);
+        let got = submit_and_read(&device, &queue, e, &out, mesh.corner_count());
+        let y = submit_and_read(&device, &queue, encoder(&device), &yb, n);
+        // y is the gather's: the own-device gather's bits.
+        let mut want = vec![Rgb::ZERO; n];
+        let mut own = WgpuGather::on_adapter(&file.matrix, &adapter, &options).unwrap();
+        own.gather(&x, &mut want).unwrap();
+        assert_eq!(bits(&y), bits(&want));
+        assert!(y.iter().any(|v| v.to_array()[0] > 0.0));
+        assert_corners_match(&adapter, mesh, &y, &got);
+    }
+}
