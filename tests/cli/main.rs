@@ -3,6 +3,7 @@
 mod bad_input;
 mod bench;
 mod demo;
+mod gltf;
 mod ux;
 
 mod pathtrace;
