@@ -111,7 +111,11 @@ pub(crate) fn load_scene(path: &Path, load: &LoadOptions) -> anyhow::Result<Scen
             if hint {
                 anyhow::anyhow!(
                     "{e}; --max-reflectance R (e.g. 0.95) lowers such {} to R with a warning",
-                    if message_is_gltf(&e) { "baseColorFactor" } else { "Kd" }
+                    if message_is_gltf(&e) {
+                        "baseColorFactor"
+                    } else {
+                        "Kd"
+                    }
                 )
             } else {
                 anyhow::Error::new(e)

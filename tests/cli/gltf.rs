@@ -86,17 +86,18 @@ fn bad_gltf_is_one_error_line_naming_the_file() {
     glb.resize(12 + 8 + padded, b' ');
     std::fs::write(&p, &glb).unwrap();
     let out = radiosity(&["solve", p.to_str().unwrap()]);
-    assert_one_line_error(&out, "requires the glTF extension `KHR_draco_mesh_compression`");
+    assert_one_line_error(
+        &out,
+        "requires the glTF extension `KHR_draco_mesh_compression`",
+    );
 }
 
 /// A white baseColorFactor is refused with the hint that names `--max-reflectance`, which
 /// then lowers it.
 #[test]
 fn white_base_colour_names_max_reflectance() {
-    let src = std::fs::read_to_string(repo(
-        "scenes/cornell-box-gltf/CornellBox-Original.gltf",
-    ))
-    .unwrap();
+    let src =
+        std::fs::read_to_string(repo("scenes/cornell-box-gltf/CornellBox-Original.gltf")).unwrap();
     let mut v: Value = serde_json::from_str(&src).unwrap();
     v["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] =
         serde_json::json!([1.0, 1.0, 1.0, 1.0]);
@@ -110,9 +111,16 @@ fn white_base_colour_names_max_reflectance() {
     std::fs::write(&p, v.to_string()).unwrap();
     let out = radiosity(&["view-factors", p.to_str().unwrap()]);
     // view-factors repairs materials (geometry only): it succeeds.
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let out = radiosity(&["solve", p.to_str().unwrap(), "--patches", "64"]);
-    assert_one_line_error(&out, "--max-reflectance R (e.g. 0.95) lowers such baseColorFactor");
+    assert_one_line_error(
+        &out,
+        "--max-reflectance R (e.g. 0.95) lowers such baseColorFactor",
+    );
     let out = radiosity(&[
         "solve",
         p.to_str().unwrap(),
@@ -239,7 +247,13 @@ fn double_sided_sheet_keeps_the_furnace_closed() {
     }
     let (room, sheet) = means[0];
     assert!((room - want).abs() < 5e-3 * want, "room {room} vs {want}");
-    assert!((sheet - want).abs() < 5e-3 * want, "sheet {sheet} vs {want}");
+    assert!(
+        (sheet - want).abs() < 5e-3 * want,
+        "sheet {sheet} vs {want}"
+    );
     let (room1, _) = means[1];
-    assert!(room1 < (1.0 - 1e-2) * want, "one-sided: the sheet's back absorbs ({room1})");
+    assert!(
+        room1 < (1.0 - 1e-2) * want,
+        "one-sided: the sheet's back absorbs ({room1})"
+    );
 }

@@ -30,7 +30,8 @@ impl Doc {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()}));
         self.bin.extend_from_slice(bytes);
         self.views.len() - 1
     }
@@ -38,21 +39,27 @@ impl Doc {
     fn positions(&mut self, p: &[[f32; 3]]) -> usize {
         let bytes: Vec<u8> = p.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
         let v = self.view(&bytes);
-        self.accessors.push(json!({"bufferView": v, "componentType": 5126, "count": p.len(), "type": "VEC3"}));
+        self.accessors.push(
+            json!({"bufferView": v, "componentType": 5126, "count": p.len(), "type": "VEC3"}),
+        );
         self.accessors.len() - 1
     }
 
     fn texcoords(&mut self, t: &[[f32; 2]]) -> usize {
         let bytes: Vec<u8> = t.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
         let v = self.view(&bytes);
-        self.accessors.push(json!({"bufferView": v, "componentType": 5126, "count": t.len(), "type": "VEC2"}));
+        self.accessors.push(
+            json!({"bufferView": v, "componentType": 5126, "count": t.len(), "type": "VEC2"}),
+        );
         self.accessors.len() - 1
     }
 
     fn indices(&mut self, i: &[u16]) -> usize {
         let bytes: Vec<u8> = i.iter().flat_map(|c| c.to_le_bytes()).collect();
         let v = self.view(&bytes);
-        self.accessors.push(json!({"bufferView": v, "componentType": 5123, "count": i.len(), "type": "SCALAR"}));
+        self.accessors.push(
+            json!({"bufferView": v, "componentType": 5123, "count": i.len(), "type": "SCALAR"}),
+        );
         self.accessors.len() - 1
     }
 
@@ -149,9 +156,15 @@ fn cornell_box_gltf_and_glb_match_the_obj() {
             // glTF positions are f32: the OBJ's decimals rounded to f32 differ by at most half
             // an f32 ulp at 2 m, 1.2e-7; the hierarchy composes to the exact identity.
             for (p, q) in g.corners(t).iter().zip(obj.corners(t)) {
-                assert!((*p - q).abs().max_element() < 2e-7, "{f} triangle {t}: {p} vs {q}");
+                assert!(
+                    (*p - q).abs().max_element() < 2e-7,
+                    "{f} triangle {t}: {p} vs {q}"
+                );
             }
-            let (ma, mb) = (&g.materials[a.material as usize], &obj.materials[b.material as usize]);
+            let (ma, mb) = (
+                &g.materials[a.material as usize],
+                &obj.materials[b.material as usize],
+            );
             assert_eq!(ma.name, mb.name);
             assert_eq!(ma.reflectance, mb.reflectance, "{}", ma.name);
             // Emission: emissiveFactor (f32, the largest channel 1) × emissiveStrength.
@@ -175,7 +188,9 @@ fn node_hierarchy_applies_the_world_transform_and_keeps_the_front() {
     let leaf = one_triangle(&mut d);
     d.nodes[leaf]["translation"] = json!([0.0, 0.0, 1.0]);
     let s = std::f32::consts::FRAC_1_SQRT_2;
-    let mirror = [-1.0f32, 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0.5, 0., 0., 1.];
+    let mirror = [
+        -1.0f32, 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0.5, 0., 0., 1.,
+    ];
     let mid = d.node(json!({"matrix": mirror, "children": [leaf]}));
     let root = d.node(json!({
         "translation": [1.0, 2.0, 3.0], "rotation": [0.0, 0.0, s, s], "scale": [2.0, 2.0, 2.0],
@@ -186,22 +201,30 @@ fn node_hierarchy_applies_the_world_transform_and_keeps_the_front() {
     assert_eq!(scene.triangles.len(), 1);
 
     let q = DQuat::from_xyzw(0.0, 0.0, f64::from(s), f64::from(s)).normalize();
-    let world = DMat4::from_scale_rotation_translation(DVec3::splat(2.0), q, DVec3::new(1.0, 2.0, 3.0))
-        * DMat4::from_cols_array(&mirror.map(f64::from))
-        * DMat4::from_translation(DVec3::Z);
+    let world =
+        DMat4::from_scale_rotation_translation(DVec3::splat(2.0), q, DVec3::new(1.0, 2.0, 3.0))
+            * DMat4::from_cols_array(&mirror.map(f64::from))
+            * DMat4::from_translation(DVec3::Z);
     let local = [DVec3::ZERO, DVec3::X, DVec3::Y];
     let expect: Vec<DVec3> = local.iter().map(|&p| world.transform_point3(p)).collect();
     let got = scene.corners(0);
     // The loader's corners are the same set (two swapped for the mirror); f64 arithmetic on
     // the same f32 inputs in another association order: 1e-12.
     for e in &expect {
-        assert!(got.iter().any(|g| (*g - *e).length() < 1e-12), "{e} not in {got:?}");
+        assert!(
+            got.iter().any(|g| (*g - *e).length() < 1e-12),
+            "{e} not in {got:?}"
+        );
     }
     // Front: the transformed +z normal (by the inverse transpose) times the determinant's sign.
     let n = (world.inverse().transpose().transform_vector3(DVec3::Z)).normalize()
         * world.determinant().signum();
     assert!(world.determinant() < 0.0);
-    assert!(scene.triangle_normal(0).dot(n) > 1.0 - 1e-12, "{:?} vs {n}", scene.triangle_normal(0));
+    assert!(
+        scene.triangle_normal(0).dot(n) > 1.0 - 1e-12,
+        "{:?} vs {n}",
+        scene.triangle_normal(0)
+    );
 }
 
 /// A triangle strip of 4 vertices is 2 triangles, a fan of 5 is 3, with alternating strip
@@ -212,18 +235,31 @@ fn strips_fans_and_non_indexed_lists() {
     let dir = tempfile::tempdir().unwrap();
     let mut d = Doc::default();
     let strip_p = d.positions(&[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]]);
-    let fan_p = d.positions(&[[0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0.5, 1.5, 1.], [0., 1., 1.]]);
+    let fan_p = d.positions(&[
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0.5, 1.5, 1.],
+        [0., 1., 1.],
+    ]);
     let fan_i = d.indices(&[0, 1, 2, 3, 4]);
     let list_p = d.positions(&[[0., 0., 2.], [1., 0., 2.], [0., 1., 2.]]);
     let m = d.mesh(
         Some("modes"),
-        vec![prim(strip_p, None, 5), prim(fan_p, Some(fan_i), 6), prim(list_p, None, 4)],
+        vec![
+            prim(strip_p, None, 5),
+            prim(fan_p, Some(fan_i), 6),
+            prim(list_p, None, 4),
+        ],
     );
     let n = d.node(json!({"mesh": m}));
     let scene = Scene::load(&d.write(dir.path(), "modes.gltf", &[n])).unwrap();
     assert_eq!(scene.triangles.len(), 2 + 3 + 1);
     for t in 0..scene.triangles.len() {
-        assert!(scene.triangle_normal(t).z > 1.0 - 1e-12, "triangle {t} faces +z");
+        assert!(
+            scene.triangle_normal(t).z > 1.0 - 1e-12,
+            "triangle {t} faces +z"
+        );
     }
     // Areas: strip 1, fan 1.25 (unit square plus a 0.25 gable), list 0.5.
     let total: f64 = (0..6).map(|t| scene.triangle_area(t)).sum();
@@ -236,7 +272,15 @@ fn points_and_lines_are_skipped_with_one_warning() {
     let dir = tempfile::tempdir().unwrap();
     let mut d = Doc::default();
     let p = d.positions(&[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]]);
-    let m = d.mesh(None, vec![prim(p, None, 4), prim(p, None, 0), prim(p, None, 1), prim(p, None, 3)]);
+    let m = d.mesh(
+        None,
+        vec![
+            prim(p, None, 4),
+            prim(p, None, 0),
+            prim(p, None, 1),
+            prim(p, None, 3),
+        ],
+    );
     let n = d.node(json!({"mesh": m}));
     let scene = Scene::load(&d.write(dir.path(), "pl.gltf", &[n])).unwrap();
     assert_eq!(scene.triangles.len(), 1);
@@ -277,7 +321,10 @@ fn objects_are_named_by_node_then_mesh_and_made_unique() {
         roots.push(d.node(n));
     }
     let scene = Scene::load(&d.write(dir.path(), "names.gltf", &roots)).unwrap();
-    assert_eq!(scene.objects, ["chair", "chair#2", "table", "node3", "chair#3"]);
+    assert_eq!(
+        scene.objects,
+        ["chair", "chair#2", "table", "node3", "chair#3"]
+    );
     let per: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
     assert_eq!(per, [0, 1, 2, 3, 4]);
 }
@@ -288,7 +335,8 @@ fn objects_are_named_by_node_then_mesh_and_made_unique() {
 fn double_sided_open_surfaces_get_a_back_closed_ones_do_not() {
     let dir = tempfile::tempdir().unwrap();
     let mut d = Doc::default();
-    d.materials.push(json!({"name": "paper", "doubleSided": true,
+    d.materials
+        .push(json!({"name": "paper", "doubleSided": true,
         "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0}}));
     let quad = d.positions(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
     let qi = d.indices(&[0, 1, 2, 0, 2, 3]);
@@ -304,15 +352,27 @@ fn double_sided_open_surfaces_get_a_back_closed_ones_do_not() {
     let a = d.node(json!({"mesh": qm}));
     let b = d.node(json!({"mesh": tm}));
     let scene = Scene::load(&d.write(dir.path(), "ds.gltf", &[a, b])).unwrap();
-    let sheet: Vec<usize> = (0..scene.triangles.len()).filter(|&t| scene.triangles[t].object == 0).collect();
+    let sheet: Vec<usize> = (0..scene.triangles.len())
+        .filter(|&t| scene.triangles[t].object == 0)
+        .collect();
     assert_eq!(sheet.len(), 4, "two triangles and their reversed copies");
-    let up = sheet.iter().filter(|&&t| scene.triangle_normal(t).z > 0.999).count();
-    let down = sheet.iter().filter(|&&t| scene.triangle_normal(t).z < -0.999).count();
+    let up = sheet
+        .iter()
+        .filter(|&&t| scene.triangle_normal(t).z > 0.999)
+        .count();
+    let down = sheet
+        .iter()
+        .filter(|&&t| scene.triangle_normal(t).z < -0.999)
+        .count();
     assert_eq!((up, down), (2, 2));
     let tet_count = scene.triangles.iter().filter(|t| t.object == 1).count();
     assert_eq!(tet_count, 4, "a closed surface keeps its outside only");
     assert!(
-        scene.report.warnings.iter().any(|w| w.contains("1 doubleSided primitive(s) are closed")),
+        scene
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("1 doubleSided primitive(s) are closed")),
         "{:?}",
         scene.report.warnings
     );
@@ -334,7 +394,8 @@ fn materials_textures_and_emission() {
     d.materials.push(json!({"name": "tex",
         "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1.0], "metallicFactor": 0.0,
             "baseColorTexture": {"index": 0, "texCoord": 1}}}));
-    d.materials.push(json!({"name": "lamp", "emissiveFactor": [1.0, 0.5, 0.0],
+    d.materials
+        .push(json!({"name": "lamp", "emissiveFactor": [1.0, 0.5, 0.0],
         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
         "pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.1, 0.1, 1.0], "metallicFactor": 0.0}}));
     d.extra.insert(
@@ -342,7 +403,10 @@ fn materials_textures_and_emission() {
         json!([{"uri": format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png))}]),
     );
     d.extra.insert("textures".into(), json!([{"source": 0}]));
-    d.extra.insert("extensionsUsed".into(), json!(["KHR_materials_emissive_strength"]));
+    d.extra.insert(
+        "extensionsUsed".into(),
+        json!(["KHR_materials_emissive_strength"]),
+    );
     let p = d.positions(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
     let i = d.indices(&[0, 1, 2, 0, 2, 3]);
     let uv0 = d.texcoords(&[[0.5, 0.5]; 4]);
@@ -372,25 +436,48 @@ fn materials_textures_and_emission() {
     let pi = std::f32::consts::PI;
     let lamp = &scene.materials[scene.triangles[2].material as usize];
     assert_eq!(lamp.name, "lamp");
-    for (x, y) in lamp.emission.to_array().iter().zip([4.0 * pi, 2.0 * pi, 0.0]) {
+    for (x, y) in lamp
+        .emission
+        .to_array()
+        .iter()
+        .zip([4.0 * pi, 2.0 * pi, 0.0])
+    {
         assert!((x - y).abs() < 1e-5, "{x} vs {y}");
     }
-    assert_eq!(scene.triangles[3].material, 0, "no material: the grey fallback");
-    assert!(scene.report.warnings.iter().any(|w| w.contains("without a material")));
+    assert_eq!(
+        scene.triangles[3].material, 0,
+        "no material: the grey fallback"
+    );
+    assert!(
+        scene
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("without a material"))
+    );
 
     // White: refused, then lowered by the cap.
     d.materials[0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([1.0, 1.0, 1.0, 1.0]);
     let path = d.write(dir.path(), "white.gltf", &[n]);
     let e = Scene::load(&path).unwrap_err();
     assert!(matches!(e, BakeError::Material { .. }), "{e}");
-    assert!(e.to_string().contains("baseColorFactor 1 1 1 is not a reflectance"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("baseColorFactor 1 1 1 is not a reflectance"),
+        "{e}"
+    );
     let capped = LoadOptions {
         max_reflectance: Some(0.9),
         ..LoadOptions::default()
     };
     let s = Scene::load_with(&path, &capped).unwrap();
     assert!((s.materials[1].reflectance.r - 0.9).abs() < 1e-7);
-    assert!(s.report.warnings.iter().any(|w| w.contains("lowered to 0.9 0.9 0.9")));
+    assert!(
+        s.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("lowered to 0.9 0.9 0.9"))
+    );
 }
 
 /// Ignored features give a warning only when present.
@@ -400,18 +487,33 @@ fn ignored_features_warn_only_when_present() {
     let mut d = Doc::default();
     let n = one_triangle(&mut d);
     let plain = Scene::load(&d.write(dir.path(), "plain.gltf", &[n])).unwrap();
-    assert!(plain.report.warnings.is_empty(), "{:?}", plain.report.warnings);
-    d.extra.insert("cameras".into(), json!([{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.1}}]));
-    d.extra.insert("extensionsUsed".into(), json!(["KHR_lights_punctual"]));
+    assert!(
+        plain.report.warnings.is_empty(),
+        "{:?}",
+        plain.report.warnings
+    );
+    d.extra.insert(
+        "cameras".into(),
+        json!([{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.1}}]),
+    );
+    d.extra
+        .insert("extensionsUsed".into(), json!(["KHR_lights_punctual"]));
     let s = Scene::load(&d.write(dir.path(), "cam.gltf", &[n])).unwrap();
     let all = s.report.warnings.join("\n");
-    assert!(all.contains("cameras") && all.contains("KHR_lights_punctual"), "{all}");
+    assert!(
+        all.contains("cameras") && all.contains("KHR_lights_punctual"),
+        "{all}"
+    );
 }
 
 #[test]
 fn malformed_json_and_glb() {
     let dir = tempfile::tempdir().unwrap();
-    let e = load_err(&write(dir.path(), "bad.gltf", "{\"asset\": {\"version\": \"2.0\"},"));
+    let e = load_err(&write(
+        dir.path(),
+        "bad.gltf",
+        "{\"asset\": {\"version\": \"2.0\"},",
+    ));
     assert!(e.contains("not a valid glTF JSON file"), "{e}");
     // A GLB cut short: its header promises more bytes than there are.
     let glb = std::fs::read(scenes().join("cornell-box-gltf/CornellBox-Original.glb")).unwrap();
@@ -429,7 +531,10 @@ fn missing_and_short_buffers() {
     let mut v = d.json(&[n]);
     v["buffers"][0]["uri"] = json!("nowhere.bin");
     let e = load_err(&write(dir.path(), "missing.gltf", &v.to_string()));
-    assert!(e.contains("buffer 0: cannot read") && e.contains("nowhere.bin"), "{e}");
+    assert!(
+        e.contains("buffer 0: cannot read") && e.contains("nowhere.bin"),
+        "{e}"
+    );
     // An external file two bytes shorter than its byteLength.
     std::fs::write(dir.path().join("short.bin"), &d.bin[..d.bin.len() - 2]).unwrap();
     v["buffers"][0]["uri"] = json!("short.bin");
@@ -451,15 +556,24 @@ fn accessor_out_of_range_and_index_past_the_vertices() {
     let m = d.mesh(None, vec![prim(p, Some(i), 4)]);
     let n = d.node(json!({"mesh": m}));
     let e = load_err(&d.write(dir.path(), "idx.gltf", &[n]));
-    assert!(e.contains("index 3") && e.contains("past the 3 vertices"), "{e}");
+    assert!(
+        e.contains("index 3") && e.contains("past the 3 vertices"),
+        "{e}"
+    );
     let mut v = d.json(&[n]);
     v["accessors"][p]["count"] = json!(4);
     let e = load_err(&write(dir.path(), "count.gltf", &v.to_string()));
-    assert!(e.contains("accessor 0 (POSITION)") && e.contains("run past the end of buffer view"), "{e}");
+    assert!(
+        e.contains("accessor 0 (POSITION)") && e.contains("run past the end of buffer view"),
+        "{e}"
+    );
     let mut v = d.json(&[n]);
     v["bufferViews"][0]["byteLength"] = json!(400);
     let e = load_err(&write(dir.path(), "view.gltf", &v.to_string()));
-    assert!(e.contains("buffer view 0") && e.contains("runs past the end of buffer 0"), "{e}");
+    assert!(
+        e.contains("buffer view 0") && e.contains("runs past the end of buffer 0"),
+        "{e}"
+    );
     // An index the crate's own validation catches: a mesh that does not exist.
     let mut v = d.json(&[n]);
     v["nodes"][n]["mesh"] = json!(7);
@@ -508,7 +622,11 @@ fn unsupported_required_extensions_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let mut d = Doc::default();
     let n = one_triangle(&mut d);
-    for ext in ["KHR_draco_mesh_compression", "EXT_meshopt_compression", "ACME_teleport"] {
+    for ext in [
+        "KHR_draco_mesh_compression",
+        "EXT_meshopt_compression",
+        "ACME_teleport",
+    ] {
         let mut v = d.json(&[n]);
         v["extensionsUsed"] = json!([ext]);
         v["extensionsRequired"] = json!([ext]);
@@ -544,7 +662,15 @@ fn load_time_100k_triangles() {
             let a = (y * (k + 1) + x) as u32;
             let (b, c, d) = (a + 1, a + (k as u32) + 2, a + (k as u32) + 1);
             idx.extend_from_slice(&[a, b, c, a, c, d]);
-            obj.push_str(&format!("f {} {} {}\nf {} {} {}\n", a + 1, b + 1, c + 1, a + 1, c + 1, d + 1));
+            obj.push_str(&format!(
+                "f {} {} {}\nf {} {} {}\n",
+                a + 1,
+                b + 1,
+                c + 1,
+                a + 1,
+                c + 1,
+                d + 1
+            ));
         }
     }
     let mut bin: Vec<u8> = pos.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
@@ -567,7 +693,12 @@ fn load_time_100k_triangles() {
     for p in [&gp, &op, &gp, &op] {
         let t = std::time::Instant::now();
         let s = Scene::load(p).unwrap();
-        println!("{}: {} triangles in {:.1} ms", p.display(), s.triangles.len(), t.elapsed().as_secs_f64() * 1e3);
+        println!(
+            "{}: {} triangles in {:.1} ms",
+            p.display(),
+            s.triangles.len(),
+            t.elapsed().as_secs_f64() * 1e3
+        );
         assert_eq!(s.triangles.len(), 2 * k * k);
     }
 }

@@ -51,8 +51,8 @@ struct Loader<'a> {
 
 /// A view of an accessor's elements in a buffer, checked to lie inside it.
 struct Elements<'b> {
-    /// `None` for an accessor without a buffer view (all zeros).
-    bytes: Option<&'b [u8]>,
+    /// From the accessor's first byte to the end of its buffer view.
+    bytes: &'b [u8],
     count: usize,
     stride: usize,
     component: usize,
@@ -62,9 +62,8 @@ struct Elements<'b> {
 impl Elements<'_> {
     /// Component `k` of element `i` as f64 (normalised integers mapped to `[0, 1]`).
     fn get(&self, i: usize, k: usize, normalized: bool) -> f64 {
-        let Some(bytes) = self.bytes else { return 0.0 };
         let at = i * self.stride + k * self.component;
-        let b = &bytes[at..at + self.component];
+        let b = &self.bytes[at..at + self.component];
         match self.data_type {
             DataType::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
             DataType::U32 => f64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
@@ -83,7 +82,7 @@ impl Elements<'_> {
 
     /// Element `i` as an index (for U8, U16 and U32 scalars).
     fn index(&self, i: usize) -> u32 {
-        let Some(bytes) = self.bytes else { return 0 };
+        let bytes = self.bytes;
         let at = i * self.stride;
         match self.data_type {
             DataType::U8 => u32::from(bytes[at]),
@@ -204,13 +203,10 @@ impl Loader<'_> {
         let elem = component * n;
         let count = acc.count();
         let Some(view) = acc.view() else {
-            return Ok(Elements {
-                bytes: None,
-                count,
-                stride: elem,
-                component,
-                data_type: acc.data_type(),
-            });
+            // All zeros by the specification: no surface, and a count nothing bounds.
+            return Err(self.err(format!(
+                "accessor {i} ({what}) has no bufferView (zero-filled accessors are not supported)"
+            )));
         };
         let buffer = &self.buffers.0[view.buffer().index()];
         let v = view.index();
@@ -245,7 +241,7 @@ impl Loader<'_> {
             }
         }
         Ok(Elements {
-            bytes: Some(&view_bytes[acc.offset().min(view_bytes.len())..]),
+            bytes: &view_bytes[acc.offset().min(view_bytes.len())..],
             count,
             stride,
             component,
@@ -565,6 +561,20 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
         .map(|node| node.children().map(|c| c.index()).collect())
         .collect();
     let n = children.len();
+    // At most one parent each (a node shared by two parents is instanced twice, and a chain
+    // of such nodes doubles at every level).
+    let mut parent: Vec<Option<usize>> = vec![None; n];
+    for (p, cs) in children.iter().enumerate() {
+        for &c in cs {
+            if let Some(q) = parent[c].replace(p) {
+                return Err(gerr(if q == p {
+                    format!("node {p} lists node {c} as a child twice")
+                } else {
+                    format!("node {c} has two parents (nodes {q} and {p}); glTF nodes form trees")
+                }));
+            }
+        }
+    }
     let mut state = vec![0u8; n]; // 0 unvisited, 1 on the stack, 2 done
     for start in 0..n {
         if state[start] != 0 {
@@ -625,10 +635,7 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
     let roots: Vec<usize> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(s) => s.nodes().map(|n| n.index()).collect(),
         None => {
-            let mut is_child = vec![false; n];
-            for c in children.iter().flatten() {
-                is_child[*c] = true;
-            }
+            let is_child: Vec<bool> = parent.iter().map(Option::is_some).collect();
             if n > 0 {
                 loader.scene.report.warnings.push(format!(
                     "{}: no scene; the root nodes are used",
@@ -639,7 +646,8 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
         }
     };
     // Depth first, children in order, with an explicit stack (deep hierarchies are fine).
-    let mut stack: Vec<(usize, DMat4)> = roots.iter().rev().map(|&r| (r, DMat4::IDENTITY)).collect();
+    let mut stack: Vec<(usize, DMat4)> =
+        roots.iter().rev().map(|&r| (r, DMat4::IDENTITY)).collect();
     let nodes: Vec<::gltf::Node<'_>> = doc.nodes().collect();
     while let Some((i, parent)) = stack.pop() {
         let node = &nodes[i];
@@ -708,10 +716,15 @@ impl Loader<'_> {
             let material = self.material(&prim.material())?;
             let mut lacks_uv = false;
             let (world_pos, uv) = {
-                let pos = self.elements(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?;
+                let pos =
+                    self.elements(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?;
                 let mut world_pos = Vec::with_capacity(pos.count);
                 for v in 0..pos.count {
-                    let p = DVec3::new(pos.get(v, 0, false), pos.get(v, 1, false), pos.get(v, 2, false));
+                    let p = DVec3::new(
+                        pos.get(v, 0, false),
+                        pos.get(v, 1, false),
+                        pos.get(v, 2, false),
+                    );
                     if !p.is_finite() {
                         return Err(self.err(format!(
                             "{pwhat}: POSITION accessor {} vertex {v} is not finite ({} {} {})",
@@ -792,7 +805,10 @@ impl Loader<'_> {
                 None => (0..nverts as u32).collect(),
             };
             let corners: Vec<[u32; 3]> = match mode {
-                Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+                Mode::Triangles => indices
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect(),
                 Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
                     .map(|i| {
                         if i % 2 == 0 {
@@ -828,14 +844,19 @@ impl Loader<'_> {
             // triangle; a closed one's back faces its own inside, which no light reaches.
             let mut all = kept.clone();
             if double_sided && !kept.is_empty() {
-                let tris: Vec<[DVec3; 3]> =
-                    kept.iter().map(|c| c.map(|v| world_pos[v as usize])).collect();
+                let tris: Vec<[DVec3; 3]> = kept
+                    .iter()
+                    .map(|c| c.map(|v| world_pos[v as usize]))
+                    .collect();
                 if is_closed(&tris) {
                     self.closed_double_sided += 1;
                 } else {
                     for c in &kept {
                         let r = [c[0], c[2], c[1]];
-                        if self.filter.admit(r.map(|v| world_pos[v as usize]), &mut self.scene.report) {
+                        if self
+                            .filter
+                            .admit(r.map(|v| world_pos[v as usize]), &mut self.scene.report)
+                        {
                             all.push(r);
                         }
                     }
@@ -912,11 +933,9 @@ impl Loader<'_> {
         }
         if !self.ignored.is_empty() {
             let list: Vec<&str> = self.ignored.iter().copied().collect();
-            report.warnings.push(format!(
-                "{}: ignored: {}",
-                path.display(),
-                list.join("; ")
-            ));
+            report
+                .warnings
+                .push(format!("{}: ignored: {}", path.display(), list.join("; ")));
         }
         report.warn_skipped(path);
         if self.scene.triangles.is_empty() {
