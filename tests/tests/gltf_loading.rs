@@ -487,8 +487,9 @@ fn ignored_features_warn_only_when_present() {
     let mut d = Doc::default();
     let n = one_triangle(&mut d);
     let plain = Scene::load(&d.write(dir.path(), "plain.gltf", &[n])).unwrap();
+    // Its one warning is the missing material's.
     assert!(
-        plain.report.warnings.is_empty(),
+        plain.report.warnings.iter().all(|w| !w.contains("ignored")),
         "{:?}",
         plain.report.warnings
     );
