@@ -45,8 +45,8 @@ pub(crate) struct BakeArgs {
         default_value = "default"
     )]
     pub(crate) form_factors: String,
-    /// Lower MTL reflectances (Kd) at or above R, in (0, 1), to R with a warning instead of
-    /// refusing the scene (many exporters write Kd 1 1 1 for white)
+    /// Lower reflectances (MTL Kd, glTF baseColorFactor) at or above R, in (0, 1), to R with a
+    /// warning instead of refusing the scene (many exporters write Kd 1 1 1 for white)
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub(crate) max_reflectance: Option<f64>,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a

@@ -93,21 +93,29 @@ pub(crate) fn capped_loading(max_reflectance: Option<f64>) -> anyhow::Result<Loa
     Ok(o)
 }
 
-/// Loads an OBJ scene (`Scene::load_obj_with`), refusing first a file that is not text (a
-/// PNG renamed `.obj` is "not an OBJ file", not a scene without triangles), and naming
-/// `--max-reflectance` when a `Kd` at or above 1 is refused.
+/// Loads a scene (`Scene::load_with`: glTF for `.gltf` and `.glb`, else OBJ), refusing first
+/// an OBJ that is not text (a PNG renamed `.obj` is "not an OBJ file", not a scene without
+/// triangles), and naming `--max-reflectance` when a `Kd` or `baseColorFactor` at or above 1
+/// is refused. Every command that takes a scene file loads it here.
 pub(crate) fn load_scene(path: &Path, load: &LoadOptions) -> anyhow::Result<Scene> {
-    if let Some(why) = binary_data(path) {
+    if !radiosity_bake::scene::is_gltf_path(path)
+        && let Some(why) = binary_data(path)
+    {
         bail!("cannot load the scene: {}: {why}", path.display());
     }
-    Scene::load_obj_with(path, load)
+    Scene::load_with(path, load)
         .map_err(|e| {
             let hint = load.validate_materials
                 && load.max_reflectance.is_none()
                 && matches!(&e, BakeError::Material { message, .. } if kd_at_or_above_one(message));
             if hint {
                 anyhow::anyhow!(
-                    "{e}; --max-reflectance R (e.g. 0.95) lowers such Kd to R with a warning"
+                    "{e}; --max-reflectance R (e.g. 0.95) lowers such {} to R with a warning",
+                    if message_is_gltf(&e) {
+                        "baseColorFactor"
+                    } else {
+                        "Kd"
+                    }
                 )
             } else {
                 anyhow::Error::new(e)
@@ -116,10 +124,18 @@ pub(crate) fn load_scene(path: &Path, load: &LoadOptions) -> anyhow::Result<Scen
         .context("cannot load the scene")
 }
 
-/// Whether a material message is about a `Kd` with a channel at or above 1 (`Kd 1 1 1 is not
-/// a reflectance …`), which `--max-reflectance` would lower.
+/// Whether a material error comes from a glTF material (`baseColorFactor …`).
+fn message_is_gltf(e: &BakeError) -> bool {
+    matches!(e, BakeError::Material { message, .. } if message.starts_with("baseColorFactor "))
+}
+
+/// Whether a material message is about a `Kd` or `baseColorFactor` with a channel at or above
+/// 1 (`Kd 1 1 1 is not a reflectance …`), which `--max-reflectance` would lower.
 fn kd_at_or_above_one(message: &str) -> bool {
-    let Some(rest) = message.strip_prefix("Kd ") else {
+    let Some(rest) = message
+        .strip_prefix("Kd ")
+        .or_else(|| message.strip_prefix("baseColorFactor "))
+    else {
         return false;
     };
     rest.split_whitespace()

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub(crate) struct CheckRowsArgs {
-    /// The OBJ file.
+    /// The scene file: OBJ (+ MTL), or glTF 2.0 (.gltf or .glb).
     scene: PathBuf,
     /// Target patch count (as `bake --patches`).
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = crate::args::patch_count)]

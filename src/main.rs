@@ -64,9 +64,9 @@ enum Command {
         #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
         patches: usize,
     },
-    /// Bake an OBJ scene into a compressed transfer matrix (.rad).
+    /// Bake a scene (OBJ, or glTF 2.0 .gltf/.glb) into a compressed transfer matrix (.rad).
     Bake {
-        /// The OBJ file.
+        /// The scene file: OBJ (+ MTL), or glTF 2.0 (.gltf or .glb).
         scene: PathBuf,
         /// Where to write the .rad file (written atomically).
         #[arg(short, long)]
@@ -79,7 +79,8 @@ enum Command {
     },
     /// Light a scene (its emitters, plus analytic lights) and report per-object irradiance and radiosity.
     Solve {
-        /// An OBJ scene (baked first, with the bake flags) or a .rad file.
+        /// A scene, OBJ or glTF 2.0 (.gltf/.glb; baked first, with the bake flags), or a .rad
+        /// file.
         input: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
@@ -103,7 +104,8 @@ enum Command {
     },
     /// Render an image: ray-cast direct light with shadows plus the baked indirect light.
     Render {
-        /// An OBJ scene (baked first, with the bake flags) or a .rad file.
+        /// A scene, OBJ or glTF 2.0 (.gltf/.glb; baked first, with the bake flags), or a .rad
+        /// file.
         input: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
@@ -143,9 +145,9 @@ enum Command {
         #[arg(long)]
         backend: Option<String>,
     },
-    /// Object-to-object view factors of an OBJ scene, from its full-detail geometry.
+    /// Object-to-object view factors of a scene (OBJ or glTF), from its full-detail geometry.
     ViewFactors {
-        /// The OBJ file.
+        /// The scene file: OBJ (+ MTL), or glTF 2.0 (.gltf or .glb).
         scene: PathBuf,
         /// Print JSON: {"objects", "areas", "matrix"}.
         #[arg(long)]

@@ -37,7 +37,7 @@ pub enum BakeError {
         /// What is wrong.
         message: String,
     },
-    /// A texture named by `map_Kd` could not be decoded.
+    /// A texture (`map_Kd`, a glTF image) could not be decoded.
     #[error("{}: cannot decode texture: {message}", path.display())]
     Texture {
         /// The image file.
@@ -45,10 +45,27 @@ pub enum BakeError {
         /// The decoder's message.
         message: String,
     },
+    /// A glTF file is malformed, refers to missing or short data, or holds what the loader
+    /// does not read (the message says which: JSON, a buffer, an accessor, a node cycle …).
+    #[error("{}: {message}", path.display())]
+    Gltf {
+        /// The `.gltf` or `.glb` file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A glTF file lists an extension the loader does not implement in `extensionsRequired`.
+    #[error("{}: requires the glTF extension `{extension}`, which is not supported", path.display())]
+    UnsupportedExtension {
+        /// The `.gltf` or `.glb` file.
+        path: PathBuf,
+        /// The extension's name.
+        extension: String,
+    },
     /// The scene has no usable (non-degenerate) triangle.
     #[error("{}: the scene has no non-degenerate triangle", path.display())]
     EmptyScene {
-        /// The OBJ file.
+        /// The scene file.
         path: PathBuf,
     },
     /// The scene loaded but cannot be baked: its scale is outside what the file's f32 fields

@@ -1,9 +1,9 @@
-//! `radiosity-bake`: from an OBJ scene to a compressed transfer matrix.
+//! `radiosity-bake`: from an OBJ or glTF scene to a compressed transfer matrix.
 //!
 //! The stages in pipeline order (the user-facing contract is `docs/contract.md`):
 //!
-//! 1. [`scene`]: OBJ + MTL loading ([`scene::Scene::load_obj`]): objects, reflectance,
-//!    emission, `map_Kd` textures, line-numbered errors.
+//! 1. [`scene`]: OBJ + MTL and glTF 2.0 loading ([`scene::Scene::load_with`], by extension):
+//!    objects, reflectance, emission, textures, errors that name the file and line or item.
 //! 2. [`simplify`]: the paper's voxel simplification into patches ([`simplify::simplify`]),
 //!    with per-vertex interpolation weights and the runtime mesh.
 //! 3. [`geometry`]: the occlusion BVH over the full-detail triangles, polygons, the exact

@@ -16,7 +16,7 @@ const MAX_SAMPLES: usize = 1 << 32;
 /// The flags of `radiosity pathtrace`.
 #[derive(Args, Clone, Debug)]
 pub(crate) struct PathtraceArgs {
-    /// The OBJ file.
+    /// The scene file: OBJ (+ MTL), or glTF 2.0 (.gltf or .glb).
     scene: PathBuf,
     /// Analytic lights (JSON, as `solve --lights`: docs/examples/lights.json); the scene's own
     /// emitters always shine.
@@ -42,8 +42,9 @@ pub(crate) struct PathtraceArgs {
     /// Paths per pixel of the image [default: 64].
     #[arg(long)]
     spp: Option<u32>,
-    /// Lower MTL reflectances (Kd) at or above R, in (0, 1), to R with a warning instead of
-    /// refusing the scene (as `bake --max-reflectance`, so both see the same scene)
+    /// Lower reflectances (MTL Kd, glTF baseColorFactor) at or above R, in (0, 1), to R with a
+    /// warning instead of refusing the scene (as `bake --max-reflectance`, so both see the same
+    /// scene)
     #[arg(long, value_name = "R")]
     max_reflectance: Option<f64>,
 }

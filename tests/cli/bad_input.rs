@@ -207,7 +207,7 @@ fn good_rad(dir: &Path) -> PathBuf {
 /// the bad file, the good bake and the output directory).
 fn commands(kind: &str) -> &'static [&'static [&'static str]] {
     match kind {
-        "obj" => &[
+        "obj" | "gltf" => &[
             &["bake", "FILE", "-o", "OUT/out.rad", "--patches", "24"],
             &["solve", "FILE", "--patches", "24", "--json"],
         ],
@@ -263,6 +263,7 @@ fn is_case(kind: &str, path: &Path) -> bool {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     match kind {
         "obj" => ext == "obj",
+        "gltf" => ext == "gltf" || ext == "glb",
         "rad" => ext == "rad",
         _ => ext == "json",
     }

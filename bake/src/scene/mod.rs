@@ -1,8 +1,10 @@
-//! Scenes: OBJ + MTL loaded into full-detail triangles with materials and objects.
+//! Scenes: OBJ + MTL or glTF 2.0 loaded into full-detail triangles with materials and objects.
 //!
 //! Conventions (`docs/contract.md`): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
 //! multiplied by the mean of `map_Kd` where one is given; `Ke` is emitted radiance L and the
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
+//! glTF (`gltf.rs`) maps `baseColorFactor` × `baseColorTexture` and `emissiveFactor` ×
+//! `emissiveStrength` onto the same conventions.
 
 use crate::error::BakeError;
 use glam::DVec3;
@@ -11,6 +13,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 pub use texture::Texture;
 
+mod gltf;
 mod obj;
 mod texture;
 
@@ -53,7 +56,7 @@ pub struct Triangle {
     pub object: u32,
     /// Index into [`Scene::materials`].
     pub material: u32,
-    /// The OBJ line of the face it came from (0 for scenes not read from a file).
+    /// The OBJ line of the face it came from (0 for glTF files and scenes built in code).
     pub line: u32,
 }
 
@@ -124,6 +127,64 @@ pub struct Scene {
     pub report: LoadReport,
 }
 
+impl LoadReport {
+    /// The warnings for the degenerate and duplicate triangles counted so far (none when
+    /// there are none).
+    pub(crate) fn warn_skipped(&mut self, path: &Path) {
+        if self.degenerate_triangles > 0 {
+            self.warnings.push(format!(
+                "{}: skipped {} degenerate (zero-area) triangle(s)",
+                path.display(),
+                self.degenerate_triangles
+            ));
+        }
+        if self.duplicate_triangles > 0 {
+            self.warnings.push(format!(
+                "{}: skipped {} duplicate triangle(s) (same corners, same winding as an earlier one)",
+                path.display(),
+                self.duplicate_triangles
+            ));
+        }
+    }
+}
+
+/// Skips degenerate triangles and exact duplicates (same corners in the same cyclic order, so
+/// a reversed copy is not a duplicate), counting both in the [`LoadReport`].
+#[derive(Default)]
+pub(crate) struct TriangleFilter {
+    seen: HashSet<[u64; 9]>,
+}
+
+impl TriangleFilter {
+    /// Whether the triangle with corners `p` (finite) is kept.
+    pub(crate) fn admit(&mut self, p: [DVec3; 3], report: &mut LoadReport) -> bool {
+        if is_degenerate(p) {
+            report.degenerate_triangles += 1;
+            return false;
+        }
+        // Same corners in the same cyclic order: an exact duplicate.
+        let start = (0..3)
+            .min_by(|&a, &b| {
+                p[a].to_array()
+                    .partial_cmp(&p[b].to_array())
+                    .expect("finite")
+            })
+            .expect("three corners");
+        let mut key = [0u64; 9];
+        for j in 0..3 {
+            let q = p[(start + j) % 3];
+            key[3 * j] = q.x.to_bits();
+            key[3 * j + 1] = q.y.to_bits();
+            key[3 * j + 2] = q.z.to_bits();
+        }
+        if !self.seen.insert(key) {
+            report.duplicate_triangles += 1;
+            return false;
+        }
+        true
+    }
+}
+
 /// Whether a triangle has (numerically) no area: twice its area below 1e-12 of its longest
 /// edge squared, i.e. its smallest angle is below about 1e-12 rad.
 fn is_degenerate(p: [DVec3; 3]) -> bool {
@@ -145,7 +206,42 @@ fn newmtl_line(text: &str, name: &str) -> Option<usize> {
         .map(|i| i + 1)
 }
 
+/// Whether `path` names a glTF file (`.gltf` or `.glb`, any case); anything else is read as
+/// OBJ.
+pub fn is_gltf_path(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
 impl Scene {
+    /// Loads a scene file, by its extension: glTF 2.0 for `.gltf` and `.glb`
+    /// ([`Self::load_gltf_with`]), OBJ + MTL for anything else ([`Self::load_obj_with`]).
+    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
+        if is_gltf_path(path) {
+            Self::load_gltf_with(path, options)
+        } else {
+            Self::load_obj_with(path, options)
+        }
+    }
+
+    /// [`Self::load_with`] with the default options.
+    pub fn load(path: &Path) -> Result<Self, BakeError> {
+        Self::load_with(path, &LoadOptions::default())
+    }
+
+    /// Loads a glTF 2.0 file (`.gltf` with its buffers and images, or `.glb`): the default
+    /// scene (else the first) with its node hierarchy; see `docs/contract.md` for what is read
+    /// and what is ignored.
+    ///
+    /// Errors (never panics) for malformed JSON or GLB, a missing or short buffer, an accessor
+    /// or index out of range, NaN or infinite positions (also after the node transforms), a
+    /// cycle in the node graph, an unsupported required extension, an invalid material, or a
+    /// scene without any usable triangle.
+    pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
+        gltf::load(path, options)
+    }
+
     /// Loads an OBJ file and the MTL files it names.
     ///
     /// Errors (never panics) for a missing or unreadable file, a malformed statement, NaN or
@@ -231,33 +327,13 @@ impl Scene {
         }
 
         // Triangles: fan-triangulate, skip degenerate and duplicate ones.
-        let mut seen: HashSet<[u64; 9]> = HashSet::new();
+        let mut filter = TriangleFilter::default();
         let mut object_remap: Vec<Option<u32>> = vec![None; raw.objects.len()];
         for face in &raw.faces {
             for k in 1..face.v.len() - 1 {
                 let vi = [face.v[0], face.v[k], face.v[k + 1]];
                 let p = vi.map(|i| scene.positions[i as usize]);
-                if is_degenerate(p) {
-                    scene.report.degenerate_triangles += 1;
-                    continue;
-                }
-                // Same corners in the same cyclic order: an exact duplicate.
-                let start = (0..3)
-                    .min_by(|&a, &b| {
-                        p[a].to_array()
-                            .partial_cmp(&p[b].to_array())
-                            .expect("finite")
-                    })
-                    .expect("three corners");
-                let mut key = [0u64; 9];
-                for j in 0..3 {
-                    let q = p[(start + j) % 3];
-                    key[3 * j] = q.x.to_bits();
-                    key[3 * j + 1] = q.y.to_bits();
-                    key[3 * j + 2] = q.z.to_bits();
-                }
-                if !seen.insert(key) {
-                    scene.report.duplicate_triangles += 1;
+                if !filter.admit(p, &mut scene.report) {
                     continue;
                 }
                 let object = *object_remap[face.object as usize].get_or_insert_with(|| {
@@ -276,20 +352,7 @@ impl Scene {
                 });
             }
         }
-        if scene.report.degenerate_triangles > 0 {
-            scene.report.warnings.push(format!(
-                "{}: skipped {} degenerate (zero-area) triangle(s)",
-                path.display(),
-                scene.report.degenerate_triangles
-            ));
-        }
-        if scene.report.duplicate_triangles > 0 {
-            scene.report.warnings.push(format!(
-                "{}: skipped {} duplicate triangle(s) (same corners, same winding as an earlier one)",
-                path.display(),
-                scene.report.duplicate_triangles
-            ));
-        }
+        scene.report.warn_skipped(path);
         if raw.faces.iter().any(|f| f.material.is_none()) && !scene.triangles.is_empty() {
             let n = scene.triangles.iter().filter(|t| t.material == 0).count();
             if n > 0 && raw.mtllibs.is_empty() {

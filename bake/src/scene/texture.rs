@@ -1,4 +1,4 @@
-//! Albedo textures (`map_Kd`): decoded once to linear RGB, then averaged over regions.
+//! Albedo textures (`map_Kd`, glTF `baseColorTexture`): decoded once to linear RGB, then averaged over regions.
 
 use crate::error::BakeError;
 use std::path::Path;
@@ -27,16 +27,22 @@ impl Texture {
             path: path.into(),
             source,
         })?;
-        let img = image::load_from_memory(&bytes).map_err(|e| BakeError::Texture {
+        Self::decode(&bytes, path, "")
+    }
+
+    /// Decodes an encoded image (PNG, JPEG or GIF) held in memory; `path` and `what` (e.g.
+    /// `image 2: `, may be empty) name it in messages.
+    pub fn decode(bytes: &[u8], path: &Path, what: &str) -> Result<Self, BakeError> {
+        let img = image::load_from_memory(bytes).map_err(|e| BakeError::Texture {
             path: path.into(),
-            message: e.to_string(),
+            message: format!("{what}{e}"),
         })?;
         let rgb = img.to_rgb32f();
         let (width, height) = (rgb.width() as usize, rgb.height() as usize);
         if width == 0 || height == 0 {
             return Err(BakeError::Texture {
                 path: path.into(),
-                message: "empty image".into(),
+                message: format!("{what}empty image"),
             });
         }
         let texels = rgb
