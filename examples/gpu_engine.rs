@@ -130,12 +130,13 @@ impl Camera {
             height: num("height", 512.0) as u32,
         };
         let view = cam.look_at - cam.position;
-        if !(view.length() > 0.0)
-            || view.normalize().cross(cam.up.normalize()).length() < 1e-6
-            || !(cam.fov_deg > 0.0 && cam.fov_deg < 180.0)
-            || !(1..=8192).contains(&cam.width)
-            || !(1..=8192).contains(&cam.height)
-        {
+        let valid = view.length() > 0.0
+            && view.normalize().cross(cam.up.normalize()).length() >= 1e-6
+            && cam.fov_deg > 0.0
+            && cam.fov_deg < 180.0
+            && (1..=8192).contains(&cam.width)
+            && (1..=8192).contains(&cam.height);
+        if !valid {
             return Err(format!("bad camera file {}", path.display()).into());
         }
         Ok(cam)
@@ -145,8 +146,8 @@ impl Camera {
     /// perpendicular to the view, pixel rows from the top) and depth in [0, 1].
     fn view_proj(&self, near: f32, far: f32) -> Mat4 {
         let aspect = self.width as f32 / self.height as f32;
-        Mat4::perspective_rh(self.fov_deg.to_radians(), aspect, near, far)
-            * Mat4::look_at_rh(self.position, self.look_at, self.up)
+        glam::camera::rh::proj::directx::perspective(self.fov_deg.to_radians(), aspect, near, far)
+            * glam::camera::rh::view::look_at_mat4(self.position, self.look_at, self.up)
     }
 }
 
@@ -457,7 +458,7 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
                 module: &module,
                 entry_point: Some(vs),
                 compilation_options: Default::default(),
-                buffers,
+                buffers: &buffers.iter().cloned().map(Some).collect::<Vec<_>>(),
             },
             // Both sides drawn: a back face hides what is behind it (and shades black).
             primitive: wgpu::PrimitiveState {
@@ -638,7 +639,12 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
             intensity: [intensity.r, intensity.g, intensity.b, 0.0],
             shadow: [SHADOW_BIAS, 0.0, 0.0, 0.0],
         };
-        let face_proj = Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, near, far);
+        let face_proj = glam::camera::rh::proj::directx::perspective(
+            std::f32::consts::FRAC_PI_2,
+            1.0,
+            near,
+            far,
+        );
         for (u, v) in face_uniforms.iter().zip(cube_views(position)) {
             queue.write_buffer(u, 0, bytemuck::bytes_of(&scene(face_proj * v)));
         }

@@ -13,8 +13,10 @@ use std::time::Instant;
 
 /// Builds bake parameters from the shared flags (also used by `solve SCENE.obj`).
 pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
-    let mut p = BakeParams::default();
-    p.bounces = parse_bounces(&args.bounces)?;
+    let mut p = BakeParams {
+        bounces: parse_bounces(&args.bounces)?,
+        ..BakeParams::default()
+    };
     if let Some(n) = args.patches {
         // Before anything is loaded or allocated: the dense matrices must fit in memory.
         crate::limits::check_patches(n, p.bounces)?;
