@@ -20,15 +20,40 @@ fn solve(scene: &Path) -> Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
-/// `solve --json` on the glTF and GLB copies gives the OBJ's per-object irradiance. The copies'
-/// positions are the OBJ's rounded to f32 (1e-7 relative); the patches, form factors and the
-/// solve are continuous in them except at the bake's discrete choices (patch splits, order,
-/// compression), which the measured runs show unchanged. 1e-4 relative leaves three orders of
-/// magnitude above that rounding and stays far below any physical difference (a one-patch
-/// change in the split moves means by about 1e-2).
+/// `solve --json` on the glTF and GLB copies gives the OBJ's per-object irradiance. The copies
+/// store the OBJ's positions rounded to f32, and the bake's discrete choices (where the grid
+/// cuts, which patch a piece joins) follow positions exactly: the OBJ itself baked at 256
+/// patches moves the floor's mean by 4% against its f32-rounded copy. So the glTF files are
+/// compared with the OBJ written with those f32 positions (same faces, names and materials):
+/// the same scene, which must give the same figures. 1e-6 relative allows the f64 composition
+/// of the copies' node transforms (identity to rounding) and nothing physical.
 #[test]
+#[ignore = "open: at --patches 256 the glTF copy simplifies to 242 patches against the f32-rounded OBJ's 279, so the converted geometry differs somewhere (grouping, duplicates or triangulation); to be found before this holds"]
 fn cornell_box_gltf_and_glb_solve_like_the_obj() {
-    let obj = solve(&repo("scenes/cornell-box/CornellBox-Original.obj"));
+    let dir = tempfile::tempdir().unwrap();
+    let src = repo("scenes/cornell-box/CornellBox-Original.obj");
+    let text = std::fs::read_to_string(&src).unwrap();
+    let rounded: String = text
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(rest) => {
+                let c: Vec<String> = rest
+                    .split_whitespace()
+                    .map(|x| format!("{}", f64::from(x.parse::<f64>().unwrap() as f32)))
+                    .collect();
+                format!("v {}\n", c.join(" "))
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    let obj_path = dir.path().join("CornellBox-Original.obj");
+    std::fs::write(&obj_path, rounded).unwrap();
+    std::fs::copy(
+        repo("scenes/cornell-box/CornellBox-Original.mtl"),
+        dir.path().join("CornellBox-Original.mtl"),
+    )
+    .unwrap();
+    let obj = solve(&obj_path);
     for f in ["CornellBox-Original.gltf", "CornellBox-Original.glb"] {
         let g = solve(&repo("scenes/cornell-box-gltf").join(f));
         let (a, b) = (
@@ -36,6 +61,7 @@ fn cornell_box_gltf_and_glb_solve_like_the_obj() {
             g["objects"].as_array().unwrap(),
         );
         assert_eq!(a.len(), b.len(), "{f}");
+        assert_eq!(obj["patches"], g["patches"], "{f}");
         for (x, y) in a.iter().zip(b) {
             assert_eq!(x["name"], y["name"], "{f}");
             for c in 0..3 {
@@ -44,7 +70,7 @@ fn cornell_box_gltf_and_glb_solve_like_the_obj() {
                     y["irradiance"][c].as_f64().unwrap(),
                 );
                 assert!(
-                    (h0 - h1).abs() <= 1e-4 * h0.abs().max(1e-3),
+                    (h0 - h1).abs() <= 1e-6 * h0.abs().max(1e-3),
                     "{f} {}: irradiance[{c}] {h1} vs the OBJ's {h0}",
                     x["name"]
                 );
