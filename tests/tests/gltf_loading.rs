@@ -216,9 +216,10 @@ fn node_hierarchy_applies_the_world_transform_and_keeps_the_front() {
             "{e} not in {got:?}"
         );
     }
-    // Front: the transformed +z normal (by the inverse transpose) times the determinant's sign.
-    let n = (world.inverse().transpose().transform_vector3(DVec3::Z)).normalize()
-        * world.determinant().signum();
+    // Front: the local +z normal carried by the inverse transpose, which already points to
+    // the mirrored front side; the loader's flipped winding must give it (glTF: a negative
+    // determinant makes the front clockwise in world space, so the corners are reversed).
+    let n = (world.inverse().transpose().transform_vector3(DVec3::Z)).normalize();
     assert!(world.determinant() < 0.0);
     assert!(
         scene.triangle_normal(0).dot(n) > 1.0 - 1e-12,

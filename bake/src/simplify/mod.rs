@@ -17,7 +17,7 @@ use crate::error::BakeError;
 use crate::geometry::polygon::Polygon;
 use crate::scene::Scene;
 use glam::DVec3;
-use grouping::{Grouping, Loose, components, group};
+use grouping::{Grouping, Loose, component_areas, components, group};
 use radiosity_core::Rgb;
 use std::ops::Range;
 
@@ -240,6 +240,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
     let cos_max = params.max_normal_angle_deg.to_radians().cos();
     let component = components(scene);
     let loose = Loose {
+        area: component_areas(scene, &component),
         occluders: std::cell::OnceCell::new(),
         scene,
         component: &component,
