@@ -58,7 +58,8 @@ pub struct CornerWeight {
     pub weight: f32,
 }
 
-/// A point where direct light on a patch is sampled: the centroid of one piece of the patch.
+/// A point where direct light on a patch is sampled: the centroid of one piece of the patch, or
+/// of one cell of a grid laid over a piece (a patch has at least 16).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PatchSample {

@@ -28,22 +28,25 @@ fn solve(scene: &Path) -> Value {
 /// the same scene, which must give the same figures. 1e-6 relative allows the f64 composition
 /// of the copies' node transforms (identity to rounding) and nothing physical.
 #[test]
-#[ignore = "open: at --patches 256 the glTF copy simplifies to 242 patches against the f32-rounded OBJ's 279, so the converted geometry differs somewhere (grouping, duplicates or triangulation); to be found before this holds"]
 fn cornell_box_gltf_and_glb_solve_like_the_obj() {
     let dir = tempfile::tempdir().unwrap();
     let src = repo("scenes/cornell-box/CornellBox-Original.obj");
     let text = std::fs::read_to_string(&src).unwrap();
     let rounded: String = text
         .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(rest) => {
-                let c: Vec<String> = rest
-                    .split_whitespace()
+        // The file separates `v` from its coordinates by a tab on some lines and a space on
+        // others: split on any whitespace, or the tab-separated vertices stay unrounded and the
+        // patch search lands on another cell size (279 patches against 242 at 256).
+        .map(|l| {
+            let mut words = l.split_whitespace();
+            if words.next() == Some("v") {
+                let c: Vec<String> = words
                     .map(|x| format!("{}", f64::from(x.parse::<f64>().unwrap() as f32)))
                     .collect();
                 format!("v {}\n", c.join(" "))
+            } else {
+                format!("{l}\n")
             }
-            None => format!("{l}\n"),
         })
         .collect();
     let obj_path = dir.path().join("CornellBox-Original.obj");

@@ -145,7 +145,8 @@ fn effect_decisions_change_the_work_done() {
         per_patch2(&coloured) > 2.5 * per_patch2(&base),
         "colour must cost about 3× the block bytes"
     );
-    // Dark patches: the rug sees nothing and leaves the matrix.
+    // Dark patches: the rug sees nothing; it faces the void, so it stays in the matrix with a
+    // zero row (direct light from a lights file still reaches it).
     let (_d4, rug) = cube_with(false, false, true);
     let dark = bake_file(&rug, &p);
     assert!(
@@ -160,6 +161,8 @@ fn effect_decisions_change_the_work_done() {
         why.contains("at most 0.000")
             && why.contains("): 0 lie under")
             && why.contains("face the void")
+            && why.contains(": 0 buried whole")
+            && why.contains("stay with a zero row")
             && !why.contains("contradict"),
         "{why}"
     );

@@ -2,6 +2,7 @@
 //! ([`expose`]); whether light leaves the scene (F's row sums, then hemisphere rays,
 //! [`escape_check`]); and the matching correction of F ([`closure_effect`]).
 
+use crate::simplify::runtime_mesh::direct_points;
 use super::{BakeParams, ClosureReport};
 use crate::bounce::{Dense, cap_row_sums, closure_of_sums, enforce_closure};
 use crate::effects::Effect;
@@ -22,9 +23,10 @@ pub struct Exposure {
     pub wholly: usize,
     /// Buried area of each object (file object order).
     pub buried_area: Vec<f64>,
-    /// Per piece (`Patches::pieces`): whether its centroid is buried (so it lends no
-    /// direct-light sample to the runtime).
-    pub buried_pieces: Vec<bool>,
+    /// Per patch, for each of its direct-light points
+    /// ([`crate::simplify::runtime_mesh::direct_points`]), whether the point is buried (so it
+    /// lends no direct-light sample to the runtime); empty for a patch nothing buries.
+    pub buried_points: Vec<Vec<bool>>,
 }
 
 /// Takes out of every patch the share of its area that another object buries (a floor under a
@@ -50,7 +52,7 @@ pub(super) fn expose(
         .unwrap_or(0);
     let mut exposure = Exposure {
         buried_area: vec![0.0; objects],
-        buried_pieces: vec![false; patches.pieces.len()],
+        buried_points: vec![Vec::new(); patches.len()],
         ..Exposure::default()
     };
     let Some(occ) = occ else {
@@ -81,12 +83,22 @@ pub(super) fn expose(
         for v in &mut f.values[i * n..(i + 1) * n] {
             *v /= e;
         }
-        for k in p.pieces.clone() {
-            // The point the runtime samples direct light at (`mesh::runtime_mesh`).
-            let q = &patches.pieces[k];
-            exposure.buried_pieces[k] = occ.buried(q.polygon.centroid(), q.normal);
-        }
     }
+    // Which of the points the runtime samples direct light at (`runtime_mesh::runtime_mesh`)
+    // lie buried, in the partly buried patches.
+    let share = &exposure.share;
+    exposure.buried_points = (0..patches.len())
+        .into_par_iter()
+        .map(|i| {
+            if !(share[i] > 0.0 && share[i] < 1.0) {
+                return Vec::new();
+            }
+            direct_points(patches.pieces_of(i))
+                .iter()
+                .map(|&(x, n, _)| occ.buried(x, n))
+                .collect()
+        })
+        .collect();
     exposure
 }
 

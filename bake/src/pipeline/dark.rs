@@ -1,5 +1,7 @@
-//! Dark patches: a patch whose row of F is zero sees nothing and is dropped from the matrix;
-//! hemisphere rays from it ([`check_dark`]) check that decision.
+//! Dark patches: a patch whose row of F is zero sees nothing. One buried whole under another
+//! object is dropped from the matrix; the others (facing the void, such as a roof under the
+//! sky) stay with a zero row, since direct light still reaches them. Hemisphere rays from them
+//! ([`check_dark`]) check the zero rows.
 
 use crate::effects::Effect;
 use crate::geometry::Occluders;
@@ -38,19 +40,12 @@ pub(super) fn dark_patches(
     };
     // Hemisphere rays pass through a face they start on, so a patch lying face to face against
     // a part whose other side looks out of the room "faces the void" to them.
-    let buried = if buried > 0 {
-        format!(
-            "; {buried} of the {} were buried whole (inside another object or face to face against one)",
-            dark.len()
-        )
-    } else {
-        String::new()
-    };
+    let kept = dark.len() - buried;
     let dark_area: f64 = dark.iter().map(|&i| areas[i]).sum();
     Effect::new(
         true,
         format!(
-            "{} of {} patches ({:.3} of the area) see nothing and are dropped from the matrix; hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{verdict}{buried}",
+            "{} of {} patches ({:.3} of the area) see nothing: {buried} buried whole (inside another object or face to face against one) are dropped from the matrix, {kept} stay with a zero row (direct light reaches them, they pass none on); hemisphere rays from {} of them land on a patch at most {:.3} of the time ({} rays each{verdict}",
             dark.len(),
             patches.len(),
             dark_area / areas.iter().sum::<f64>(),
@@ -60,6 +55,7 @@ pub(super) fn dark_patches(
         ),
     )
 }
+
 /// Hemisphere rays per patch in [`check_dark`]: a patch that sends [`DARK_SHARE`] of its light
 /// to other patches shows it in 13 rays on average, and a patch that truly sees nothing in none.
 pub(crate) const DARK_CHECK_RAYS: u32 = 256;

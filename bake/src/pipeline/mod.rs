@@ -173,28 +173,34 @@ pub fn discretise(
     effects.insert("closed", closed);
     lap("closure", &mut timings);
 
-    // Patches that see nothing (row of F zero) receive and give no indirect light: drop them.
-    let (live, dark): (Vec<usize>, Vec<usize>) =
-        (0..n_all).partition(|&i| f.row(i).iter().any(|v| *v > 0.0));
-    let dark_effect = if dark.is_empty() {
+    // Patches that see nothing (row of F zero) receive and give no indirect light. Those
+    // buried whole leave the matrix; the others stay, with a zero row and column: they face
+    // the void (a roof under the open sky), and direct light from a lights file still reaches
+    // them and their objects' figures (a tower's roof dropped here took its whole top out of
+    // the tower's mean irradiance: −100% on that face in an outdoor scene).
+    let zero: Vec<usize> = (0..n_all)
+        .filter(|&i| !f.row(i).iter().any(|v| *v > 0.0))
+        .collect();
+    let whole = |i: usize| exposure.share.get(i).is_some_and(|&b| b >= 1.0);
+    let live: Vec<usize> = (0..n_all)
+        .filter(|&i| !(whole(i) && zero.binary_search(&i).is_ok()))
+        .collect();
+    let dark_effect = if zero.is_empty() {
         Effect::new(false, "every patch sees some other patch: none dropped")
     } else {
         // An independent look at the decision: hemisphere rays from the dark patches.
-        let buried = dark
-            .iter()
-            .filter(|&&i| exposure.share.get(i).is_some_and(|&b| b >= 1.0))
-            .count();
+        let buried = zero.iter().filter(|&&i| whole(i)).count();
         dark_patches(
             &mut patches,
             checks_occ(),
-            &dark,
+            &zero,
             buried,
             &full_areas,
             params.seed,
         )
     };
     effects.insert("dark_patches", dark_effect);
-    if live.is_empty() {
+    if zero.len() == n_all {
         return Err(BakeError::Unbakeable(
             "no patch sees any other patch, so no light can travel between surfaces (a single surface, or every surface facing away from the rest)".into(),
         ));
@@ -510,7 +516,7 @@ fn file_mesh(
         scene,
         &system.patches,
         &file_index,
-        &system.exposure.buried_pieces,
+        &system.exposure.buried_points,
     )
 }
 

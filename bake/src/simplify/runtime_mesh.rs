@@ -14,14 +14,14 @@ use std::borrow::Cow;
 const SAME_SURFACE_COS: f64 = 0.8;
 
 /// Builds the runtime mesh. `file_index[k]` is the matrix (file) index of simplification patch
-/// `k`, or `None` for a patch left out of the matrix (one that sees nothing); `buried_pieces`
-/// (per piece, may be empty) marks pieces whose centroid is buried under another object, which
-/// lend no direct-light sample.
+/// `k`, or `None` for a patch left out of the matrix (one that sees nothing); `buried_points`
+/// (per patch, may be empty) marks which of its [`direct_points`] are buried under another
+/// object, which lend no direct-light sample.
 pub(crate) fn runtime_mesh(
     scene: &Scene,
     patches: &Patches,
     file_index: &[Option<u32>],
-    buried_pieces: &[bool],
+    buried_points: &[Vec<bool>],
 ) -> Mesh<'static> {
     let nt = scene.triangles.len();
     let bary = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -117,18 +117,17 @@ pub(crate) fn runtime_mesh(
         }
     }
 
-    // Direct-light samples: the centroid of every piece not buried under another object, in
-    // matrix order.
+    // Direct-light samples: every patch's [`direct_points`] not buried under another object,
+    // in matrix order.
     let n = file_index.iter().flatten().count();
     let mut by_file: Vec<Vec<PatchSample>> = vec![Vec::new(); n];
     for (k, p) in patches.patches.iter().enumerate() {
         let Some(f) = file_index[k] else { continue };
-        for (j, piece) in patches.pieces[p.pieces.clone()].iter().enumerate() {
-            if !(piece.area > 0.0) || buried_pieces.get(p.pieces.start + j) == Some(&true) {
-                continue;
+        let buried = buried_points.get(k).map_or(&[][..], Vec::as_slice);
+        for (j, (x, normal, area)) in direct_points(patches.pieces_of(k)).into_iter().enumerate() {
+            if buried.get(j) != Some(&true) {
+                by_file[f as usize].push(sample(x, normal, area));
             }
-            let c = piece.polygon.centroid();
-            by_file[f as usize].push(sample(c, piece.normal, piece.area));
         }
         if by_file[f as usize].is_empty() {
             by_file[f as usize].push(sample(p.centre, p.normal, p.area));
@@ -156,6 +155,59 @@ pub(crate) fn runtime_mesh(
         sample_rows: Cow::Owned(sample_rows),
         samples: Cow::Owned(samples),
     }
+}
+
+/// Direct-light points a patch has at least: a patch cut from a few large triangles (a ground
+/// plane of two) otherwise samples a shadow edge across it at one or two points, all lit or
+/// all dark, and passes that error on to every surface its light reaches
+/// (`docs/decisions/direct-light-points.md`).
+pub(crate) const DIRECT_POINTS: usize = 16;
+
+/// Most points on one piece's fan triangle (a grid of `m²` sub-triangles, `m` at most 16).
+const MAX_GRID: usize = 16;
+
+/// The points where the runtime samples direct light on a patch made of `pieces`: position,
+/// unit normal and the area each stands for. A piece gets points in proportion to its share of
+/// the patch's area, at least one, together at least [`DIRECT_POINTS`]: each fan triangle of
+/// the piece is cut into an `m × m` grid of similar sub-triangles, a point at each one's
+/// centroid (the midpoint rule, stratified, no randomness). A patch of many small pieces keeps
+/// one point per piece, its centroid.
+pub(crate) fn direct_points(pieces: &[crate::simplify::Piece]) -> Vec<(DVec3, DVec3, f64)> {
+    let total: f64 = pieces.iter().map(|q| q.area).filter(|a| *a > 0.0).sum();
+    let mut out = Vec::new();
+    for q in pieces {
+        if !(q.area > 0.0) {
+            continue;
+        }
+        let dp: f64 = std::env::var("RADIOSITY_DIRECT_POINTS").ok().and_then(|v| v.parse().ok()).unwrap_or(DIRECT_POINTS as f64);
+        let want = (dp * q.area / total).ceil().max(1.0);
+        if want <= 1.0 {
+            out.push((q.polygon.centroid(), q.normal, q.area));
+            continue;
+        }
+        let v = q.polygon.vertices();
+        for w in 1..v.len().saturating_sub(1) {
+            let (a, b, c) = (v[0], v[w], v[w + 1]);
+            let at = 0.5 * (b - a).cross(c - a).length();
+            if !(at > 0.0) {
+                continue;
+            }
+            let m = ((want * at / q.area).sqrt().ceil() as usize).clamp(1, MAX_GRID);
+            let (e1, e2) = ((b - a) / m as f64, (c - a) / m as f64);
+            let each = at / (m * m) as f64;
+            for i in 0..m {
+                for j in 0..m - i {
+                    let up = a + e1 * (i as f64 + 1.0 / 3.0) + e2 * (j as f64 + 1.0 / 3.0);
+                    out.push((up, q.normal, each));
+                    if i + j + 1 < m {
+                        let down = a + e1 * (i as f64 + 2.0 / 3.0) + e2 * (j as f64 + 2.0 / 3.0);
+                        out.push((down, q.normal, each));
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 fn sample(position: DVec3, normal: DVec3, area: f64) -> PatchSample {
