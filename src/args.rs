@@ -49,6 +49,12 @@ pub(crate) struct BakeArgs {
     /// warning instead of refusing the scene (many exporters write Kd 1 1 1 for white)
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub(crate) max_reflectance: Option<f64>,
+    /// Direct-light points a patch has at least in the file's mesh (1 to 64; default 4): where
+    /// the lights file's shadows are sampled on a patch of few pieces. More: shadow edges
+    /// across large patches averaged more finely, 28 bytes of file and a shadow ray a frame
+    /// each (docs/decisions/direct-light-points.md)
+    #[arg(long = "direct-points", value_name = "N", allow_negative_numbers = true)]
+    pub(crate) direct_points: Option<u32>,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.
     #[arg(skip)]

@@ -49,6 +49,13 @@ pub(crate) fn params(args: &BakeArgs) -> anyhow::Result<BakeParams> {
         }
         p.encode.max_tile = t;
     }
+    if let Some(k) = args.direct_points {
+        let most = radiosity_bake::simplify::runtime_mesh::MAX_DIRECT_POINTS;
+        if !(1..=most).contains(&k) {
+            bail!("--direct-points must be 1 to {most}, not {k}");
+        }
+        p.direct_points = k;
+    }
     p.order = OrderKind::from_name(&args.order).with_context(|| {
         format!(
             "unknown --order {:?} (none, random, paper, spatial, best)",

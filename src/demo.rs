@@ -28,6 +28,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         tile: None,
         form_factors: "default".into(),
         max_reflectance: None,
+        direct_points: None,
         given: Vec::new(),
     };
     let params = crate::bake::params(&args)?;

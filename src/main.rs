@@ -141,6 +141,11 @@ enum Command {
         /// Antialiasing: N×N camera samples per pixel (1 to 8).
         #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
         aa: u32,
+        /// Exposure: the factor on linear radiance before tone mapping (default: automatic,
+        /// the 99th percentile of luminance to 0.8; the value used is printed). Give `render`
+        /// and `pathtrace` the same value to compare their images.
+        #[arg(long, allow_negative_numbers = true)]
+        exposure: Option<f32>,
         /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
         #[arg(long)]
         backend: Option<String>,
@@ -295,6 +300,7 @@ fn main() -> ExitCode {
             width,
             height,
             aa,
+            exposure,
             backend,
         } => render::run(
             &input,
@@ -304,6 +310,7 @@ fn main() -> ExitCode {
             &output,
             (width, height),
             aa,
+            exposure,
             backend.as_deref(),
         ),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),

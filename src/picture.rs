@@ -64,6 +64,16 @@ impl LinearImage {
     }
 }
 
+/// Refuses an `--exposure` that is not a finite positive number.
+pub(crate) fn check_exposure(exposure: Option<f32>) -> anyhow::Result<()> {
+    match exposure {
+        Some(e) if !(e.is_finite() && e > 0.0) => {
+            anyhow::bail!("--exposure must be a finite number above 0, not {e}")
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Rec. 709 luminance of linear RGB.
 pub(crate) fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z

@@ -264,8 +264,10 @@ pub(crate) fn run(
     output: &Path,
     size: (u32, u32),
     spp_side: u32,
+    exposure: Option<f32>,
     backend: Option<&str>,
 ) -> anyhow::Result<()> {
+    crate::picture::check_exposure(exposure)?;
     if !(1..=8).contains(&spp_side) {
         anyhow::bail!("--aa must be 1 to 8 (samples per pixel side), not {spp_side}");
     }
@@ -310,9 +312,10 @@ pub(crate) fn run(
     let prim = primary(rt, &cam, spp_side)?;
     let img = shade(rt, &prim, &frame, &lights, 1.0)?;
     let render_ms = t.elapsed().as_secs_f64() * 1e3;
-    img.save_png(output, img.auto_exposure())?;
+    let exposure = exposure.unwrap_or_else(|| img.auto_exposure());
+    img.save_png(output, exposure)?;
     eprintln!(
-        "wrote {} ({}×{}, {} samples/pixel): frame {frame_ms:.1} ms (gather {gather_ms:.2} ms), image {render_ms:.0} ms",
+        "wrote {} ({}×{}, {} samples/pixel, exposure {exposure:.6e}): frame {frame_ms:.1} ms (gather {gather_ms:.2} ms), image {render_ms:.0} ms",
         output.display(),
         cam.width,
         cam.height,

@@ -42,6 +42,10 @@ pub(crate) struct PathtraceArgs {
     /// Paths per pixel of the image [default: 64].
     #[arg(long)]
     spp: Option<u32>,
+    /// Exposure of the image: the factor on linear radiance before tone mapping (default:
+    /// automatic, as `render`'s); give both the same value to compare their images.
+    #[arg(long, allow_negative_numbers = true)]
+    exposure: Option<f32>,
     /// Lower reflectances (MTL Kd, glTF baseColorFactor) at or above R, in (0, 1), to R with a
     /// warning instead of refusing the scene (as `bake --max-reflectance`, so both see the same
     /// scene)
@@ -65,9 +69,12 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     if args.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
-    if args.output.is_none() && (args.camera.is_some() || args.spp.is_some()) {
-        bail!("--camera and --spp describe the image: give -o IMAGE.png too");
+    if args.output.is_none()
+        && (args.camera.is_some() || args.spp.is_some() || args.exposure.is_some())
+    {
+        bail!("--camera, --spp and --exposure describe the image: give -o IMAGE.png too");
     }
+    crate::picture::check_exposure(args.exposure)?;
     if let Some(out) = &args.output {
         crate::output::check_file(out)?;
     }
@@ -110,12 +117,14 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
         let t = Instant::now();
         let img = tracer.render(&camera, spp, args.seed);
         lap("render", t);
-        img.save_png(out, img.auto_exposure())?;
+        let exposure = args.exposure.unwrap_or_else(|| img.auto_exposure());
+        img.save_png(out, exposure)?;
         image = json!({
             "path": out.display().to_string(),
             "width": camera.width,
             "height": camera.height,
             "spp": spp,
+            "exposure": exposure,
         });
     }
 

@@ -43,6 +43,7 @@ pub(super) fn expose(
     occ: Option<&Occluders>,
     f: &mut Dense,
     seed: u64,
+    min_points: u32,
 ) -> Exposure {
     let objects = patches
         .patches
@@ -93,7 +94,7 @@ pub(super) fn expose(
             if !(share[i] > 0.0 && share[i] < 1.0) {
                 return Vec::new();
             }
-            direct_points(patches.pieces_of(i))
+            direct_points(patches.pieces_of(i), min_points)
                 .iter()
                 .map(|&(x, n, _)| occ.buried(x, n))
                 .collect()

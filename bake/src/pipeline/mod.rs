@@ -74,6 +74,9 @@ pub struct Discretised {
     pub closure: ClosureReport,
     /// The surface buried under other objects, taken out of the patches ([`expose`]).
     pub exposure: Exposure,
+    /// Direct-light points a patch has at least ([`BakeParams::direct_points`]), as
+    /// `exposure` marked them buried.
+    pub direct_points: u32,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
     /// The form-factor settings used.
@@ -113,6 +116,13 @@ pub fn discretise(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<Discretised, BakeError> {
+    let most = crate::simplify::runtime_mesh::MAX_DIRECT_POINTS;
+    if !(1..=most).contains(&params.direct_points) {
+        return Err(BakeError::InvalidParams(format!(
+            "direct-light points per patch must be 1 to {most}, not {}",
+            params.direct_points
+        )));
+    }
     let stage = |s: &str| {
         if let Some(f) = hooks.stage {
             f(s)
@@ -158,7 +168,13 @@ pub fn discretise(
             .collect(),
     );
     let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
-    let exposure = expose(&mut patches, occluders.as_ref(), &mut f, params.seed);
+    let exposure = expose(
+        &mut patches,
+        occluders.as_ref(),
+        &mut f,
+        params.seed,
+        params.direct_points,
+    );
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     // The checks below cast rays even where nothing occludes (no BVH was built for F): then
     // one is built, once, when a check first needs it.
@@ -221,6 +237,7 @@ pub fn discretise(
         effects,
         closure,
         exposure,
+        direct_points: params.direct_points,
         rays_cast: ff.rays_cast,
         form_factors: params.form_factors.summary(),
         reciprocity_error: ff.reciprocity_error,
@@ -517,6 +534,7 @@ fn file_mesh(
         &system.patches,
         &file_index,
         &system.exposure.buried_points,
+        system.direct_points,
     )
 }
 

@@ -47,6 +47,10 @@ pub struct BakeParams {
     pub closure_tolerance: f64,
     /// Seed of the random order.
     pub seed: u64,
+    /// Direct-light points a patch has at least in the runtime mesh
+    /// ([`crate::simplify::runtime_mesh::direct_points`]), 1 to
+    /// [`MAX_DIRECT_POINTS`](crate::simplify::runtime_mesh::MAX_DIRECT_POINTS).
+    pub direct_points: u32,
 }
 
 impl Default for BakeParams {
@@ -62,6 +66,7 @@ impl Default for BakeParams {
             corrections: None,
             closure_tolerance: 0.05,
             seed: 1,
+            direct_points: crate::simplify::runtime_mesh::DIRECT_POINTS,
         }
     }
 }

@@ -11,7 +11,7 @@
 //! or a square standing in for it; the total area is preserved to rounding.
 
 mod grouping;
-pub(crate) mod runtime_mesh;
+pub mod runtime_mesh;
 
 use crate::error::BakeError;
 use crate::geometry::polygon::Polygon;
