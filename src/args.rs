@@ -53,7 +53,11 @@ pub(crate) struct BakeArgs {
     /// the lights file's shadows are sampled on a patch of few pieces. More: shadow edges
     /// across large patches averaged more finely, 28 bytes of file and a shadow ray a frame
     /// each (docs/decisions/direct-light-points.md)
-    #[arg(long = "direct-points", value_name = "N", allow_negative_numbers = true)]
+    #[arg(
+        long = "direct-points",
+        value_name = "N",
+        allow_negative_numbers = true
+    )]
     pub(crate) direct_points: Option<u32>,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.

@@ -2,13 +2,13 @@
 //! ([`expose`]); whether light leaves the scene (F's row sums, then hemisphere rays,
 //! [`escape_check`]); and the matching correction of F ([`closure_effect`]).
 
-use crate::simplify::runtime_mesh::direct_points;
 use super::{BakeParams, ClosureReport};
 use crate::bounce::{Dense, cap_row_sums, closure_of_sums, enforce_closure};
 use crate::effects::Effect;
 use crate::geometry::Occluders;
 use crate::hemisphere::{cosine_direction, patch_point_at, patch_rng};
 use crate::simplify::Patches;
+use crate::simplify::runtime_mesh::direct_points;
 use rayon::prelude::*;
 use serde::Serialize;
 

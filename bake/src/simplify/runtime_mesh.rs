@@ -125,7 +125,10 @@ pub(crate) fn runtime_mesh(
     for (k, p) in patches.patches.iter().enumerate() {
         let Some(f) = file_index[k] else { continue };
         let buried = buried_points.get(k).map_or(&[][..], Vec::as_slice);
-        for (j, (x, normal, area)) in direct_points(patches.pieces_of(k), min_points).into_iter().enumerate() {
+        for (j, (x, normal, area)) in direct_points(patches.pieces_of(k), min_points)
+            .into_iter()
+            .enumerate()
+        {
             if buried.get(j) != Some(&true) {
                 by_file[f as usize].push(sample(x, normal, area));
             }
