@@ -324,13 +324,29 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
         hi = hi.max(Vec3::from(*p));
     }
 
-    // The engine's device: the first adapter that is not GL (Mesa's GL compiles slowly).
+    // The engine's device: the first adapter that renders to the float targets below (the
+    // shadow cube's R32Float, the image's Rgba32Float), preferring one that is not GL (Mesa's
+    // GL compiles slowly, and cannot render to R32Float).
     let list = adapters();
-    let adapter = list
+    let usable: Vec<_> = list.iter().filter(|a| renders_float(a.wgpu_adapter())).collect();
+    let adapter = usable
         .iter()
         .find(|a| a.info.backend != "gl")
-        .or(list.first())
-        .ok_or("no GPU adapter (on Debian: apt-get install mesa-vulkan-drivers libvulkan1)")?;
+        .or(usable.first())
+        .ok_or_else(|| {
+            if list.is_empty() {
+                "no GPU adapter (on Debian: apt-get install mesa-vulkan-drivers libvulkan1)"
+                    .to_owned()
+            } else {
+                format!(
+                    "no adapter renders to R32Float and Rgba32Float textures (found: {}); on Debian, Mesa's Vulkan driver does: apt-get install mesa-vulkan-drivers libvulkan1",
+                    list.iter()
+                        .map(|a| a.info.to_string())
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                )
+            }
+        })?;
     let (device, queue) = pollster::block_on(adapter.wgpu_adapter().request_device(
         &wgpu::DeviceDescriptor {
             label: Some("engine"),
@@ -790,6 +806,18 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
 }
 
 #[allow(dead_code)] // the comparison test includes this file as a module and calls `run`
+/// Whether `adapter` can render to the example's float targets.
+fn renders_float(adapter: &wgpu::Adapter) -> bool {
+    [wgpu::TextureFormat::R32Float, wgpu::TextureFormat::Rgba32Float]
+        .iter()
+        .all(|&f| {
+            adapter
+                .get_texture_format_features(f)
+                .allowed_usages
+                .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+        })
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Err(e) = Options::parse(&args).and_then(|o| run(&o)) {

@@ -176,9 +176,9 @@ pub const MAX_DIRECT_POINTS: u32 = 64;
 /// unit normal and the area each stands for. A patch of at least `min_points` pieces keeps
 /// one point per piece, its centroid; a patch of fewer gets `min_points` points spread over
 /// its area, each standing for an equal share: the centred Hammersley set
-/// `((k + ½)/K, φ₂(k) + ½/K)` mapped through the pieces' areas (`hemisphere::patch_point_at`), so that
-/// four points fall one in each quarter of the patch. No randomness: the same patch gets the
-/// same points.
+/// `((k + ½)/K, φ₂(k) + ½/K)` mapped through the pieces' areas (`hemisphere::patch_point_at`): the
+/// first coordinate picks the piece by area, so each piece gets points in proportion to its
+/// area. No randomness: the same patch gets the same points.
 pub(crate) fn direct_points(
     pieces: &[crate::simplify::Piece],
     min_points: u32,
@@ -210,5 +210,57 @@ fn sample(position: DVec3, normal: DVec3, area: f64) -> PatchSample {
         position: position.as_vec3().to_array(),
         normal: normal.normalize().as_vec3().to_array(),
         area: (area as f32).max(f32::MIN_POSITIVE),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simplify::Piece;
+    use glam::dvec3;
+
+    fn piece(a: DVec3, b: DVec3, c: DVec3) -> Piece {
+        let polygon = crate::geometry::polygon::Polygon::triangle(a, b, c);
+        Piece {
+            area: 0.5 * (b - a).cross(c - a).length(),
+            polygon,
+            normal: (b - a).cross(c - a).normalize(),
+            triangle: 0,
+        }
+    }
+
+    /// A patch of two pieces (a unit square in two triangles) gets exactly the points asked
+    /// for, each standing for an equal share, inside the square, the two halves the same count
+    /// (by area); a patch of as many pieces as points keeps the centroids.
+    #[test]
+    fn few_pieces_get_the_points_asked_for_spread_over_the_patch() {
+        let (o, x, y, xy) = (
+            DVec3::ZERO,
+            dvec3(1.0, 0.0, 0.0),
+            dvec3(0.0, 1.0, 0.0),
+            dvec3(1.0, 1.0, 0.0),
+        );
+        let square = [piece(o, x, xy), piece(o, xy, y)];
+        for n in [1, 4, 9, 64] {
+            let pts = direct_points(&square, n);
+            if n <= 2 {
+                assert_eq!(pts.len(), 2, "one point a piece");
+                continue;
+            }
+            assert_eq!(pts.len(), n as usize);
+            let area: f64 = pts.iter().map(|p| p.2).sum();
+            // Equal shares of the unit area, to rounding.
+            assert!((area - 1.0).abs() < 1e-12, "{area}");
+            for (p, normal, _) in &pts {
+                assert!((0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y) && p.z == 0.0);
+                assert_eq!(*normal, dvec3(0.0, 0.0, 1.0));
+            }
+            // The first piece is the half below the diagonal (x ≥ y).
+            let below = pts.iter().filter(|p| p.0.x >= p.0.y).count();
+            assert_eq!(2 * below, n as usize + (n as usize % 2), "{pts:?}");
+        }
+        // As many pieces as points asked: the centroids.
+        let pts = direct_points(&square, 2);
+        assert!((pts[0].0 - (o + x + xy) / 3.0).length() < 1e-12);
     }
 }
