@@ -107,7 +107,10 @@ fn gpu_engine_frames_match_radiosity_render() {
         let reference = image::open(&reference).unwrap().to_rgb8();
         let mad = mean_abs_difference(&engine, &reference);
         eprintln!("frame {f}: mean |engine − render| = {mad:.2} codes");
-        assert!(mad < 100.0, "frame {f}: mean absolute difference {mad:.2}");
+        // Measured 0.59–0.64 codes on lavapipe (shadow-edge texels and per-corner against
+        // per-sample indirect light); 3 leaves room for another rasteriser's edge rules and
+        // still fails on a lost shadow or a missing indirect term (tens of codes).
+        assert!(mad < 3.0, "frame {f}: mean absolute difference {mad:.2}");
         // The light moves: each frame differs from the one before.
         if let Some(p) = &previous {
             assert!(mean_abs_difference(p, &engine) > 0.2);
