@@ -328,7 +328,10 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
     // shadow cube's R32Float, the image's Rgba32Float), preferring one that is not GL (Mesa's
     // GL compiles slowly, and cannot render to R32Float).
     let list = adapters();
-    let usable: Vec<_> = list.iter().filter(|a| renders_float(a.wgpu_adapter())).collect();
+    let usable: Vec<_> = list
+        .iter()
+        .filter(|a| renders_float(a.wgpu_adapter()))
+        .collect();
     let adapter = usable
         .iter()
         .find(|a| a.info.backend != "gl")
@@ -805,19 +808,22 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
     Ok(written)
 }
 
-#[allow(dead_code)] // the comparison test includes this file as a module and calls `run`
 /// Whether `adapter` can render to the example's float targets.
 fn renders_float(adapter: &wgpu::Adapter) -> bool {
-    [wgpu::TextureFormat::R32Float, wgpu::TextureFormat::Rgba32Float]
-        .iter()
-        .all(|&f| {
-            adapter
-                .get_texture_format_features(f)
-                .allowed_usages
-                .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
-        })
+    [
+        wgpu::TextureFormat::R32Float,
+        wgpu::TextureFormat::Rgba32Float,
+    ]
+    .iter()
+    .all(|&f| {
+        adapter
+            .get_texture_format_features(f)
+            .allowed_usages
+            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+    })
 }
 
+#[allow(dead_code)] // the comparison test includes this file as a module and calls `run`
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Err(e) = Options::parse(&args).and_then(|o| run(&o)) {

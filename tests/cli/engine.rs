@@ -13,14 +13,17 @@ mod gpu_engine;
 fn have_adapter() -> bool {
     // The example renders to R32Float and Rgba32Float targets, which Mesa's GL adapter cannot.
     let renders = |a: &radiosity_backend_wgpu::Adapter| {
-        [wgpu::TextureFormat::R32Float, wgpu::TextureFormat::Rgba32Float]
-            .iter()
-            .all(|&f| {
-                a.wgpu_adapter()
-                    .get_texture_format_features(f)
-                    .allowed_usages
-                    .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
-            })
+        [
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureFormat::Rgba32Float,
+        ]
+        .iter()
+        .all(|&f| {
+            a.wgpu_adapter()
+                .get_texture_format_features(f)
+                .allowed_usages
+                .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+        })
     };
     if radiosity_backend_wgpu::adapters().iter().any(renders) {
         return true;
