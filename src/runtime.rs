@@ -90,21 +90,38 @@ impl Runtime {
     /// piece of the full-detail surface inside the patch), so that a shadow edge crossing a
     /// patch dims it in proportion.
     pub(crate) fn direct(&self, lights: &[Light]) -> anyhow::Result<Vec<Rgb>> {
+        Ok(self.direct_with_samples(lights)?.0)
+    }
+
+    /// [`Runtime::direct`], with the direct irradiance at every sample of the mesh (its sample
+    /// order; empty without lights).
+    pub(crate) fn direct_with_samples(
+        &self,
+        lights: &[Light],
+    ) -> anyhow::Result<(Vec<Rgb>, Vec<Rgb>)> {
         let n = self.n();
         if lights.is_empty() {
-            return Ok(vec![Rgb::ZERO; n]);
+            return Ok((vec![Rgb::ZERO; n], Vec::new()));
         }
         let mesh = self.mesh("lighting from a lights file")?;
         use rayon::prelude::*;
+        let at: Vec<Rgb> = mesh
+            .samples
+            .par_iter()
+            .map(|s| {
+                let pos = Vec3::from(s.position).as_dvec3();
+                let nrm = Vec3::from(s.normal).as_dvec3();
+                self.direct_at(lights, pos, nrm)
+            })
+            .collect();
         let direct: Vec<Rgb> = (0..n)
             .into_par_iter()
             .map(|p| {
                 let mut acc = Rgb::ZERO;
                 let mut area = 0.0f32;
-                for s in mesh.samples_of(p) {
-                    let pos = Vec3::from(s.position).as_dvec3();
-                    let nrm = Vec3::from(s.normal).as_dvec3();
-                    acc += self.direct_at(lights, pos, nrm) * s.area;
+                let start = mesh.sample_rows[p] as usize;
+                for (k, s) in mesh.samples_of(p).iter().enumerate() {
+                    acc += at[start + k] * s.area;
                     area += s.area;
                 }
                 if area > 0.0 { acc * (1.0 / area) } else { acc }
@@ -118,7 +135,7 @@ impl Runtime {
                 "patch {p}: the direct irradiance from the lights overflows f32 (a light too intense or too close)"
             );
         }
-        Ok(direct)
+        Ok((direct, at))
     }
 
     /// A whole frame: direct light, first exitance (emitters scaled by `emission`), gather,

@@ -5,6 +5,7 @@
 //! the backend chosen at run time (`--backend`, see `backend.rs`).
 
 use crate::args::BakeArgs;
+use radiosity_bake::pipeline::ObjectShares;
 use radiosity_core::{Bounces, RadFile, Rgb, finish_frame, first_exitance};
 use serde_json::{Value, json};
 use std::path::Path;
@@ -30,7 +31,7 @@ pub(crate) fn run(
     let file = &runtime.file;
     let n = file.n();
     let t = Instant::now();
-    let direct = runtime.direct(&lights)?;
+    let (direct, at_samples) = runtime.direct_with_samples(&lights)?;
     timings.insert("direct", t.elapsed().as_secs_f64() * 1e3);
     let mut x = vec![Rgb::ZERO; n];
     first_exitance(&file.patches, &direct, &mut x);
@@ -45,7 +46,7 @@ pub(crate) fn run(
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
     crate::runtime::ensure_finite(&h, &b)?;
 
-    let objects = per_object(file, &h, &b);
+    let objects = per_object(file, &h, &b, &direct, &at_samples);
     if json_out {
         let out = json!({
             "patches": n,
@@ -100,20 +101,45 @@ pub(crate) fn run(
 /// (`area`): the part outside the matrix (buried under another object, or a patch that sees
 /// nothing and was dropped) receives nothing, so it counts with `H = 0` and `B = E`. The
 /// matrix patches' own area is `exposed_area`. The whole surface comes from [`surfaces`].
-fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
-    // Per object: matrix area, and Σ A·H, Σ A·B, Σ A·E over its matrix patches.
+///
+/// A patch of several objects' parts (the report's `shared_patches`) counts to each object
+/// with that object's area in it, and with the direct light of that object's own samples in
+/// place of the patch's mean (`direct`, per patch, and `at_samples`, per mesh sample): the
+/// indirect light is the patch's, shared, but a box in a building's shadow whose top shares a
+/// patch with the sunlit ground keeps its own shadow.
+fn per_object(
+    file: &RadFile<'_>,
+    h: &[Rgb],
+    b: &[Rgb],
+    direct: &[Rgb],
+    at_samples: &[Rgb],
+) -> Vec<Value> {
+    // Per object: matrix area, and Σ A·H, Σ A·B, Σ A·E over its share of the matrix patches.
+    let report: Option<Value> = file
+        .report
+        .as_deref()
+        .and_then(|r| serde_json::from_str(r).ok());
+    let shares = ObjectShares::from_report(&file.patches, file.objects.len(), report.as_ref());
     let mut acc = vec![(0f64, [0f64; 3], [0f64; 3], [0f64; 3]); file.objects.len()];
     for (i, p) in file.patches.iter().enumerate() {
-        let a = &mut acc[p.object as usize];
-        let w = f64::from(p.area);
-        a.0 += w;
-        for k in 0..3 {
-            a.1[k] += w * f64::from(h[i].channel(k));
-            a.2[k] += w * f64::from(b[i].channel(k));
-            a.3[k] += w * f64::from(p.emission.channel(k));
+        let own = own_direct(file, &shares, i, at_samples);
+        for (o, w) in shares.of(i) {
+            // The object's own direct light less the patch's mean, where it has its own.
+            let shift = own
+                .iter()
+                .find(|d| d.0 == o)
+                .map_or(Rgb::ZERO, |d| d.1 + direct[i] * -1.0);
+            let (h, b) = (h[i] + shift, b[i] + p.reflectance * shift);
+            let a = &mut acc[o as usize];
+            a.0 += w;
+            for k in 0..3 {
+                a.1[k] += w * f64::from(h.channel(k));
+                a.2[k] += w * f64::from(b.channel(k));
+                a.3[k] += w * f64::from(p.emission.channel(k));
+            }
         }
     }
-    let whole = surfaces(file);
+    let whole = surfaces(file, report.as_ref());
     file.objects
         .iter()
         .zip(acc)
@@ -146,19 +172,51 @@ fn per_object(file: &RadFile<'_>, h: &[Rgb], b: &[Rgb]) -> Vec<Value> {
         .collect()
 }
 
+/// The direct irradiance of each object's own samples in shared patch `i` (area-weighted
+/// means, `(object, irradiance)`); empty for a patch of one object, without lights or mesh, or
+/// where the report's sample objects do not match the mesh's samples.
+fn own_direct(
+    file: &RadFile<'_>,
+    shares: &ObjectShares<'_>,
+    i: usize,
+    at_samples: &[Rgb],
+) -> Vec<(u32, Rgb)> {
+    let (Some(objects), Some(mesh)) = (shares.sample_objects(i), file.mesh.as_ref()) else {
+        return Vec::new();
+    };
+    let samples = mesh.samples_of(i);
+    let start = mesh.sample_rows[i] as usize;
+    let Some(at) = at_samples.get(start..start + samples.len()) else {
+        return Vec::new();
+    };
+    if objects.len() != samples.len() {
+        return Vec::new();
+    }
+    let mut sums: Vec<(u32, Rgb, f32)> = Vec::new();
+    for ((s, &o), &d) in samples.iter().zip(objects).zip(at) {
+        match sums.iter_mut().find(|e| e.0 == o) {
+            Some(e) => {
+                e.1 += d * s.area;
+                e.2 += s.area;
+            }
+            None => sums.push((o, d * s.area, s.area)),
+        }
+    }
+    sums.into_iter()
+        .filter(|e| e.2 > 0.0)
+        .map(|(o, d, a)| (o, d * (1.0 / a)))
+        .collect()
+}
+
 /// Each object's whole full-detail area and the power it emits over it (file object order),
 /// from the first source the file has: the bake report's `object_surface_areas` and
 /// `object_emitted_power`; else the file's full-detail mesh (files baked before those fields);
 /// else the report's `object_areas` (the full-detail area less the buried part) with no power
 /// (nothing counted as emitted outside the matrix); and `None` without any of them: the matrix
 /// patches are then the whole surface.
-fn surfaces(file: &RadFile<'_>) -> Option<Vec<(f64, Option<[f64; 3]>)>> {
+fn surfaces(file: &RadFile<'_>, report: Option<&Value>) -> Option<Vec<(f64, Option<[f64; 3]>)>> {
     let n = file.objects.len();
-    let report: Option<Value> = file
-        .report
-        .as_deref()
-        .and_then(|r| serde_json::from_str(r).ok());
-    let field = |key: &str| report.as_ref().map(|r| r[key].clone());
+    let field = |key: &str| report.map(|r| r[key].clone());
     // A figure per object, each finite and not negative, or none.
     let good = |v: &f64| v.is_finite() && *v >= 0.0;
     let areas: Option<Vec<f64>> = field("object_surface_areas")

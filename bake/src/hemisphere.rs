@@ -104,6 +104,17 @@ fn patch_point(pieces: &[Piece], total: f64, rng: &mut SplitMix64) -> (DVec3, DV
 /// rescaled to what is left of it), and places the point along the triangle with `v`. Returns
 /// it with its piece's normal.
 pub(crate) fn patch_point_at(pieces: &[Piece], total: f64, u: f64, v: f64) -> (DVec3, DVec3) {
+    let (_, x, n) = patch_point_on(pieces, total, u, v);
+    (x, n)
+}
+
+/// [`patch_point_at`], with the piece the point lies on.
+pub(crate) fn patch_point_on(
+    pieces: &[Piece],
+    total: f64,
+    u: f64,
+    v: f64,
+) -> (&Piece, DVec3, DVec3) {
     let mut pick = u * total;
     let last = pieces.len() - 1;
     let (piece, mut u) = pieces
@@ -120,7 +131,7 @@ pub(crate) fn patch_point_at(pieces: &[Piece], total: f64, u: f64, v: f64) -> (D
         .expect("a patch has pieces");
     let w = piece.polygon.vertices();
     if w.len() < 3 {
-        return (piece.polygon.centroid(), piece.normal);
+        return (piece, piece.polygon.centroid(), piece.normal);
     }
     let fan = |k: usize| (w[k] - w[0]).cross(w[k + 1] - w[0]).length();
     let fans = w.len() - 2;
@@ -136,6 +147,7 @@ pub(crate) fn patch_point_at(pieces: &[Piece], total: f64, u: f64, v: f64) -> (D
     }
     let r = u.sqrt();
     (
+        piece,
         w[0] * (1.0 - r) + (w[k] * (1.0 - v) + w[k + 1] * v) * r,
         piece.normal,
     )

@@ -59,7 +59,7 @@ impl SplitMix64 {
 /// shift), in `[0, 1)²`. Every prefix of `2^m` points has exactly one point in each of the
 /// `2^m` equal slices of either axis: a region along an edge of the square wider than a slice
 /// cannot be missed, and its share is measured far more closely than by independent uniform
-/// points. Used for the buried share of a patch (`row_check::buried_share`) and for where
+/// points. Used for the buried share of a patch (`closure::buried_by_object`) and for where
 /// shadow rays start on their quadrature leaf (`quadrature::Sample::leaf_point`). (Roberts'
 /// R2 sequence was tried first: its first 32 points leave a gap of 0.11 in the first
 /// coordinate, and missed a wall patch 8% buried in five of eight shifts.)

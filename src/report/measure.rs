@@ -8,7 +8,7 @@ use crate::pathtrace::ObjectEstimate;
 use anyhow::Context;
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
-use radiosity_bake::pipeline::{BakeOutput, BakeParams, Hooks, bake_discretised};
+use radiosity_bake::pipeline::{BakeOutput, BakeParams, Hooks, ObjectShares, bake_discretised};
 use radiosity_core::{Format, Gather, Rgb};
 use radiosity_perf::peers::{FaerDense, JacobiBounces};
 use radiosity_perf::timing::{interleaved_medians, median, ms, runs_for};
@@ -137,10 +137,17 @@ pub(super) fn time_in_turns(timers: &mut Vec<(usize, Timer)>, samples: &mut [Sam
 /// and the path tracer measures them.
 pub(super) fn object_error(out: &BakeOutput, y: &[Rgb], reference: &[ObjectEstimate]) -> f64 {
     let areas = &out.report.object_surface_areas;
+    let shares = ObjectShares::new(
+        &out.file.patches,
+        out.file.objects.len(),
+        out.report.shared_patches.clone(),
+    );
     let mut sums = vec![[0f64; 3]; out.file.objects.len()];
-    for (p, h) in out.file.patches.iter().zip(y) {
-        for k in 0..3 {
-            sums[p.object as usize][k] += f64::from(p.area) * f64::from(h.channel(k));
+    for (i, h) in y.iter().enumerate() {
+        for (o, w) in shares.of(i) {
+            for k in 0..3 {
+                sums[o as usize][k] += w * f64::from(h.channel(k));
+            }
         }
     }
     let (mut num, mut den) = (0f64, 0f64);

@@ -7,6 +7,7 @@ mod engine;
 mod gltf;
 mod ux;
 
+mod parts;
 mod pathtrace;
 mod runtime;
 mod solve_physics;

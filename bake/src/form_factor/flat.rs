@@ -134,6 +134,7 @@ fn flat_site(pieces: &[Piece]) -> Option<Piece> {
         normal: n,
         area,
         triangle: SITE,
+        object: pieces[0].object,
     })
 }
 
@@ -176,6 +177,7 @@ mod tests {
             normal: cross.normalize(),
             area: cross.length() / 2.0,
             triangle: 0,
+            object: 0,
         }
     }
 

@@ -6,7 +6,7 @@ use super::{BakeParams, ClosureReport};
 use crate::bounce::{Dense, cap_row_sums, closure_of_sums, enforce_closure};
 use crate::effects::Effect;
 use crate::geometry::Occluders;
-use crate::hemisphere::{cosine_direction, patch_point_at, patch_rng};
+use crate::hemisphere::{cosine_direction, patch_point_at, patch_point_on, patch_rng};
 use crate::simplify::Patches;
 use crate::simplify::runtime_mesh::direct_points;
 use rayon::prelude::*;
@@ -21,8 +21,12 @@ pub struct Exposure {
     pub share: Vec<f64>,
     /// Patches wholly buried (their rows and columns of F zeroed).
     pub wholly: usize,
-    /// Buried area of each object (file object order).
+    /// Buried area of each object (file object order), from the objects of the buried points.
     pub buried_area: Vec<f64>,
+    /// Per patch (simplification order) holding pieces of more than one object: the exposed
+    /// area of each of those objects in it (increasing object order, summing to the patch's
+    /// exposed area); empty for a patch of one object.
+    pub shared: Vec<Vec<(u32, f64)>>,
     /// Per patch, for each of its direct-light points
     /// ([`crate::simplify::runtime_mesh::direct_points`]), whether the point is buried (so it
     /// lends no direct-light sample to the runtime); empty for a patch nothing buries.
@@ -46,7 +50,7 @@ pub(super) fn expose(
     min_points: u32,
 ) -> Exposure {
     let objects = patches
-        .patches
+        .pieces
         .iter()
         .map(|p| p.object as usize + 1)
         .max()
@@ -54,22 +58,44 @@ pub(super) fn expose(
     let mut exposure = Exposure {
         buried_area: vec![0.0; objects],
         buried_points: vec![Vec::new(); patches.len()],
+        shared: vec![Vec::new(); patches.len()],
         ..Exposure::default()
     };
+    let buried: Vec<(f64, Vec<(u32, f64)>)> = match occ {
+        Some(occ) => (0..patches.len())
+            .into_par_iter()
+            .map(|i| buried_by_object(patches, occ, i, seed))
+            .collect(),
+        None => vec![(0.0, Vec::new()); patches.len()],
+    };
+    for (i, (_, by)) in buried.iter().enumerate() {
+        let mut shares = crate::simplify::object_shares(patches.pieces_of(i));
+        if shares.len() < 2 {
+            continue;
+        }
+        for (o, a) in &mut shares {
+            if let Some((_, b)) = by.iter().find(|(bo, _)| bo == o) {
+                *a = (*a - b).max(0.0);
+            }
+        }
+        shares.retain(|s| s.1 > 0.0);
+        exposure.shared[i] = shares;
+    }
     let Some(occ) = occ else {
         return exposure;
     };
-    exposure.share = (0..patches.len())
-        .into_par_iter()
-        .map(|i| buried_share(patches, occ, i, seed))
-        .collect();
+    exposure.share = buried.iter().map(|b| b.0).collect();
+    for (_, by) in &buried {
+        for &(o, b) in by {
+            exposure.buried_area[o as usize] += b;
+        }
+    }
     let n = f.n;
     for (i, &b) in exposure.share.iter().enumerate() {
         if b <= 0.0 {
             continue;
         }
         let p = &mut patches.patches[i];
-        exposure.buried_area[p.object as usize] += b * p.area;
         let e = 1.0 - b;
         if e <= 0.0 {
             exposure.wholly += 1;
@@ -96,7 +122,7 @@ pub(super) fn expose(
             }
             direct_points(patches.pieces_of(i), min_points)
                 .iter()
-                .map(|&(x, n, _)| occ.buried(x, n))
+                .map(|d| occ.buried(d.position, d.normal))
                 .collect()
         })
         .collect();
@@ -328,7 +354,7 @@ pub(crate) fn escape_check(patches: &Patches, occ: &Occluders, live: &[bool], se
 /// Salt of [`escape_check`]'s streams, apart from the other checks' rays of the same patch.
 const ESCAPE_STREAM: u64 = 0x6573_6361_7065;
 
-/// Points in the first look at a patch in [`buried_share`] (stratified, see
+/// Points in the first look at a patch in [`buried_by_object`] (stratified, see
 /// [`crate::rng::sobol2`]). At 32, slivers of about 3.5% along a patch's edge went unseen: on a
 /// room with a block resting on its floor at 4358 patches their rows stayed 0.955–0.968 (the
 /// exposed share alone), the lowest rows of the scene; at 64 its lowest is 0.992.
@@ -339,30 +365,50 @@ pub(crate) const BURIED_FIRST: u32 = 64;
 /// measured within ±0.003 of a 20 000-point estimate on strips along a patch's edge.
 pub(crate) const BURIED_POINTS: u32 = 512;
 
-/// The share of patch `i`'s area that is buried ([`Occluders::buried`]: covered by another
-/// object, so that no light reaches it or leaves it), from [`BURIED_FIRST`] stratified points,
-/// and [`BURIED_POINTS`] in all when any of those is buried.
-pub(crate) fn buried_share(patches: &Patches, occ: &Occluders, i: usize, seed: u64) -> f64 {
+/// The buried area of patch `i` ([`Occluders::buried`]: covered by another object, so that no
+/// light reaches it or leaves it) per object of its pieces (increasing object order; empty
+/// when none is found buried), from [`BURIED_FIRST`] stratified points, and [`BURIED_POINTS`]
+/// in all when any of those is buried: each buried point counts `area / BURIED_POINTS` to its
+/// piece's object. Returned with the buried share of the patch's area.
+pub(crate) fn buried_by_object(
+    patches: &Patches,
+    occ: &Occluders,
+    i: usize,
+    seed: u64,
+) -> (f64, Vec<(u32, f64)>) {
     let pieces = patches.pieces_of(i);
     let total: f64 = pieces.iter().map(|q| q.area).sum();
     if pieces.is_empty() || !(total > 0.0) {
-        return 0.0;
+        return (0.0, Vec::new());
     }
     let mut rng = patch_rng(seed, i);
     let scramble = [rng.next_u64() as u32, (rng.next_u64() >> 32) as u32];
-    let look = |points: core::ops::Range<u32>| {
-        points
-            .filter(|&k| {
-                let [u, v] = crate::rng::sobol2(scramble, k);
-                let (x, n) = patch_point_at(pieces, total, u, v);
-                occ.buried(x, n)
-            })
-            .count()
+    let look = |points: core::ops::Range<u32>, counts: &mut Vec<(u32, u32)>| {
+        for k in points {
+            let [u, v] = crate::rng::sobol2(scramble, k);
+            let (piece, x, n) = patch_point_on(pieces, total, u, v);
+            if occ.buried(x, n) {
+                match counts.iter_mut().find(|c| c.0 == piece.object) {
+                    Some(c) => c.1 += 1,
+                    None => counts.push((piece.object, 1)),
+                }
+            }
+        }
     };
-    let first = look(0..BURIED_FIRST);
-    if first == 0 {
-        return 0.0;
+    let mut counts: Vec<(u32, u32)> = Vec::new();
+    look(0..BURIED_FIRST, &mut counts);
+    if counts.is_empty() {
+        return (0.0, Vec::new());
     }
-    let all = first + look(BURIED_FIRST..BURIED_POINTS);
-    all as f64 / f64::from(BURIED_POINTS)
+    look(BURIED_FIRST..BURIED_POINTS, &mut counts);
+    counts.sort_unstable_by_key(|c| c.0);
+    let all: u32 = counts.iter().map(|c| c.1).sum();
+    let each = total / f64::from(BURIED_POINTS);
+    (
+        f64::from(all) / f64::from(BURIED_POINTS),
+        counts
+            .into_iter()
+            .map(|(o, c)| (o, f64::from(c) * each))
+            .collect(),
+    )
 }

@@ -13,7 +13,7 @@ mod report;
 pub use closure::Exposure;
 pub use dark::{DarkCheck, check_dark};
 pub use params::{BakeParams, FormatChoice, Hooks};
-pub use report::{BakeReport, Bytes, ClosureReport};
+pub use report::{BakeReport, Bytes, ClosureReport, ObjectShares, SharedPatch};
 
 use report::{BakeSummary, Measured};
 
@@ -395,8 +395,10 @@ fn second_half(
         compression_rmse: Some(measured.rmse as f32),
         lighting_error: measured.lighting_error.map(|e| e as f32),
         report: None,
-        mesh: Some(file_mesh(scene, system, &patch_source)),
+        mesh: None,
     };
+    let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
+    file.mesh = Some(mesh);
     let discretise_ms: f64 = system.timings_ms.values().sum();
     timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let summary = BakeSummary {
@@ -406,6 +408,7 @@ fn second_half(
         measured,
         effects,
         timings,
+        sample_objects,
     };
     let report = report::report(scene, system, &file, summary);
     let report = report::store(&mut file, report)?;
@@ -524,7 +527,7 @@ fn file_mesh(
     scene: &Scene,
     system: &Discretised,
     patch_source: &[u32],
-) -> radiosity_core::Mesh<'static> {
+) -> (radiosity_core::Mesh<'static>, Vec<u32>) {
     let mut file_index = vec![None; system.patches.len()];
     for (i, &k) in patch_source.iter().enumerate() {
         file_index[k as usize] = Some(i as u32);

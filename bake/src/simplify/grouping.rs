@@ -46,8 +46,9 @@ pub(super) fn cut(poly: Polygon, origin: DVec3, h: f64, out: &mut Vec<([i64; 3],
 }
 
 pub(super) struct Grouping {
-    /// Per group: (object, material, pieces).
-    pub(super) groups: Vec<(u32, u32, Vec<Piece>)>,
+    /// Per group: (first material, pieces). A group's object is chosen when it becomes a
+    /// patch (the object with the largest share of its area).
+    pub(super) groups: Vec<(u32, Vec<Piece>)>,
 }
 
 /// Connected surfaces: for every triangle, the index of its component, where triangles sharing
@@ -84,10 +85,13 @@ pub(super) fn components(scene: &Scene) -> Vec<u32> {
 }
 
 /// A connected surface whose whole area is below this share of a cell face (`h²`) is a part (a
-/// screw, a chair's leg, one slat of a blind). A part joins a group of another surface of its
-/// cell, object and kind when the two face the same way and see each other (a segment between
-/// them that no other surface blocks), and a large surface joins a group a part started; two
-/// large surfaces never share a patch. Without this, furniture of many parts kept the patch
+/// screw, a chair's leg, one slat of a blind, a bench among thousands in a yard). A part joins
+/// a group of another surface of its cell and kind, of its own object or any other, when the
+/// two face the same way and see each other (a segment between them that no other surface
+/// blocks), and a large surface joins a group a part started; two large surfaces of different
+/// connected surfaces or objects never share a patch. Parts cross objects because real assets
+/// make every prop an object: a yard of 4906 boxes, each its own object, kept 4906 patches
+/// whatever `--patches` asked (`ARCHITECTURE.md`, "Parts cross objects"). Without this, furniture of many parts kept the patch
 /// count near the count of parts at any cell size (the conference room, 330k triangles: 18,693
 /// patches asked for 256). Two large surfaces are kept apart whatever they see: the segment
 /// test skips both ends' surfaces, and a room's floor joined to its wall would let the wall
@@ -114,32 +118,37 @@ pub(super) struct Loose<'a> {
 }
 
 impl Loose<'_> {
-    fn occluders(&self) -> &Occluders {
+    pub(super) fn occluders(&self) -> &Occluders {
         self.occluders.get_or_init(|| Occluders::new(self.scene))
     }
 
-    /// Whether two pieces see each other: no surface but their own two blocks the segment
-    /// between their centres, both lifted `lift` off their surfaces along their normals so that
-    /// pieces lying in one plane (tiles, slats) do not block each other. Each end is
-    /// `(centre, unit normal, connected surface)`.
-    fn sees(&self, a: (DVec3, DVec3, u32), b: (DVec3, DVec3, u32), lift: f64) -> bool {
+    /// Whether two pieces see each other past the large surfaces: no surface of at least
+    /// `part` area ([`LOOSE_PART`]) but their own two blocks the segment between their
+    /// centres, both lifted `lift` off their surfaces along their normals so that pieces
+    /// lying in one plane (tiles, slats) do not block each other. Each end is `(centre, unit
+    /// normal, connected surface)`. Parts do not block: a wall keeps the parts of two rooms
+    /// apart, but in a yard of thousands of boxes a segment between two of them passes through
+    /// others, and with parts blocking the boxes kept 4751 patches asked for 1024 (cells the
+    /// size of the scene).
+    fn sees(&self, a: (DVec3, DVec3, u32), b: (DVec3, DVec3, u32), lift: f64, part: f64) -> bool {
         self.occluders()
             .segment_visible_skipping(a.0 + a.1 * lift, b.0 + b.1 * lift, &|id| {
                 let c = self.component[id as usize];
-                c == a.2 || c == b.2
+                c == a.2 || c == b.2 || self.area[c as usize] < part
             })
     }
 }
 
-/// Cuts and groups at cell size `h`; returns the groups (object, first material, pieces).
-/// Pieces join a group only within one cell and object, of the same emitting material or of
-/// non-emitting ones ([`kind_of`]), with normals within the angle of the group's first piece;
-/// a piece of another connected surface ([`components`]) than the groups its own surface
-/// joined in the cell joins one only where one of the two is a part ([`LOOSE_PART`]) and they
-/// see each other ([`Loose::sees`]). Furniture
-/// of thousands of separate parts (legs, slats, trim) thus becomes one patch per cell and
-/// orientation, and the patch target is met; two floors on either side of a wall stay apart.
-/// Small groups then merge whatever their orientation ([`absorb_small_groups`]).
+/// Cuts and groups at cell size `h`; returns the groups (first material, pieces).
+/// Pieces join a group only within one cell, of the same emitting material or of
+/// non-emitting ones ([`kind_of`]), with normals within the angle of the group's first piece.
+/// A piece joins, without a test, a group its own connected surface ([`components`]) and
+/// object joined in the cell; any other group only where one of the two surfaces is a part
+/// ([`LOOSE_PART`]) and they see each other ([`Loose::sees`]). Furniture and props of
+/// thousands of separate parts (legs, slats, trim, each maybe its own object) thus become one
+/// patch per cell and orientation, and the patch target is met; two floors on either side of a
+/// wall stay apart. Small groups then merge whatever their orientation
+/// ([`absorb_small_groups`]).
 pub(super) fn group(
     scene: &Scene,
     component: &[u32],
@@ -149,13 +158,13 @@ pub(super) fn group(
 ) -> Grouping {
     let (lo, _) = scene.bounds();
     let origin = lo;
-    // Candidate groups per (cell, object, kind): every group of the cell's object and kind,
-    // and per (cell, object, kind, connected surface) the groups that surface already joined.
-    let mut lookup: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
+    // Candidate groups per (cell, kind): every group of the cell and kind, and per (cell,
+    // kind, connected surface, object) the groups that surface of that object already joined.
+    let mut lookup: HashMap<([i64; 3], u32), Vec<usize>> = HashMap::new();
     let mut joined: HashMap<([i64; 3], u32, u32, u32), Vec<usize>> = HashMap::new();
     // Each group's first piece (centre, surface), to test visibility against.
     let mut first: Vec<(DVec3, u32)> = Vec::new();
-    let mut groups: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
+    let mut groups: Vec<(u32, Vec<Piece>)> = Vec::new();
     let mut seeds: Vec<DVec3> = Vec::new();
     let mut cells = Vec::new();
     let mut cell_of: Vec<[i64; 3]> = Vec::new();
@@ -181,10 +190,11 @@ pub(super) fn group(
                 normal,
                 area,
                 triangle: t as u32,
+                object: tri.object,
             };
-            let cands = lookup.entry((cell, tri.object, kind)).or_default();
+            let cands = lookup.entry((cell, kind)).or_default();
             let fits = |g: usize| seeds[g].dot(normal) >= cos_max;
-            let mine = joined.entry((cell, tri.object, kind, own)).or_default();
+            let mine = joined.entry((cell, kind, own, tri.object)).or_default();
             // A group this surface already joined here, else another surface's group it sees,
             // where one of the two is a part (`LOOSE_PART`).
             let found = mine.iter().copied().find(|&g| fits(g)).or_else(|| {
@@ -193,13 +203,13 @@ pub(super) fn group(
                     let (at, other) = first[g];
                     fits(g)
                         && (is_part || loose.area[other as usize] < small)
-                        && loose.sees(end, (at, seeds[g], other), lift)
+                        && loose.sees(end, (at, seeds[g], other), lift, small)
                 })?;
                 mine.push(g);
                 Some(g)
             });
             match found {
-                Some(g) => groups[g].2.push(piece),
+                Some(g) => groups[g].1.push(piece),
                 None => {
                     let g = groups.len();
                     cands.push(g);
@@ -207,7 +217,7 @@ pub(super) fn group(
                     first.push((piece.polygon.centroid(), own));
                     seeds.push(normal);
                     cell_of.push(cell);
-                    groups.push((tri.object, tri.material, vec![piece]));
+                    groups.push((tri.material, vec![piece]));
                 }
             }
         }
@@ -260,8 +270,8 @@ pub(super) const LIFT: f64 = 1e-3;
 /// (`ARCHITECTURE.md`, "Small groups merge").
 pub(super) const SMALL_GROUP: f64 = 0.1;
 
-/// Merges the small groups ([`SMALL_GROUP`]) into others of their cell, object and material,
-/// whatever their orientation: each joins the first large group of its own connected surface,
+/// Merges the small groups ([`SMALL_GROUP`]) into others of their cell and kind ([`kind_of`]),
+/// of any object, whatever their orientation: each joins the first large group of its own connected surface,
 /// else the first large group it sees ([`Loose::sees`] between the two groups' first pieces),
 /// else in the same way a small group kept before it, else stays as one. Large groups never
 /// merge with one another, and two surfaces join only by the same visibility test as loose
@@ -270,30 +280,31 @@ pub(super) const SMALL_GROUP: f64 = 0.1;
 /// `groups`, `cell` and `ends` (each group's first piece: centre, normal, surface) are in
 /// creation order, which the result keeps (a merged patch sits where its first group was).
 pub(super) fn absorb_small_groups(
-    mut groups: Vec<(u32, u32, Vec<Piece>)>,
+    mut groups: Vec<(u32, Vec<Piece>)>,
     cell: &[[i64; 3]],
     ends: &[(DVec3, DVec3, u32)],
     loose: &Loose<'_>,
     h: f64,
-) -> Vec<(u32, u32, Vec<Piece>)> {
+) -> Vec<(u32, Vec<Piece>)> {
     let small = SMALL_GROUP * h * h;
     let is_small: Vec<bool> = groups
         .iter()
-        .map(|(_, _, pieces)| {
+        .map(|(_, pieces)| {
             pieces.iter().map(|p| p.area).sum::<f64>() < small
                 && pieces
                     .iter()
                     .all(|p| loose.scene.triangle_area(p.triangle as usize) < small)
         })
         .collect();
-    let mut by_key: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
-    for (g, (object, material, _)) in groups.iter().enumerate() {
+    let mut by_key: HashMap<([i64; 3], u32), Vec<usize>> = HashMap::new();
+    for (g, (material, _)) in groups.iter().enumerate() {
         by_key
-            .entry((cell[g], *object, kind_of(loose.scene, *material)))
+            .entry((cell[g], kind_of(loose.scene, *material)))
             .or_default()
             .push(g);
     }
     let lift = LIFT * h;
+    let part = LOOSE_PART * h * h;
     // The group each one joins (itself when it stays); a group that others join never joins
     // another, so one step reaches the end.
     let mut into: Vec<usize> = (0..groups.len()).collect();
@@ -306,7 +317,7 @@ pub(super) fn absorb_small_groups(
         let large = targets.len();
         for &g in list.iter().filter(|&&g| is_small[g]) {
             let own = |t: &usize| ends[*t].2 == ends[g].2;
-            let seen = |t: &usize| loose.sees(ends[*t], ends[g], lift);
+            let seen = |t: &usize| loose.sees(ends[*t], ends[g], lift, part);
             let (big, kept) = targets.split_at(large);
             let found = big
                 .iter()
@@ -321,15 +332,43 @@ pub(super) fn absorb_small_groups(
         }
     }
     let mut slot = vec![usize::MAX; groups.len()];
-    let mut merged: Vec<(u32, u32, Vec<Piece>)> = Vec::new();
+    let mut merged: Vec<(u32, Vec<Piece>)> = Vec::new();
     for g in 0..groups.len() {
         let t = into[g];
         if slot[t] == usize::MAX {
             slot[t] = merged.len();
-            merged.push((groups[t].0, groups[t].1, Vec::new()));
+            merged.push((groups[t].0, Vec::new()));
         }
-        let pieces = std::mem::take(&mut groups[g].2);
-        merged[slot[t]].2.extend(pieces);
+        let pieces = std::mem::take(&mut groups[g].1);
+        merged[slot[t]].1.extend(pieces);
     }
     merged
+}
+
+/// Points per group at which [`matrix_count`] looks for burial.
+const BURIED_LOOK: u32 = 4;
+
+/// How many of `grouping`'s groups stay in the matrix: all but those buried whole (the bake
+/// drops a patch that no light can reach, `pipeline::dark`: a box's bottom face on the ground,
+/// one per box in a yard of boxes). A group counts as buried whole when each of
+/// [`BURIED_LOOK`] points spread over its area ((k + ½)/K, and the radical inverse of k) is
+/// buried ([`Occluders::buried`]); the bake's own test then looks at 512.
+pub(super) fn matrix_count(loose: &Loose<'_>, grouping: &Grouping) -> usize {
+    use rayon::prelude::*;
+    let occ = loose.occluders();
+    let buried = grouping
+        .groups
+        .par_iter()
+        .filter(|(_, pieces)| {
+            let total: f64 = pieces.iter().map(|p| p.area).sum();
+            total > 0.0
+                && (0..BURIED_LOOK).all(|k| {
+                    let u = (f64::from(k) + 0.5) / f64::from(BURIED_LOOK);
+                    let v = f64::from(k.reverse_bits()) / 2f64.powi(32);
+                    let (x, n) = crate::hemisphere::patch_point_at(pieces, total, u, v);
+                    occ.buried(x, n)
+                })
+        })
+        .count();
+    grouping.groups.len() - buried
 }

@@ -16,14 +16,15 @@ const SAME_SURFACE_COS: f64 = 0.8;
 /// Builds the runtime mesh. `file_index[k]` is the matrix (file) index of simplification patch
 /// `k`, or `None` for a patch left out of the matrix (one that sees nothing); `buried_points`
 /// (per patch, may be empty) marks which of its [`direct_points`] are buried under another
-/// object, which lend no direct-light sample.
+/// object, which lend no direct-light sample. Returned with the object of every sample (the
+/// mesh's sample order), which `solve` needs for patches of several objects.
 pub(crate) fn runtime_mesh(
     scene: &Scene,
     patches: &Patches,
     file_index: &[Option<u32>],
     buried_points: &[Vec<bool>],
     min_points: u32,
-) -> Mesh<'static> {
+) -> (Mesh<'static>, Vec<u32>) {
     let nt = scene.triangles.len();
     let bary = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let triangles: Vec<MeshTriangle> = scene
@@ -121,31 +122,35 @@ pub(crate) fn runtime_mesh(
     // Direct-light samples: every patch's [`direct_points`] not buried under another object,
     // in matrix order.
     let n = file_index.iter().flatten().count();
-    let mut by_file: Vec<Vec<PatchSample>> = vec![Vec::new(); n];
+    let mut by_file: Vec<Vec<(PatchSample, u32)>> = vec![Vec::new(); n];
     for (k, p) in patches.patches.iter().enumerate() {
         let Some(f) = file_index[k] else { continue };
         let buried = buried_points.get(k).map_or(&[][..], Vec::as_slice);
-        for (j, (x, normal, area)) in direct_points(patches.pieces_of(k), min_points)
+        for (j, d) in direct_points(patches.pieces_of(k), min_points)
             .into_iter()
             .enumerate()
         {
             if buried.get(j) != Some(&true) {
-                by_file[f as usize].push(sample(x, normal, area));
+                by_file[f as usize].push((sample(d.position, d.normal, d.area), d.object));
             }
         }
         if by_file[f as usize].is_empty() {
-            by_file[f as usize].push(sample(p.centre, p.normal, p.area));
+            by_file[f as usize].push((sample(p.centre, p.normal, p.area), p.object));
         }
     }
     let mut sample_rows = Vec::with_capacity(n + 1);
     sample_rows.push(0u32);
     let mut samples = Vec::new();
+    let mut sample_objects = Vec::new();
     for s in by_file {
-        samples.extend(s);
+        for (sample, object) in s {
+            samples.push(sample);
+            sample_objects.push(object);
+        }
         sample_rows.push(samples.len() as u32);
     }
 
-    Mesh {
+    let mesh = Mesh {
         positions: Cow::Owned(
             scene
                 .positions
@@ -158,7 +163,8 @@ pub(crate) fn runtime_mesh(
         corner_weights: Cow::Owned(corner_weights),
         sample_rows: Cow::Owned(sample_rows),
         samples: Cow::Owned(samples),
-    }
+    };
+    (mesh, sample_objects)
 }
 
 /// Direct-light points a patch has at least, by default. A patch cut from a few large
@@ -173,36 +179,61 @@ pub const DIRECT_POINTS: u32 = 4;
 pub const MAX_DIRECT_POINTS: u32 = 64;
 
 /// The points where the runtime samples direct light on a patch made of `pieces`: position,
-/// unit normal and the area each stands for. A patch of at least `min_points` pieces keeps
-/// one point per piece, its centroid; a patch of fewer gets `min_points` points spread over
-/// its area, each standing for an equal share: the centred Hammersley set
-/// `((k + ½)/K, φ₂(k) + ½/K)` mapped through the pieces' areas (`hemisphere::patch_point_at`): the
-/// first coordinate picks the piece by area, so each piece gets points in proportion to its
-/// area. No randomness: the same patch gets the same points.
+/// unit normal, the area each stands for and its piece's object. Every piece gets points in
+/// proportion to its area, `max(1, ⌈K·a/A⌉)` for a piece of area `a` in a patch of area `A`
+/// and `K = min_points`, each standing for an equal share of the piece: one is its centroid,
+/// more are the centred Hammersley set `((k + ½)/n, φ₂(k) + ½/n)` mapped through the piece
+/// (`hemisphere::patch_point_at`). So a patch has at least `K` points and at most `K` more than
+/// its pieces, and no piece goes unsampled: where the small parts of several objects share a
+/// patch with a large surface (the tops of boxes in a yard with the ground around them), each
+/// part keeps a point of its own and the large surface keeps about `K` (one centroid for the
+/// ground of a cell full of boxes' shadows, sampling one point per piece, put the area-weighted
+/// error of a yard of boxes at 5.8% against the path tracer at 256 patches). No randomness:
+/// the same patch gets the same points.
 pub(crate) fn direct_points(
     pieces: &[crate::simplify::Piece],
     min_points: u32,
-) -> Vec<(DVec3, DVec3, f64)> {
-    let live = || pieces.iter().filter(|q| q.area > 0.0);
-    if live().count() >= min_points as usize {
-        return live()
-            .map(|q| (q.polygon.centroid(), q.normal, q.area))
-            .collect();
-    }
-    let live: Vec<crate::simplify::Piece> = live().cloned().collect();
-    let total: f64 = live.iter().map(|q| q.area).sum();
-    if live.is_empty() || !(total > 0.0) {
+) -> Vec<DirectPoint> {
+    let total: f64 = pieces.iter().filter(|q| q.area > 0.0).map(|q| q.area).sum();
+    if !(total > 0.0) {
         return Vec::new();
     }
     let k_all = f64::from(min_points);
-    (0..min_points)
-        .map(|k| {
-            let u = (f64::from(k) + 0.5) / k_all;
-            let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / k_all).fract();
-            let (x, n) = crate::hemisphere::patch_point_at(&live, total, u, v);
-            (x, n, total / k_all)
-        })
-        .collect()
+    let mut points = Vec::new();
+    for q in pieces.iter().filter(|q| q.area > 0.0) {
+        // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
+        let n = (k_all * q.area / total - 1e-9).ceil().max(1.0) as u32;
+        let at = |position: DVec3| DirectPoint {
+            position,
+            normal: q.normal,
+            area: q.area / f64::from(n),
+            object: q.object,
+        };
+        if n == 1 {
+            points.push(at(q.polygon.centroid()));
+            continue;
+        }
+        let nf = f64::from(n);
+        for k in 0..n {
+            let u = (f64::from(k) + 0.5) / nf;
+            let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
+            let (x, _) = crate::hemisphere::patch_point_at(core::slice::from_ref(q), q.area, u, v);
+            points.push(at(x));
+        }
+    }
+    points
+}
+
+/// A point where the runtime samples direct light on a patch ([`direct_points`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct DirectPoint {
+    pub(crate) position: DVec3,
+    /// Unit normal of its piece.
+    pub(crate) normal: DVec3,
+    /// The area it stands for.
+    pub(crate) area: f64,
+    /// The scene object of its piece.
+    pub(crate) object: u32,
 }
 
 fn sample(position: DVec3, normal: DVec3, area: f64) -> PatchSample {
@@ -226,14 +257,16 @@ mod tests {
             polygon,
             normal: (b - a).cross(c - a).normalize(),
             triangle: 0,
+            object: 0,
         }
     }
 
-    /// A patch of two pieces (a unit square in two triangles) gets exactly the points asked
-    /// for, each standing for an equal share, inside the square, the two halves the same count
-    /// (by area); a patch of as many pieces as points keeps the centroids.
+    /// A patch of two pieces (a unit square in two triangles) gets the points asked for, half
+    /// on each piece (rounded up), each standing for an equal share of its piece, inside the
+    /// square; one point a piece is its centroid; a sliver beside a large piece keeps a point
+    /// of its own and the large piece about all those asked for.
     #[test]
-    fn few_pieces_get_the_points_asked_for_spread_over_the_patch() {
+    fn every_piece_gets_points_in_proportion_to_its_area() {
         let (o, x, y, xy) = (
             DVec3::ZERO,
             dvec3(1.0, 0.0, 0.0),
@@ -241,26 +274,35 @@ mod tests {
             dvec3(1.0, 1.0, 0.0),
         );
         let square = [piece(o, x, xy), piece(o, xy, y)];
-        for n in [1, 4, 9, 64] {
+        for n in [1, 2, 4, 9, 64] {
             let pts = direct_points(&square, n);
-            if n <= 2 {
-                assert_eq!(pts.len(), 2, "one point a piece");
-                continue;
-            }
-            assert_eq!(pts.len(), n as usize);
-            let area: f64 = pts.iter().map(|p| p.2).sum();
+            let half = n.div_ceil(2) as usize;
+            assert_eq!(pts.len(), 2 * half, "{n} asked");
+            let area: f64 = pts.iter().map(|p| p.area).sum();
             // Equal shares of the unit area, to rounding.
             assert!((area - 1.0).abs() < 1e-12, "{area}");
-            for (p, normal, _) in &pts {
+            for q in &pts {
+                let p = q.position;
                 assert!((0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y) && p.z == 0.0);
-                assert_eq!(*normal, dvec3(0.0, 0.0, 1.0));
+                assert_eq!(q.normal, dvec3(0.0, 0.0, 1.0));
+                assert!((q.area - 0.5 / half as f64).abs() < 1e-12);
             }
             // The first piece is the half below the diagonal (x ≥ y).
-            let below = pts.iter().filter(|p| p.0.x >= p.0.y).count();
-            assert_eq!(2 * below, n as usize + (n as usize % 2), "{pts:?}");
+            let below = pts.iter().filter(|p| p.position.x >= p.position.y).count();
+            assert_eq!(below, half, "{pts:?}");
         }
-        // As many pieces as points asked: the centroids.
+        // One point a piece: the centroids.
         let pts = direct_points(&square, 2);
-        assert!((pts[0].0 - (o + x + xy) / 3.0).length() < 1e-12);
+        assert!((pts[0].position - (o + x + xy) / 3.0).length() < 1e-12);
+        // A sliver of a thousandth of the patch beside the square: one point, its centroid;
+        // the square's two pieces keep 8 each of 16 asked.
+        let sliver = piece(
+            dvec3(2.0, 0.0, 0.0),
+            dvec3(2.0447, 0.0, 0.0),
+            dvec3(2.0, 0.0447, 0.0),
+        );
+        let pts = direct_points(&[square[0], square[1], sliver], 16);
+        assert_eq!(pts.len(), 17);
+        assert_eq!(pts.iter().filter(|p| p.position.x >= 2.0).count(), 1);
     }
 }
