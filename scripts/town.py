@@ -7,7 +7,9 @@ a long wall and a yard of small parts (benches, posts), with its lights file.
 Writes OUT_DIR/town.obj, town.mtl and sun.json (one directional light, 1000 W/m² on a surface
 facing it, travelling down at 50° from the horizon). PARTS (default 200) is the number of small
 parts in the yard: each a closed box of its own object, so the scene tests both the bake's
-accuracy where shadows fall and `--patches N` on a scene of many separate parts.
+accuracy where shadows fall and `--patches N` on a scene of many separate parts. Each part
+stands in a cell of its own (the yard cut into PARTS cells), so parts never overlap; past about
+330 they shrink to fit.
 
 Every building is a closed box standing on the ground (its bottom face buried against it). The
 ground is two triangles: the bake, not the modeller, has to place patches where the light
@@ -46,10 +48,18 @@ def main():
         objects.append((f"building{i + 1}", "plaster", box((x, 0, -12), (x + 6, 9, -4))))
     objects.append(("tower", "brick", box((-4, 0, 6), (0, 20, 10))))
     objects.append(("wall", "concrete", box((4, 0, 4), (24, 2.5, 4.6))))
+    # The yard (x in [-30, 30], z in [12, 30]) is cut into one cell per part, each part a box
+    # inside its cell at a random place: parts never overlap, and they shrink as they crowd.
     rng = random.Random(7)
+    cols = max(1, round(math.sqrt(parts * 60.0 / 18.0)))
+    rows = -(-parts // cols)
+    cw, cd = 60.0 / cols, 18.0 / rows
+    scale = min(1.0, cw / 1.8, cd / 1.0)
     for k in range(parts):
-        x, z = rng.uniform(-30, 30), rng.uniform(12, 30)
-        w, d, h = rng.uniform(0.2, 1.6), rng.uniform(0.2, 0.8), rng.uniform(0.3, 1.2)
+        w, d = rng.uniform(0.2, 1.6) * scale, rng.uniform(0.2, 0.8) * scale
+        h = rng.uniform(0.3, 1.2) * max(scale, 0.3)
+        x = -30.0 + (k % cols) * cw + rng.uniform(0.0, cw - w)
+        z = 12.0 + (k // cols) * cd + rng.uniform(0.0, cd - d)
         objects.append((f"part{k}", "wood" if k % 2 else "steel", box((x, 0, z), (x + w, h, z + d))))
 
     mtl = {

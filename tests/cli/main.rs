@@ -376,18 +376,23 @@ fn solve_backends_agree_and_unavailable_ones_are_errors() {
     assert_one_line_error(&env, "RADIOSITY_BACKEND");
 }
 
-/// Warnings of the simplification reach the terminal, not only `--json`: 64 tiles under a lamp,
-/// each its own object, cannot come down to 10 patches, and the bake says why.
+/// Warnings of the simplification reach the terminal, not only `--json`: 64 glowing tiles under a
+/// grey plate, each of its own emitting material, cannot come down to 10 patches, and the bake
+/// says why.
 #[test]
 fn bake_prints_a_missed_patch_target() {
     let dir = tempfile::tempdir().unwrap();
-    let mut obj = String::from("mtllib tiles.mtl\nusemtl grey\n");
+    // 64 tiles, each of its own emitting material: a patch never spans two emitting materials
+    // (a patch has one emission), so 10 patches cannot be met.
+    let mut obj = String::from("mtllib tiles.mtl\n");
+    let mut mtl = String::from("newmtl grey\nKd 0.5 0.5 0.5\n");
     let mut v = 1;
     for i in 0..8 {
         for j in 0..8 {
             let (x, y) = (f64::from(i) * 0.1, f64::from(j) * 0.1);
+            mtl += &format!("newmtl e{i}{j}\nKd 0.5 0.5 0.5\nKe 1 1 1\n");
             obj += &format!(
-                "o tile{i}{j}\nv {x} {y} 0\nv {} {y} 0\nv {} {} 0\nv {x} {} 0\nf {v} {} {} {}\n",
+                "o tile{i}{j}\nusemtl e{i}{j}\nv {x} {y} 0\nv {} {y} 0\nv {} {} 0\nv {x} {} 0\nf {v} {} {} {}\n",
                 x + 0.08,
                 x + 0.08,
                 y + 0.08,
@@ -400,17 +405,13 @@ fn bake_prints_a_missed_patch_target() {
         }
     }
     obj += &format!(
-        "o lamp\nusemtl lamp\nv 0 0 1\nv 0 0.8 1\nv 0.8 0.8 1\nv 0.8 0 1\nf {v} {} {} {}\n",
+        "o lamp\nusemtl grey\nv 0 0 1\nv 0 0.8 1\nv 0.8 0.8 1\nv 0.8 0 1\nf {v} {} {} {}\n",
         v + 1,
         v + 2,
         v + 3
     );
     std::fs::write(dir.path().join("tiles.obj"), obj).unwrap();
-    std::fs::write(
-        dir.path().join("tiles.mtl"),
-        "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\n",
-    )
-    .unwrap();
+    std::fs::write(dir.path().join("tiles.mtl"), mtl).unwrap();
     let scene = dir.path().join("tiles.obj");
     let rad = dir.path().join("tiles.rad");
     let out = radiosity_ok(&[
@@ -423,7 +424,8 @@ fn bake_prints_a_missed_patch_target() {
     ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("warning: asked for 10 patches") && stderr.contains("65 objects"),
+        stderr.contains("warning: asked for 10 patches")
+            && stderr.contains("64 emitting materials"),
         "{stderr}"
     );
 }

@@ -91,7 +91,7 @@ pub(super) fn components(scene: &Scene) -> Vec<u32> {
 /// blocks), and a large surface joins a group a part started; two large surfaces of different
 /// connected surfaces or objects never share a patch. Parts cross objects because real assets
 /// make every prop an object: a yard of 4906 boxes, each its own object, kept 4906 patches
-/// whatever `--patches` asked (`ARCHITECTURE.md`, "Parts cross objects"). Without this, furniture of many parts kept the patch
+/// whatever `--patches` asked (`docs/decisions/voxel-merges.md`, "Parts cross objects"). Without this, furniture of many parts kept the patch
 /// count near the count of parts at any cell size (the conference room, 330k triangles: 18,693
 /// patches asked for 256). Two large surfaces are kept apart whatever they see: the segment
 /// test skips both ends' surfaces, and a room's floor joined to its wall would let the wall
@@ -115,6 +115,10 @@ pub(super) struct Loose<'a> {
     pub(super) occluders: std::cell::OnceCell<Occluders>,
     pub(super) scene: &'a Scene,
     pub(super) component: &'a [u32],
+    /// Whether parts of different objects may share a patch, and parts stop blocking the
+    /// visibility test ([`LOOSE_PART`]). Off unless the patch target cannot be met without
+    /// (`fit_patch_count`): a scene whose objects are few keeps one object a patch.
+    pub(super) cross: std::cell::Cell<bool>,
 }
 
 impl Loose<'_> {
@@ -134,7 +138,7 @@ impl Loose<'_> {
         self.occluders()
             .segment_visible_skipping(a.0 + a.1 * lift, b.0 + b.1 * lift, &|id| {
                 let c = self.component[id as usize];
-                c == a.2 || c == b.2 || self.area[c as usize] < part
+                c == a.2 || c == b.2 || (self.cross.get() && self.area[c as usize] < part)
             })
     }
 }
@@ -160,7 +164,9 @@ pub(super) fn group(
     let origin = lo;
     // Candidate groups per (cell, kind): every group of the cell and kind, and per (cell,
     // kind, connected surface, object) the groups that surface of that object already joined.
-    let mut lookup: HashMap<([i64; 3], u32), Vec<usize>> = HashMap::new();
+    let mut lookup: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
+    // Groups are per object too unless parts may cross objects (`Loose::cross`).
+    let by_object = |object: u32| if loose.cross.get() { u32::MAX } else { object };
     let mut joined: HashMap<([i64; 3], u32, u32, u32), Vec<usize>> = HashMap::new();
     // Each group's first piece (centre, surface), to test visibility against.
     let mut first: Vec<(DVec3, u32)> = Vec::new();
@@ -192,7 +198,9 @@ pub(super) fn group(
                 triangle: t as u32,
                 object: tri.object,
             };
-            let cands = lookup.entry((cell, kind)).or_default();
+            let cands = lookup
+                .entry((cell, kind, by_object(tri.object)))
+                .or_default();
             let fits = |g: usize| seeds[g].dot(normal) >= cos_max;
             let mine = joined.entry((cell, kind, own, tri.object)).or_default();
             // A group this surface already joined here, else another surface's group it sees,
@@ -267,7 +275,7 @@ pub(super) const LIFT: f64 = 1e-3;
 /// tessellated that finely may, at its rim, put a sliver of one side (under a tenth of a face)
 /// in a patch of the other. A tenth: the conference room at `--patches 4096` gets cells of 130
 /// units and 294 floor patches with it, 148 and 228 with 0.05, 130 and 294 with 0.2
-/// (`ARCHITECTURE.md`, "Small groups merge").
+/// (`docs/decisions/voxel-merges.md`).
 pub(super) const SMALL_GROUP: f64 = 0.1;
 
 /// Merges the small groups ([`SMALL_GROUP`]) into others of their cell and kind ([`kind_of`]),
@@ -296,10 +304,15 @@ pub(super) fn absorb_small_groups(
                     .all(|p| loose.scene.triangle_area(p.triangle as usize) < small)
         })
         .collect();
-    let mut by_key: HashMap<([i64; 3], u32), Vec<usize>> = HashMap::new();
-    for (g, (material, _)) in groups.iter().enumerate() {
+    let mut by_key: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();
+    for (g, (material, pieces)) in groups.iter().enumerate() {
+        let object = if loose.cross.get() {
+            u32::MAX
+        } else {
+            pieces[0].object
+        };
         by_key
-            .entry((cell[g], kind_of(loose.scene, *material)))
+            .entry((cell[g], kind_of(loose.scene, *material), object))
             .or_default()
             .push(g);
     }

@@ -247,6 +247,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         occluders: std::cell::OnceCell::new(),
         scene,
         component: &component,
+        cross: std::cell::Cell::new(false),
     };
     let mut warnings = Vec::new();
     let (lo, hi) = scene.bounds();
@@ -327,43 +328,56 @@ fn fit_patch_count(
         .map(|t| scene.triangle_area(t))
         .sum();
     // Bisection on log(h): the count falls as h grows (about area/h² for flat surfaces).
-    let mut h_small = (total_area / target).sqrt() / 8.0;
-    let mut h_large = extent * 2.0;
-    let mut best: Option<(f64, Grouping, f64)> = None;
-    // The coarsest grid first: where even it gives more patches than the target allows (a
-    // scene of more objects and orientations than patches asked for), no finer grid does
-    // better, and the search would only creep towards it.
     // Counted as the matrix will hold them: patches buried whole leave it
     // (`grouping::matrix_count`); a yard of 4906 boxes standing on the ground, their bottoms
     // buried, asked for 1024 got 1002 patches and 897 in the matrix.
-    let coarsest = group(scene, component, loose, h_large, cos_max);
-    let fewest = grouping::matrix_count(loose, &coarsest) as f64;
-    if fewest > target * (1.0 + params.tolerance) {
-        best = Some((h_large, coarsest, (fewest - target) / target));
-    }
-    let mut h = (total_area / target).sqrt();
-    for _ in 0..if best.is_some() { 0 } else { 48 } {
-        let g = group(scene, component, loose, h, cos_max);
-        let count = grouping::matrix_count(loose, &g) as f64;
-        let miss = (count - target).abs() / target;
-        let better = best.as_ref().is_none_or(|b| miss < b.2);
-        // Half the tolerance: the count jumps as cells grow, and a first hit at the edge of
-        // the tolerance leaves no margin (1115 for 1024 on a yard of boxes).
-        let done = miss <= params.tolerance / 2.0;
-        if count > target {
-            h_small = h;
+    let bisect = || {
+        let mut h_small = (total_area / target).sqrt() / 8.0;
+        let mut h_large = extent * 2.0;
+        let mut best: Option<(f64, Grouping, f64)> = None;
+        // The coarsest grid first: where even it gives more patches than the target allows
+        // (a scene of more objects and orientations than patches asked for), no finer grid
+        // does better, and the search would only creep towards it.
+        let coarsest = group(scene, component, loose, h_large, cos_max);
+        let fewest = grouping::matrix_count(loose, &coarsest) as f64;
+        if fewest > target * (1.0 + params.tolerance) {
+            best = Some((h_large, coarsest, (fewest - target) / target));
+        }
+        let mut h = (total_area / target).sqrt();
+        for _ in 0..if best.is_some() { 0 } else { 48 } {
+            let g = group(scene, component, loose, h, cos_max);
+            let count = grouping::matrix_count(loose, &g) as f64;
+            let miss = (count - target).abs() / target;
+            let better = best.as_ref().is_none_or(|b| miss < b.2);
+            let done = miss <= params.tolerance;
+            if count > target {
+                h_small = h;
+            } else {
+                h_large = h;
+            }
+            if better {
+                best = Some((h, g, miss));
+            }
+            if done || h_large / h_small < 1.0 + 1e-3 {
+                break;
+            }
+            h = (h_small * h_large).sqrt();
+        }
+        best.expect("one evaluation at least")
+    };
+    // Parts of different objects share patches only where the target cannot be met without
+    // (`Loose::cross`): a scene of thousands of separate props, each its own object.
+    let mut best = bisect();
+    if best.2 > params.tolerance {
+        loose.cross.set(true);
+        let crossed = bisect();
+        if crossed.2 < best.2 {
+            best = crossed;
         } else {
-            h_large = h;
+            loose.cross.set(false);
         }
-        if better {
-            best = Some((h, g, miss));
-        }
-        if done || h_large / h_small < 1.0 + 1e-3 {
-            break;
-        }
-        h = (h_small * h_large).sqrt();
     }
-    let (h, g, miss) = best.expect("one evaluation at least");
+    let (h, g, miss) = best;
     if miss > params.tolerance {
         // Too many patches even at the coarsest cells: say why when a count of things
         // a patch never spans (emitting materials, large separate surfaces) is what holds
@@ -372,6 +386,7 @@ fn fit_patch_count(
             .triangles
             .iter()
             .map(|t| grouping::kind_of(scene, t.material))
+            .filter(|&k| k != u32::MAX)
             .collect();
         kinds.sort_unstable();
         kinds.dedup();

@@ -179,46 +179,60 @@ pub const DIRECT_POINTS: u32 = 4;
 pub const MAX_DIRECT_POINTS: u32 = 64;
 
 /// The points where the runtime samples direct light on a patch made of `pieces`: position,
-/// unit normal, the area each stands for and its piece's object. Every piece gets points in
-/// proportion to its area, `max(1, ⌈K·a/A⌉)` for a piece of area `a` in a patch of area `A`
-/// and `K = min_points`, each standing for an equal share of the piece: one is its centroid,
-/// more are the centred Hammersley set `((k + ½)/n, φ₂(k) + ½/n)` mapped through the piece
-/// (`hemisphere::patch_point_at`). So a patch has at least `K` points and at most `K` more than
-/// its pieces, and no piece goes unsampled: where the small parts of several objects share a
-/// patch with a large surface (the tops of boxes in a yard with the ground around them), each
-/// part keeps a point of its own and the large surface keeps about `K` (one centroid for the
-/// ground of a cell full of boxes' shadows, sampling one point per piece, put the area-weighted
-/// error of a yard of boxes at 5.8% against the path tracer at 256 patches). No randomness:
-/// the same patch gets the same points.
+/// unit normal, the area each stands for and its piece's object, `K = min_points` at least.
+/// A patch of fewer than `K` pieces gets `K` points spread over its area, each standing for an
+/// equal share: the centred Hammersley set `((k + ½)/K, φ₂(k) + ½/K)` mapped through the
+/// pieces' areas (`hemisphere::patch_point_at`), the first coordinate picking the piece by
+/// area. A patch of `K` pieces or more gives each piece points in proportion to its area,
+/// `max(1, ⌈K·a/A⌉)` for a piece of area `a` in a patch of area `A` (its centroid for one, else
+/// the same set through the piece): where the small parts of several objects share a patch
+/// with a large surface (the tops of boxes in a yard with the ground around them), each part
+/// keeps a point of its own and the large surface about `K`, where one centroid a piece left
+/// the ground of a cell full of boxes' shadows one point. No randomness: the same patch gets
+/// the same points.
 pub(crate) fn direct_points(
     pieces: &[crate::simplify::Piece],
     min_points: u32,
 ) -> Vec<DirectPoint> {
-    let total: f64 = pieces.iter().filter(|q| q.area > 0.0).map(|q| q.area).sum();
-    if !(total > 0.0) {
+    let live: Vec<crate::simplify::Piece> =
+        pieces.iter().filter(|q| q.area > 0.0).cloned().collect();
+    let total: f64 = live.iter().map(|q| q.area).sum();
+    if live.is_empty() || !(total > 0.0) {
         return Vec::new();
     }
-    let k_all = f64::from(min_points);
+    let hammersley =
+        |within: &[crate::simplify::Piece], area: f64, n: u32, out: &mut Vec<DirectPoint>| {
+            let nf = f64::from(n);
+            for k in 0..n {
+                let u = (f64::from(k) + 0.5) / nf;
+                let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
+                let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
+                out.push(DirectPoint {
+                    position: x,
+                    normal,
+                    area: area / nf,
+                    object: piece.object,
+                });
+            }
+        };
     let mut points = Vec::new();
-    for q in pieces.iter().filter(|q| q.area > 0.0) {
+    if live.len() < min_points as usize {
+        hammersley(&live, total, min_points, &mut points);
+        return points;
+    }
+    let k_all = f64::from(min_points);
+    for q in &live {
         // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
         let n = (k_all * q.area / total - 1e-9).ceil().max(1.0) as u32;
-        let at = |position: DVec3| DirectPoint {
-            position,
-            normal: q.normal,
-            area: q.area / f64::from(n),
-            object: q.object,
-        };
         if n == 1 {
-            points.push(at(q.polygon.centroid()));
-            continue;
-        }
-        let nf = f64::from(n);
-        for k in 0..n {
-            let u = (f64::from(k) + 0.5) / nf;
-            let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
-            let (x, _) = crate::hemisphere::patch_point_at(core::slice::from_ref(q), q.area, u, v);
-            points.push(at(x));
+            points.push(DirectPoint {
+                position: q.polygon.centroid(),
+                normal: q.normal,
+                area: q.area,
+                object: q.object,
+            });
+        } else {
+            hammersley(core::slice::from_ref(q), q.area, n, &mut points);
         }
     }
     points
@@ -261,12 +275,12 @@ mod tests {
         }
     }
 
-    /// A patch of two pieces (a unit square in two triangles) gets the points asked for, half
-    /// on each piece (rounded up), each standing for an equal share of its piece, inside the
-    /// square; one point a piece is its centroid; a sliver beside a large piece keeps a point
-    /// of its own and the large piece about all those asked for.
+    /// A patch of two pieces (a unit square in two triangles) gets exactly the points asked
+    /// for, each standing for an equal share, inside the square, the two halves the same count
+    /// (by area); a patch of as many pieces as points keeps the centroids; a sliver beside
+    /// large pieces keeps a point of its own and the large pieces about all those asked for.
     #[test]
-    fn every_piece_gets_points_in_proportion_to_its_area() {
+    fn few_pieces_get_the_points_asked_for_and_every_piece_of_many_gets_one() {
         let (o, x, y, xy) = (
             DVec3::ZERO,
             dvec3(1.0, 0.0, 0.0),
@@ -274,10 +288,13 @@ mod tests {
             dvec3(1.0, 1.0, 0.0),
         );
         let square = [piece(o, x, xy), piece(o, xy, y)];
-        for n in [1, 2, 4, 9, 64] {
+        for n in [1, 4, 9, 64] {
             let pts = direct_points(&square, n);
-            let half = n.div_ceil(2) as usize;
-            assert_eq!(pts.len(), 2 * half, "{n} asked");
+            if n <= 2 {
+                assert_eq!(pts.len(), 2, "one point a piece");
+                continue;
+            }
+            assert_eq!(pts.len(), n as usize);
             let area: f64 = pts.iter().map(|p| p.area).sum();
             // Equal shares of the unit area, to rounding.
             assert!((area - 1.0).abs() < 1e-12, "{area}");
@@ -285,24 +302,25 @@ mod tests {
                 let p = q.position;
                 assert!((0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y) && p.z == 0.0);
                 assert_eq!(q.normal, dvec3(0.0, 0.0, 1.0));
-                assert!((q.area - 0.5 / half as f64).abs() < 1e-12);
             }
             // The first piece is the half below the diagonal (x ≥ y).
             let below = pts.iter().filter(|p| p.position.x >= p.position.y).count();
-            assert_eq!(below, half, "{pts:?}");
+            assert_eq!(2 * below, n as usize + (n as usize % 2), "{pts:?}");
         }
-        // One point a piece: the centroids.
+        // As many pieces as points asked: the centroids.
         let pts = direct_points(&square, 2);
         assert!((pts[0].position - (o + x + xy) / 3.0).length() < 1e-12);
-        // A sliver of a thousandth of the patch beside the square: one point, its centroid;
-        // the square's two pieces keep 8 each of 16 asked.
+        // A sliver of a thousandth of the patch beside the square, 3 points asked: the
+        // sliver keeps one point, its centroid; each half of the square ⌈3/2⌉ = 2.
         let sliver = piece(
             dvec3(2.0, 0.0, 0.0),
             dvec3(2.0447, 0.0, 0.0),
             dvec3(2.0, 0.0447, 0.0),
         );
-        let pts = direct_points(&[square[0], square[1], sliver], 16);
-        assert_eq!(pts.len(), 17);
+        let pts = direct_points(&[square[0], square[1], sliver], 3);
+        assert_eq!(pts.len(), 5);
         assert_eq!(pts.iter().filter(|p| p.position.x >= 2.0).count(), 1);
+        let area: f64 = pts.iter().map(|p| p.area).sum();
+        assert!((area - 1.0 - sliver.area).abs() < 1e-12, "{area}");
     }
 }
