@@ -808,8 +808,8 @@ pub(crate) fn run(options: &Options) -> Result<Vec<PathBuf>> {
     Ok(written)
 }
 
-/// Whether `adapter` can render to the example's float targets.
-fn renders_float(adapter: &wgpu::Adapter) -> bool {
+/// Whether `adapter` can render to the example's float targets (Mesa's GL adapter cannot).
+pub(crate) fn renders_float(adapter: &wgpu::Adapter) -> bool {
     [
         wgpu::TextureFormat::R32Float,
         wgpu::TextureFormat::Rgba32Float,

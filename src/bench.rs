@@ -16,15 +16,20 @@
 //! row from below.
 //!
 //! Adding a backend is pushing one more [`Row`] (see [`encoded_rows`] and [`peer_rows`]).
+//!
+//! On every adapter wgpu finds, one more measurement: the host-device frame (the matrix in the
+//! bake's default format, the box's own full-detail mesh), its CPU recording time and the GPU
+//! time of the gather and of the corner pass from timestamps ([`time_host_frame`]).
 
 mod rows;
 
 use crate::embedded;
 use anyhow::{Context, bail};
+use radiosity_backend_wgpu::time_host_frame;
 use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
 use radiosity_bake::encode::{EncodeParams, ErrorWeights};
 use radiosity_bake::order::{self, DenseMatrix, OrderKind, OrderParams};
-use radiosity_bake::pipeline::{BakeParams, Discretised, Hooks, discretise};
+use radiosity_bake::pipeline::{BakeParams, Discretised, Hooks, discretise, file_mesh};
 use radiosity_bake::rng::SplitMix64;
 use radiosity_bake::simplify::VoxelParams;
 use radiosity_core::{Format, Rgb};
@@ -119,7 +124,58 @@ struct Report {
     roofline: RooflineOut,
     rows: Vec<RowOut>,
     ratios: Vec<Ratio>,
+    /// The host-device frame on every adapter (gather and corner pass), empty without one.
+    host_frames: Vec<HostFrameOut>,
     timings_ms: BTreeMap<&'static str, f64>,
+}
+
+/// One adapter's host-device frame: [`time_host_frame`]'s medians.
+#[derive(Serialize)]
+struct HostFrameOut {
+    adapter: String,
+    format: &'static str,
+    path: String,
+    dispatches: usize,
+    corners: usize,
+    /// CPU time to record the gather and the corner pass into the host's encoder, ms.
+    record_ms: f64,
+    /// GPU time of the gather's pass, ms (`null` without timestamps).
+    gather_ms: Option<f64>,
+    /// GPU time of the corner pass, ms (`null` without timestamps).
+    corners_ms: Option<f64>,
+    frames: usize,
+}
+
+/// Frames each host-device measurement runs (medians over them).
+const HOST_FRAMES: usize = 21;
+
+/// [`time_host_frame`] of `matrix` and `mesh` on every adapter; an adapter that cannot run it
+/// gets a note on stderr instead of a row.
+fn host_frames(
+    matrix: &radiosity_core::TransferMatrix<'_>,
+    mesh: &radiosity_core::Mesh<'_>,
+) -> Vec<HostFrameOut> {
+    let format = matrix.layout.format();
+    radiosity_backend_wgpu::adapters()
+        .iter()
+        .filter_map(|a| match time_host_frame(a, matrix, mesh, HOST_FRAMES) {
+            Ok(t) => Some(HostFrameOut {
+                adapter: t.adapter.to_string(),
+                format: format.name(),
+                path: t.path.to_string(),
+                dispatches: t.dispatches,
+                corners: t.corners,
+                record_ms: t.record_ms,
+                gather_ms: t.gather_ms,
+                corners_ms: t.corners_ms,
+                frames: HOST_FRAMES,
+            }),
+            Err(e) => {
+                eprintln!("note: no host-device frame on {}: {e}", a.info);
+                None
+            }
+        })
+        .collect()
 }
 
 /// Runs the bench and prints the table (or JSON): the system, its exact answers, the encoded
@@ -171,7 +227,25 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     let oracle = Oracle::new(&sys, &mut timings);
     stage("order (paper)");
     let ordered = Ordered::new(&sys, &m, &mut timings)?;
-    let mut rows = encoded_rows(n, channels, ordered.m_file, &ordered.weights, &stage)?;
+    // The box's full-detail mesh in the file's numbering, for the corner pass.
+    let patch_source: Vec<u32> = ordered
+        .perm
+        .iter()
+        .map(|&k| sys.live[k as usize] as u32)
+        .collect();
+    let (mesh, _) = file_mesh(&scene, &sys, &patch_source);
+    let mut frames = Vec::new();
+    let mut rows = encoded_rows(
+        n,
+        channels,
+        ordered.m_file,
+        &ordered.weights,
+        &stage,
+        &mut |matrix| {
+            stage("host-device frame");
+            frames = host_frames(matrix, &mesh);
+        },
+    )?;
     timings.insert("encode", rows.iter().map(|r| r.setup_ms).sum());
     stage("peers");
     peer_rows(&sys, m, oracle.lu, oracle.lu_setup, &mut rows);
@@ -205,6 +279,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         },
         rows: out_rows,
         ratios,
+        host_frames: frames,
         timings_ms: timings,
     };
     if json {
@@ -522,6 +597,26 @@ fn print_text(r: &Report) {
         outln!("  {}: {}", row.method, row.note);
     }
     outln!("");
+    if !r.host_frames.is_empty() {
+        outln!(
+            "host-device frame (HostGather + CornerPass recorded into one encoder, medians of {HOST_FRAMES} frames; GPU times from timestamps):"
+        );
+        let gpu = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.3}"));
+        for f in &r.host_frames {
+            outln!(
+                "  {}: {} {} decode, {} dispatches, {} corners: record {:.4} ms CPU, gather {} ms GPU, corners {} ms GPU",
+                f.adapter,
+                f.format,
+                f.path,
+                f.dispatches,
+                f.corners,
+                f.record_ms,
+                gpu(f.gather_ms),
+                gpu(f.corners_ms)
+            );
+        }
+        outln!("");
+    }
     for q in &r.ratios {
         outln!(
             "{} is {:.1}× faster than {} (target ≥ {}×: {})",

@@ -3,7 +3,8 @@
 
 use crate::GpuError;
 use crate::gather::{
-    READ, UNIFORM, WRITE, buffer_ty, layout_entry, pipeline, storage, storage_binding_limit,
+    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, layout_entry, pipeline, storage,
+    storage_binding_limit,
 };
 use crate::shader::WORKGROUP;
 use bytemuck::{Pod, Zeroable};
@@ -62,28 +63,6 @@ fn sized(binding: u32, buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindGroupEntr
             size: wgpu::BufferSize::new(bytes.max(4).min(buffer.size())),
         }),
     }
-}
-
-/// Checks one host buffer: at least `bytes` long, with `usage`.
-fn check_buffer(
-    what: &str,
-    buffer: &wgpu::Buffer,
-    bytes: u64,
-    usage: wgpu::BufferUsages,
-) -> Result<(), GpuError> {
-    if buffer.size() < bytes {
-        return Err(GpuError::Unsupported(format!(
-            "the host's {what} buffer has {} bytes, the corner pass needs {bytes}",
-            buffer.size()
-        )));
-    }
-    if !buffer.usage().contains(usage) {
-        return Err(GpuError::Unsupported(format!(
-            "the host's {what} buffer lacks usage {usage:?} (it has {:?})",
-            buffer.usage()
-        )));
-    }
-    Ok(())
 }
 
 impl CornerPass {
@@ -150,8 +129,20 @@ impl CornerPass {
         }
         let y_bytes = 12 * patches as u64;
         let out_bytes = 12 * corners as u64;
-        check_buffer("y", buffers.y, y_bytes, wgpu::BufferUsages::STORAGE)?;
-        check_buffer("out", buffers.out, out_bytes, wgpu::BufferUsages::STORAGE)?;
+        check_host_buffer(
+            "the corner pass",
+            "y",
+            buffers.y,
+            y_bytes,
+            wgpu::BufferUsages::STORAGE,
+        )?;
+        check_host_buffer(
+            "the corner pass",
+            "out",
+            buffers.out,
+            out_bytes,
+            wgpu::BufferUsages::STORAGE,
+        )?;
         let most = storage_binding_limit(&dl);
         let rows_bytes = 4 * mesh.corner_rows.len() as u64;
         let weight_bytes = 8 * mesh.corner_weights.len() as u64;

@@ -118,6 +118,7 @@ mod auto;
 mod conv;
 mod corner;
 mod device;
+mod frame_timing;
 mod gather;
 mod plan;
 pub mod probe;
@@ -126,6 +127,7 @@ mod shader;
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
 pub use auto::auto_gather;
 pub use corner::{CornerBuffers, CornerPass};
+pub use frame_timing::{HostFrameTimes, time_host_frame};
 pub use gather::{HostGather, HostGatherBuffers, WgpuGather};
 pub use radiosity_core::DecodeMode;
 

@@ -31,14 +31,21 @@ pub(super) struct Row {
 }
 
 /// A `cpu-<format>` row per format (BC1 only with three channels) and, on the best adapter
-/// when there is one, the `gpu-…` rows of the same matrix.
+/// when there is one, the `gpu-…` rows of the same matrix. `on_default` sees the matrix in the
+/// bake's default format for `channels` (BC1, or BC4 for one channel).
 pub(super) fn encoded_rows(
     n: usize,
     channels: usize,
     m_file: Vec<f32>,
     weights: &ErrorWeights,
     stage: &dyn Fn(&str),
+    on_default: &mut dyn FnMut(&radiosity_core::TransferMatrix<'_>),
 ) -> anyhow::Result<Vec<Row>> {
+    let default = if channels == 1 {
+        Format::Bc4
+    } else {
+        Format::Bc1
+    };
     let mut rows: Vec<Row> = Vec::new();
     let gpu = radiosity_backend_wgpu::adapters().into_iter().next();
     if gpu.is_none() {
@@ -69,6 +76,9 @@ pub(super) fn encoded_rows(
         let sparse = matrix.sparse.nnz();
         if let Some(adapter) = &gpu {
             gpu_rows(adapter, &matrix, cost, setup_ms, &mut rows)?;
+        }
+        if format == default {
+            on_default(&matrix);
         }
         let gather = CpuGather::new(matrix);
         let note = format!("SIMD path {}, {sparse} sparse entries", gather.path());

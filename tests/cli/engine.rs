@@ -11,21 +11,10 @@ mod gpu_engine;
 /// Whether wgpu finds an adapter; without one this test prints why and passes, except under
 /// `CI=true` (scripts/test.sh installs the software Vulkan driver), where it fails.
 fn have_adapter() -> bool {
-    // The example renders to R32Float and Rgba32Float targets, which Mesa's GL adapter cannot.
-    let renders = |a: &radiosity_backend_wgpu::Adapter| {
-        [
-            wgpu::TextureFormat::R32Float,
-            wgpu::TextureFormat::Rgba32Float,
-        ]
+    if radiosity_backend_wgpu::adapters()
         .iter()
-        .all(|&f| {
-            a.wgpu_adapter()
-                .get_texture_format_features(f)
-                .allowed_usages
-                .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
-        })
-    };
-    if radiosity_backend_wgpu::adapters().iter().any(renders) {
+        .any(|a| gpu_engine::renders_float(a.wgpu_adapter()))
+    {
         return true;
     }
     let ci = std::env::var("CI").is_ok_and(|v| v == "true");

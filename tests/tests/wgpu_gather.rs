@@ -24,6 +24,9 @@
 //!   f32 rounding and the product roundings. GPUs may flush subnormal products to zero, so
 //!   k·`f32::MIN_POSITIVE` is added.
 
+mod gpu_support;
+
+use gpu_support::gpu_adapters;
 use radiosity_backend_wgpu::{
     Adapter, AdapterChoice, DecodePath, GpuError, GpuOptions, WgpuGather, adapters,
 };
@@ -34,27 +37,6 @@ use radiosity_tests::fixtures::{FORMAT_CASES, exitance, sample_file};
 
 /// Safety factor over the recursive-summation bound (module docs).
 const C: f32 = 2.0;
-
-/// Every adapter but GL ones (all GL ones if there is nothing else), or none when there is
-/// none and this is not CI (a note is printed).
-fn gpu_adapters() -> Vec<Adapter> {
-    let list = adapters();
-    if list.iter().any(|a| a.info.backend != "gl") {
-        return list
-            .into_iter()
-            .filter(|a| a.info.backend != "gl")
-            .collect();
-    }
-    if list.is_empty() {
-        let ci = std::env::var("CI").is_ok_and(|v| v == "true");
-        assert!(
-            !ci,
-            "CI=true but wgpu finds no adapter: scripts/test.sh installs mesa-vulkan-drivers and libvulkan1"
-        );
-        eprintln!("no GPU adapter (install mesa-vulkan-drivers libvulkan1): skipping");
-    }
-    list
-}
 
 /// Per row and channel: (Σ_j |b_ij|·|x_j|, Σ_j |s_ij|·|x_j|), blocks and sparse apart.
 fn abs_sums(m: &TransferMatrix<'_>, mode: DecodeMode, x: &[Rgb]) -> Vec<[(f32, f32); 3]> {

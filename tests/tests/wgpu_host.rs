@@ -15,9 +15,12 @@
 //!   k·`f32::MIN_POSITIVE` for subnormal products a GPU may flush. On lavapipe the values are
 //!   bit-identical (asserted there: `is_mesa_software`).
 
+mod gpu_support;
+
+use gpu_support::gpu_adapters;
 use radiosity_backend_wgpu::{
     Adapter, CornerBuffers, CornerPass, DecodePath, GpuError, GpuOptions, HostGather,
-    HostGatherBuffers, WgpuGather, adapters,
+    HostGatherBuffers, WgpuGather,
 };
 use radiosity_core::{CornerWeight, Gather, Mesh, MeshTriangle, Rgb, TransferMatrix};
 use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, exitance, sample_file};
@@ -27,27 +30,6 @@ use std::sync::Mutex;
 /// Devices are opened one test at a time: the crate's own devices are serialised by its
 /// lifecycle lock, the tests' by this one (see the crate's `device` module for why).
 static DEVICES: Mutex<()> = Mutex::new(());
-
-/// Every adapter but GL ones (all GL ones if there is nothing else), or none when there is
-/// none and this is not CI (a note is printed).
-fn gpu_adapters() -> Vec<Adapter> {
-    let list = adapters();
-    if list.iter().any(|a| a.info.backend != "gl") {
-        return list
-            .into_iter()
-            .filter(|a| a.info.backend != "gl")
-            .collect();
-    }
-    if list.is_empty() {
-        let ci = std::env::var("CI").is_ok_and(|v| v == "true");
-        assert!(
-            !ci,
-            "CI=true but wgpu finds no adapter: scripts/test.sh installs mesa-vulkan-drivers and libvulkan1"
-        );
-        eprintln!("no GPU adapter (install mesa-vulkan-drivers libvulkan1): skipping");
-    }
-    list
-}
 
 /// A device of the host's own on `adapter`, with `limits`.
 fn host_device(adapter: &Adapter, limits: wgpu::Limits) -> (wgpu::Device, wgpu::Queue) {

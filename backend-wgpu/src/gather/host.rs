@@ -2,7 +2,7 @@
 //! the host's command encoder between the host's buffers.
 
 use super::Frame;
-use super::setup::storage_binding_limit;
+use super::setup::{check_host_buffer, storage_binding_limit};
 use crate::{DecodePath, GpuError, GpuOptions};
 use radiosity_core::{DecodeMode, TransferMatrix};
 
@@ -40,28 +40,6 @@ pub struct HostGather {
     path: DecodePath,
     model: Option<DecodeMode>,
     n: usize,
-}
-
-/// Checks one host buffer: at least `bytes` long, with `usage`.
-fn check_buffer(
-    what: &str,
-    buffer: &wgpu::Buffer,
-    bytes: u64,
-    usage: wgpu::BufferUsages,
-) -> Result<(), GpuError> {
-    if buffer.size() < bytes {
-        return Err(GpuError::Unsupported(format!(
-            "the host's {what} buffer has {} bytes, the gather needs {bytes}",
-            buffer.size()
-        )));
-    }
-    if !buffer.usage().contains(usage) {
-        return Err(GpuError::Unsupported(format!(
-            "the host's {what} buffer lacks usage {usage:?} (it has {:?})",
-            buffer.usage()
-        )));
-    }
-    Ok(())
 }
 
 impl HostGather {
@@ -104,8 +82,20 @@ impl HostGather {
         };
         let model = (path == DecodePath::Software).then_some(options.software_mode);
         let bytes = (12 * l.n()) as u64;
-        check_buffer("x", buffers.x, bytes, wgpu::BufferUsages::COPY_SRC)?;
-        check_buffer("y", buffers.y, bytes, wgpu::BufferUsages::STORAGE)?;
+        check_host_buffer(
+            "the gather",
+            "x",
+            buffers.x,
+            bytes,
+            wgpu::BufferUsages::COPY_SRC,
+        )?;
+        check_host_buffer(
+            "the gather",
+            "y",
+            buffers.y,
+            bytes,
+            wgpu::BufferUsages::STORAGE,
+        )?;
         let most = storage_binding_limit(&device.limits());
         if bytes > most {
             return Err(GpuError::Unsupported(format!(

@@ -35,6 +35,30 @@ pub(super) fn u32_of(v: usize, what: &str) -> Result<u32, GpuError> {
     u32::try_from(v).map_err(|_| GpuError::Unsupported(format!("{what} {v} does not fit 32 bits")))
 }
 
+/// Checks one of the host's buffers before `pass` (named in the message) binds it: at least
+/// `bytes` long, with `usage`.
+pub(crate) fn check_host_buffer(
+    pass: &str,
+    what: &str,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+    usage: wgpu::BufferUsages,
+) -> Result<(), GpuError> {
+    if buffer.size() < bytes {
+        return Err(GpuError::Unsupported(format!(
+            "the host's {what} buffer has {} bytes, {pass} needs {bytes}",
+            buffer.size()
+        )));
+    }
+    if !buffer.usage().contains(usage) {
+        return Err(GpuError::Unsupported(format!(
+            "the host's {what} buffer lacks usage {usage:?} (it has {:?})",
+            buffer.usage()
+        )));
+    }
+    Ok(())
+}
+
 /// Bytes one storage binding may have on a device of limits `dl`.
 pub(crate) fn storage_binding_limit(dl: &wgpu::Limits) -> u64 {
     dl.max_storage_buffer_binding_size.min(dl.max_buffer_size)

@@ -522,8 +522,10 @@ fn choose_order(
 }
 
 /// The runtime mesh: full-detail triangles, corner weights and direct-light samples, in the
-/// file's patch numbering (`patch_source[i]`: the simplification patch of file patch `i`).
-fn file_mesh(
+/// file's patch numbering (`patch_source[i]`: the simplification patch of file patch `i`),
+/// with the object of every direct-light sample. What a bake stores; `radiosity bench` builds
+/// its corner pass from it.
+pub fn file_mesh(
     scene: &Scene,
     system: &Discretised,
     patch_source: &[u32],

@@ -1,0 +1,161 @@
+//! [`time_host_frame`]: what one frame of the host-device path costs on an adapter — the CPU
+//! time to record the gather and the corner pass, and the GPU time of each pass from
+//! timestamps. `radiosity bench` reports it on every adapter it finds.
+
+use crate::adapter::{Adapter, AdapterInfo};
+use crate::device;
+use crate::{
+    CornerBuffers, CornerPass, DecodePath, GpuError, GpuOptions, HostGather, HostGatherBuffers,
+};
+use radiosity_core::{Mesh, Rgb, TransferMatrix};
+use std::sync::mpsc;
+use std::time::Instant;
+
+/// One frame of [`HostGather`] plus [`CornerPass`] on one adapter, medians over the frames.
+#[derive(Clone, Debug)]
+pub struct HostFrameTimes {
+    pub adapter: AdapterInfo,
+    /// The gather's decode path.
+    pub path: DecodePath,
+    /// The gather's dispatches per frame.
+    pub dispatches: usize,
+    /// Corners the corner pass writes.
+    pub corners: usize,
+    /// CPU time to record both passes (with their timestamp writes) into an encoder, ms.
+    pub record_ms: f64,
+    /// GPU time of the gather's compute pass, ms; `None` without `TIMESTAMP_QUERY`.
+    pub gather_ms: Option<f64>,
+    /// GPU time of the corner pass, ms; `None` without `TIMESTAMP_QUERY`.
+    pub corners_ms: Option<f64>,
+}
+
+/// Opens a device on `adapter` (its own limits, with `TIMESTAMP_QUERY` where it has it), builds
+/// a [`HostGather`] of `matrix` and a [`CornerPass`] of `mesh` between buffers of its own, and
+/// runs `frames` frames (at least one), each submitted and waited for, with `x` = 1 on every
+/// patch. Errors are the gather's and the corner pass's own ([`HostGather::new`],
+/// [`CornerPass::new`]) or the device's.
+pub fn time_host_frame(
+    adapter: &Adapter,
+    matrix: &TransferMatrix<'_>,
+    mesh: &Mesh<'_>,
+    frames: usize,
+) -> Result<HostFrameTimes, GpuError> {
+    let info = adapter.info.clone();
+    let inner = adapter.wgpu_adapter();
+    let features = inner.features() & wgpu::Features::TIMESTAMP_QUERY;
+    // Bound first, so it drops last (see the `device` module).
+    let dev = device::open(
+        inner,
+        &wgpu::DeviceDescriptor {
+            label: Some("radiosity frame timing"),
+            required_features: features,
+            required_limits: inner.limits(),
+            ..Default::default()
+        },
+    )
+    .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+    let (device, queue) = (dev.device(), dev.queue());
+    let n = matrix.layout.n();
+    let buffer = |label, bytes: u64, usage| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(4),
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    use wgpu::BufferUsages as U;
+    let x = buffer("x", 12 * n as u64, U::COPY_DST | U::COPY_SRC);
+    let y = buffer("y", 12 * n as u64, U::STORAGE);
+    let out = buffer(
+        "corners",
+        12 * mesh.corner_count() as u64,
+        U::STORAGE | U::VERTEX,
+    );
+    let gather = HostGather::new(
+        device,
+        queue,
+        matrix,
+        &GpuOptions::default(),
+        HostGatherBuffers { x: &x, y: &y },
+    )?;
+    let corners = CornerPass::new(device, mesh, CornerBuffers { y: &y, out: &out })?;
+    queue.write_buffer(&x, 0, bytemuck::cast_slice(&vec![Rgb::splat(1.0); n]));
+
+    let timed = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    let queries = timed.then(|| {
+        device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("frame timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 4,
+        })
+    });
+    let resolve = buffer("timestamps", 32, U::QUERY_RESOLVE | U::COPY_SRC);
+    let readback = buffer("timestamps readback", 32, U::MAP_READ | U::COPY_DST);
+    let period = f64::from(queue.get_timestamp_period()) * 1e-6; // ms per tick
+    let writes = |begin: u32| {
+        queries.as_ref().map(|q| wgpu::ComputePassTimestampWrites {
+            query_set: q,
+            beginning_of_pass_write_index: Some(begin),
+            end_of_pass_write_index: Some(begin + 1),
+        })
+    };
+
+    let (mut record, mut gather_ms, mut corners_ms) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..frames.max(1) {
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("frame"),
+        });
+        let t = Instant::now();
+        gather.record_timed(&mut encoder, writes(0));
+        corners.record_timed(&mut encoder, writes(2));
+        record.push(t.elapsed().as_secs_f64() * 1e3);
+        if let Some(q) = &queries {
+            encoder.resolve_query_set(q, 0..4, &resolve, 0);
+            encoder.copy_buffer_to_buffer(&resolve, 0, &readback, 0, 32);
+        }
+        queue.submit([encoder.finish()]);
+        if queries.is_none() {
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+            continue;
+        }
+        let (tx, rx) = mpsc::channel();
+        readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+        rx.recv()
+            .map_err(|_| GpuError::Device(format!("{info}: the readback callback never ran")))?
+            .map_err(|e| GpuError::Device(format!("{info}: readback failed: {e}")))?;
+        {
+            let view = readback
+                .get_mapped_range(..)
+                .map_err(|e| GpuError::Device(format!("{info}: readback failed: {e}")))?;
+            let stamp = |i: usize| u64::from_le_bytes(view[8 * i..8 * i + 8].try_into().unwrap());
+            gather_ms.push(stamp(1).wrapping_sub(stamp(0)) as f64 * period);
+            // An empty mesh records no corner pass: its stamps stay unwritten.
+            if corners.corners() > 0 {
+                corners_ms.push(stamp(3).wrapping_sub(stamp(2)) as f64 * period);
+            }
+        }
+        readback.unmap();
+    }
+    Ok(HostFrameTimes {
+        adapter: info,
+        path: gather.path(),
+        dispatches: gather.dispatches(),
+        corners: corners.corners(),
+        record_ms: median(&mut record).unwrap_or(0.0),
+        gather_ms: median(&mut gather_ms),
+        corners_ms: median(&mut corners_ms),
+    })
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied()
+}
