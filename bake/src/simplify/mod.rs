@@ -358,7 +358,17 @@ fn fit_patch_count(
             let count = count_of(&g) as f64;
             let miss = (count - target).abs() / target;
             let better = best.as_ref().is_none_or(|b| miss < b.2);
-            let done = miss <= params.tolerance;
+            // Where parts cross objects the count moves in coarse steps (a cell more or less
+            // merges many parts at once) and lands near the tolerance's edge: aiming at half of
+            // it gives margin (4906 boxes asked for 1024 stopped at 928, −9.4%, aiming at all
+            // of it). One object a patch keeps the whole tolerance, so the Cornell box bakes as
+            // its documented figures were measured.
+            let aim = if loose.cross.get() {
+                params.tolerance / 2.0
+            } else {
+                params.tolerance
+            };
+            let done = miss <= aim;
             if count > target {
                 h_small = h;
             } else {
