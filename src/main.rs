@@ -23,6 +23,7 @@ mod export_dds;
 mod inspect;
 mod lights;
 mod limits;
+mod materials;
 mod output;
 mod pathtrace;
 mod picture;
@@ -98,7 +99,13 @@ enum Command {
         /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
         #[arg(long)]
         backend: Option<String>,
-        /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"}.
+        /// Reflectance edits of named objects, applied without a re-bake (JSON):
+        /// {"materials": [{"object": "leftWall", "reflectance": [r,g,b]}]}, each channel in
+        /// [0, 1).
+        #[arg(long, value_name = "EDITS.json")]
+        materials: Option<PathBuf>,
+        /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"},
+        /// and "materials" with --materials.
         #[arg(long)]
         json: bool,
     },
@@ -284,8 +291,16 @@ fn main() -> ExitCode {
             bake,
             lights,
             backend,
+            materials,
             json,
-        } => solve::run(&input, &bake, lights.as_deref(), backend.as_deref(), json),
+        } => solve::run(
+            &input,
+            &bake,
+            lights.as_deref(),
+            backend.as_deref(),
+            materials.as_deref(),
+            json,
+        ),
         Command::Demo {
             out,
             backend,

@@ -6,7 +6,10 @@
 
 use crate::args::BakeArgs;
 use radiosity_bake::pipeline::ObjectShares;
-use radiosity_core::{Bounces, RadFile, Rgb, finish_frame, first_exitance};
+use radiosity_core::{
+    Bounces, DecodeMode, EditedGather, Gather, RadFile, ReflectanceEdit, Rgb, finish_frame,
+    first_exitance,
+};
 use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Instant;
@@ -16,18 +19,29 @@ pub(crate) fn run(
     args: &BakeArgs,
     lights: Option<&Path>,
     backend: Option<&str>,
+    materials: Option<&Path>,
     json_out: bool,
 ) -> anyhow::Result<()> {
-    // Read the lights first: a bad lights file fails before any bake.
+    // Read the lights and the edits first: a bad file fails before any bake.
     let lights = match lights {
         Some(p) => crate::lights::load(p)?,
         None => Vec::new(),
     };
+    let materials = materials.map(crate::materials::load).transpose()?;
     let crate::runtime::Loaded {
-        runtime,
+        mut runtime,
         effects,
         mut timings,
     } = crate::runtime::load(input, args, json_out)?;
+    let edit = match &materials {
+        Some(m) => {
+            let t = Instant::now();
+            let edit = edit_materials(&mut runtime, m)?;
+            timings.insert("edit_setup", t.elapsed().as_secs_f64() * 1e3);
+            Some(edit)
+        }
+        None => None,
+    };
     let file = &runtime.file;
     let n = file.n();
     let t = Instant::now();
@@ -40,7 +54,23 @@ pub(crate) fn run(
     let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
     let t = Instant::now();
     let mut y = vec![Rgb::ZERO; n];
-    chosen.gather.gather(&x, &mut y)?;
+    let edit_json = match edit {
+        Some(edit) => {
+            let summary = json!({
+                "objects": materials.as_ref().map_or(0, Vec::len),
+                "patches": edit.len(),
+                "bytes": edit.bytes(),
+            });
+            EditedGather::new(&mut *chosen.gather, edit)
+                .map_err(|e| anyhow::anyhow!("materials: {e}"))?
+                .gather(&x, &mut y)?;
+            Some(summary)
+        }
+        None => {
+            chosen.gather.gather(&x, &mut y)?;
+            None
+        }
+    };
     timings.insert("gather", t.elapsed().as_secs_f64() * 1e3);
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
@@ -58,6 +88,10 @@ pub(crate) fn run(
             "effects": effects,
             "timings_ms": timings,
         });
+        let mut out = out;
+        if let Some(m) = edit_json {
+            out["materials"] = m;
+        }
         outln!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         outln!(
@@ -95,6 +129,38 @@ pub(crate) fn run(
     // After the results, as every warning: a failure stays the one `error:` line.
     crate::runtime::warn_if_unlit(&runtime, &lights);
     Ok(())
+}
+
+/// Prepares the reflectance edit of `materials` on the runtime's file and sets the new
+/// reflectance on its patches and mesh triangles (the frame's first exitance and radiosity
+/// take them; the matrix stays as baked). `M_SS` is decoded under the CPU backends' rules.
+fn edit_materials(
+    runtime: &mut crate::runtime::Runtime,
+    materials: &[crate::materials::MaterialEdit],
+) -> anyhow::Result<ReflectanceEdit> {
+    let file = &mut runtime.file;
+    if let Bounces::Finite(k) = file.bounces {
+        eprintln!(
+            "warning: this .rad holds {k} bounce(s), not all of them; a reflectance edit assumes every bounce, so the edited light is off by about the bounces left out"
+        );
+    }
+    let report: Option<Value> = file
+        .report
+        .as_deref()
+        .and_then(|r| serde_json::from_str(r).ok());
+    let shares = ObjectShares::from_report(&file.patches, file.objects.len(), report.as_ref());
+    let (edits, objects) = crate::materials::patch_edits(file, &shares, materials)?;
+    let edit = ReflectanceEdit::new(&file.matrix, DecodeMode::D3d10, &file.patches, &edits)
+        .map_err(|e| anyhow::anyhow!("materials: {e}"))?;
+    edit.apply_to(file.patches.to_mut());
+    if let Some(mesh) = &mut file.mesh {
+        for t in mesh.triangles.to_mut() {
+            if let Some(&(_, rho)) = objects.iter().find(|o| o.0 == t.object) {
+                t.reflectance = rho;
+            }
+        }
+    }
+    Ok(edit)
 }
 
 /// Area-weighted mean irradiance and radiosity per object, over its whole full-detail surface

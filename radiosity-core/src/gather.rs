@@ -64,6 +64,34 @@ pub trait Gather {
     fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError>;
 }
 
+impl<G: Gather + ?Sized> Gather for alloc::boxed::Box<G> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+
+    fn patches(&self) -> usize {
+        (**self).patches()
+    }
+
+    fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
+        (**self).gather(exitance, irradiance)
+    }
+}
+
+impl<G: Gather + ?Sized> Gather for &mut G {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+
+    fn patches(&self) -> usize {
+        (**self).patches()
+    }
+
+    fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
+        (**self).gather(exitance, irradiance)
+    }
+}
+
 /// Checks the slices a gather is given; shared by every backend.
 pub fn check_gather_args(
     n: usize,

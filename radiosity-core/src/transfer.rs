@@ -169,6 +169,70 @@ impl<'a> TransferMatrix<'a> {
         out
     }
 
+    /// Rows `rows` of the matrix decoded (each below `n`, in the order given), row-major
+    /// `rows.len() × n`, `channels` values per entry interleaved, blocks, block corrections
+    /// and sparse part added: the same entries as [`TransferMatrix::decode_dense`], for the
+    /// block rows that hold them only.
+    ///
+    /// Panics if a row is not below `n` (a programming error).
+    pub fn decode_rows(&self, mode: DecodeMode, rows: &[u32]) -> Vec<f32> {
+        let l = &self.layout;
+        let (n, ch) = (l.n(), l.channels());
+        assert!(
+            rows.iter().all(|&r| (r as usize) < n),
+            "row past the matrix"
+        );
+        let mut out = alloc::vec![0f32; rows.len() * n * ch];
+        // Which output rows each matrix row fills (a row may be asked for twice).
+        let mut by_row: Vec<(u32, usize)> = rows.iter().enumerate().map(|(a, &r)| (r, a)).collect();
+        by_row.sort_unstable();
+        let wanted = |r0: usize, r1: usize| {
+            let lo = by_row.partition_point(|&(r, _)| (r as usize) < r0);
+            let hi = by_row.partition_point(|&(r, _)| (r as usize) < r1);
+            &by_row[lo..hi]
+        };
+        let dec = self.decoder(mode);
+        let mut vals = [[0f32; 16]; 3];
+        for tile in l.tiles() {
+            for br in 0..tile.blocks_high() {
+                let r0 = tile.row0 + br * 4;
+                let here = wanted(r0, r0 + 4);
+                if here.is_empty() {
+                    continue;
+                }
+                for bc in 0..tile.blocks_wide() {
+                    dec.decode(self, &tile, br, bc, &mut vals);
+                    for &(r, a) in here {
+                        let i0 = (r as usize - r0) * 4;
+                        for cc in 0..4 {
+                            let c = tile.col0 + bc * 4 + cc;
+                            if c < n {
+                                for k in 0..ch {
+                                    out[(a * n + c) * ch + k] = vals[k][i0 + cc];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        self.for_each_correction(|r, c, v| {
+            for &(_, a) in wanted(r, r + 1) {
+                for k in 0..ch {
+                    out[(a * n + c) * ch + k] += v[k];
+                }
+            }
+        });
+        for &(r, a) in &by_row {
+            for (c, v) in self.sparse.row(r as usize, ch) {
+                for k in 0..ch {
+                    out[(a * n + c) * ch + k] += v[k];
+                }
+            }
+        }
+        out
+    }
+
     /// Copies borrowed parts so the matrix outlives its source bytes.
     pub fn into_owned(self) -> TransferMatrix<'static> {
         TransferMatrix {

@@ -5,6 +5,7 @@ mod bench;
 mod demo;
 mod engine;
 mod gltf;
+mod materials;
 mod ux;
 
 mod parts;

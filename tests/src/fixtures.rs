@@ -151,7 +151,21 @@ pub fn sample_mesh(n: usize) -> radiosity_core::Mesh<'static> {
 /// transfer matrix (`n·n·3`, natural order). For order tests and benches that need a real M
 /// before any reordering or encoding.
 pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
-    use radiosity_bake::bounce::{BounceSpec, Dense, transfer_matrix};
+    use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
+    let (core, f) = cornell_form_factors(patches);
+    let reflectance: Vec<[f64; 3]> = core
+        .iter()
+        .map(|p| p.reflectance.to_array().map(f64::from))
+        .collect();
+    let (m, _) =
+        transfer_matrix(&f, &reflectance, 3, BounceSpec::Infinite).expect("transfer converges");
+    (core, m)
+}
+
+/// The patches and ray-cast form factors of [`cornell_transfer`], before any transfer: for
+/// tests that compute `M` under reflectances of their own.
+pub fn cornell_form_factors(patches: usize) -> (Vec<Patch>, radiosity_bake::bounce::Dense) {
+    use radiosity_bake::bounce::Dense;
     use radiosity_bake::form_factor::{FormFactorParams, form_factors};
     use radiosity_bake::geometry::Occluders;
     use radiosity_bake::scene::Scene;
@@ -168,14 +182,7 @@ pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
         None,
     );
     let f = Dense::new(ff.n, ff.matrix.iter().map(|v| f64::from(*v)).collect());
-    let reflectance: Vec<[f64; 3]> = simplified
-        .patches
-        .iter()
-        .map(|p| p.reflectance.to_array().map(f64::from))
-        .collect();
-    let (m, _) =
-        transfer_matrix(&f, &reflectance, 3, BounceSpec::Infinite).expect("transfer converges");
-    (simplified.to_core(), m)
+    (simplified.to_core(), f)
 }
 
 /// A reproducible exitance vector with channels of different magnitudes (r up to 10, g up to

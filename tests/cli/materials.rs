@@ -1,0 +1,199 @@
+//! `solve --materials`: reflectance edits at run time against a re-bake of the edited scene,
+//! and bad materials files.
+
+use super::{assert_one_line_error, radiosity, radiosity_ok};
+use radiosity_tests::scenes::{Material, block, closed_box, write_scene};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// A room [0, 2]³ with a red left wall, a lamp in the ceiling and a block on the floor; `red`
+/// and `block` give the left wall's and the block's reflectance.
+fn room(dir: &Path, name: &str, red: [f64; 3], block_rho: [f64; 3]) -> PathBuf {
+    let mats = [
+        Material::new("white", [0.7; 3], [0.0; 3]),
+        Material::new("red", red, [0.0; 3]),
+        Material::new("blockmat", block_rho, [0.0; 3]),
+        Material::new("lamp", [0.5; 3], [2.0; 3]),
+    ];
+    let mut quads = closed_box(2.0, 3, |face, i, j| match face {
+        "left" => "red".into(),
+        "ceiling" if (i, j) == (1, 1) => "lamp".into(),
+        _ => "white".into(),
+    });
+    quads.extend(block([0.5, 0.0, 0.7], [1.1, 0.6, 1.3], "block", "blockmat"));
+    write_scene(dir, name, &quads, &mats)
+}
+
+fn s(p: &Path) -> String {
+    p.to_str().unwrap().to_owned()
+}
+
+fn solve(args: &[&str]) -> Value {
+    serde_json::from_slice(&radiosity_ok(args).stdout).unwrap()
+}
+
+fn irradiance(v: &Value, object: &str) -> [f64; 3] {
+    let o = v["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["name"] == object)
+        .unwrap_or_else(|| panic!("no object {object}"));
+    let a = o["irradiance"].as_array().unwrap();
+    [0, 1, 2].map(|k| a[k].as_f64().unwrap())
+}
+
+#[test]
+fn an_edit_at_run_time_matches_a_rebake_of_the_edited_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let baked = room(d, "room", [0.7, 0.1, 0.1], [0.7; 3]);
+    let edited = room(d, "edited", [0.2, 0.6, 0.8], [0.05, 0.3, 0.05]);
+    let lights = d.join("lights.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights":[{"type":"point","position":[1.5,1.6,1.5],"intensity":[3,3,3]}]}"#,
+    )
+    .unwrap();
+    let edits = d.join("edits.json");
+    std::fs::write(
+        &edits,
+        r#"{"materials":[{"object":"left","reflectance":[0.2,0.6,0.8]},
+                         {"object":"block","reflectance":[0.05,0.3,0.05]}]}"#,
+    )
+    .unwrap();
+    let l = s(&lights);
+    // Stored in f32 the edit is exact: the edited frame is the re-bake's within f32 rounding
+    // (1e-5 of each object's brightest channel leaves a wide margin over it).
+    let (run, rebake) = edit_and_rebake(
+        d,
+        &baked,
+        &edited,
+        &edits,
+        &l,
+        &["--patches", "300", "--format", "f32"],
+    );
+    let plain = solve(&["solve", &s(&d.join("a.rad")), "--lights", &l, "--json"]);
+    let mut moved = 0.0f64;
+    for object in OBJECTS {
+        let (e, r, p) = (
+            irradiance(&run, object),
+            irradiance(&rebake, object),
+            irradiance(&plain, object),
+        );
+        let scale = r.iter().copied().fold(0.0, f64::max);
+        for k in 0..3 {
+            assert!(
+                (e[k] - r[k]).abs() <= 1e-5 * scale,
+                "f32 {object}[{k}]: edit {} against re-bake {}",
+                e[k],
+                r[k]
+            );
+            moved = moved.max((p[k] - r[k]).abs() / scale);
+        }
+    }
+    // The edit is visible: unedited, some object is off by far more than 1%.
+    assert!(moved > 0.05, "the edit moves the light by only {moved:.3}");
+    let m = &run["materials"];
+    assert_eq!(m["objects"], 2);
+    assert!(m["patches"].as_u64().unwrap() > 10, "{m}");
+
+    // In BC1 (the default) each matrix has its own compression error, and the edit gathers
+    // its matrix twice. The issue's bound is 1% of the re-bake's figure (each object's
+    // brightest channel, so a channel near zero is held to the same absolute error): at 2000
+    // patches the worst channel is 0.80% (at 1000, 0.92%; at 300, where BC1's own error on the
+    // red wall is 1.4%, 2.5%).
+    let (run, rebake) = edit_and_rebake(d, &baked, &edited, &edits, &l, &["--patches", "2000"]);
+    let mut worst = 0.0f64;
+    for object in OBJECTS {
+        let (e, r) = (irradiance(&run, object), irradiance(&rebake, object));
+        let scale = r.iter().copied().fold(0.0, f64::max);
+        for k in 0..3 {
+            worst = worst.max((e[k] - r[k]).abs() / scale);
+            assert!(
+                (e[k] - r[k]).abs() <= 0.01 * scale,
+                "bc1 {object}[{k}]: edit {} against re-bake {}",
+                e[k],
+                r[k]
+            );
+        }
+    }
+    eprintln!(
+        "bc1 at 2000 patches: the edit within {:.2}% of the re-bake",
+        100.0 * worst
+    );
+}
+
+const OBJECTS: [&str; 7] = [
+    "left", "right", "floor", "ceiling", "back", "front", "block",
+];
+
+/// Bakes `baked` and `edited` with `flags`, then solves the first with `edits` and the second
+/// as it is, both under `lights`: (edited frame, re-bake).
+fn edit_and_rebake(
+    d: &Path,
+    baked: &Path,
+    edited: &Path,
+    edits: &Path,
+    lights: &str,
+    flags: &[&str],
+) -> (Value, Value) {
+    let (a, b) = (d.join("a.rad"), d.join("b.rad"));
+    let bake = |scene: &Path, out: &Path| {
+        let mut args = vec!["bake".to_owned(), s(scene), "-o".into(), s(out)];
+        args.extend(flags.iter().map(|f| (*f).to_owned()));
+        radiosity_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    };
+    bake(baked, &a);
+    bake(edited, &b);
+    let run = solve(&[
+        "solve",
+        &s(&a),
+        "--lights",
+        lights,
+        "--materials",
+        &s(edits),
+        "--json",
+    ]);
+    let rebake = solve(&["solve", &s(&b), "--lights", lights, "--json"]);
+    (run, rebake)
+}
+
+#[test]
+fn bad_materials_files_fail_with_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = room(d, "room", [0.7, 0.1, 0.1], [0.7; 3]);
+    let rad = d.join("a.rad");
+    radiosity_ok(&["bake", &s(&scene), "-o", &s(&rad), "--patches", "100"]);
+    for (name, text, needle) in [
+        ("malformed", "{\"materials\": [", "bad materials file"),
+        (
+            "unknown",
+            r#"{"materials":[{"object":"nothere","reflectance":[0.1,0.1,0.1]}]}"#,
+            "object `nothere` is not in the scene",
+        ),
+        (
+            "one",
+            r#"{"materials":[{"object":"left","reflectance":[1.0,0.1,0.1]}]}"#,
+            "in [0, 1)",
+        ),
+        (
+            "field",
+            r#"{"materials":[{"object":"left","albedo":[0.1,0.1,0.1]}]}"#,
+            "bad materials file",
+        ),
+    ] {
+        let path = d.join(format!("{name}.json"));
+        std::fs::write(&path, text).unwrap();
+        let out = radiosity(&["solve", &s(&rad), "--materials", &s(&path)]);
+        assert_one_line_error(&out, needle);
+    }
+    let out = radiosity(&[
+        "solve",
+        &s(&rad),
+        "--materials",
+        &s(&d.join("missing.json")),
+    ]);
+    assert_one_line_error(&out, "cannot read materials file");
+}
