@@ -73,13 +73,20 @@ pub(crate) fn load(path: &Path) -> anyhow::Result<Vec<MaterialEdit>> {
     parse(&text).with_context(|| format!("bad materials file {}", path.display()))
 }
 
+/// An edit resolved against a file: new reflectance per matrix patch and per object (by
+/// index into the file's objects).
+pub(crate) struct Resolved {
+    pub(crate) patches: Vec<(u32, Rgb)>,
+    pub(crate) objects: Vec<(u32, Rgb)>,
+}
+
 /// The patch edits (matrix patch, new reflectance) of `edits` on `file`, with the object
 /// indices edited. An object the file does not name is an error listing a few it does.
 pub(crate) fn patch_edits(
     file: &RadFile<'_>,
     shares: &ObjectShares<'_>,
     edits: &[MaterialEdit],
-) -> anyhow::Result<(Vec<(u32, Rgb)>, Vec<(u32, Rgb)>)> {
+) -> anyhow::Result<Resolved> {
     let mut objects = Vec::with_capacity(edits.len());
     for e in edits {
         let Some(o) = file.objects.iter().position(|n| n.as_ref() == e.object) else {
@@ -123,7 +130,10 @@ pub(crate) fn patch_edits(
             out.push((i as u32, Rgb::new(c(rho[0]), c(rho[1]), c(rho[2]))));
         }
     }
-    Ok((out, objects))
+    Ok(Resolved {
+        patches: out,
+        objects,
+    })
 }
 
 /// Each object's mean reflectance before the edit: over its full-detail triangles by area, or

@@ -149,9 +149,15 @@ fn edit_materials(
         .as_deref()
         .and_then(|r| serde_json::from_str(r).ok());
     let shares = ObjectShares::from_report(&file.patches, file.objects.len(), report.as_ref());
-    let (edits, objects) = crate::materials::patch_edits(file, &shares, materials)?;
-    let edit = ReflectanceEdit::new(&file.matrix, DecodeMode::D3d10, &file.patches, &edits)
-        .map_err(|e| anyhow::anyhow!("materials: {e}"))?;
+    let resolved = crate::materials::patch_edits(file, &shares, materials)?;
+    let objects = resolved.objects;
+    let edit = ReflectanceEdit::new(
+        &file.matrix,
+        DecodeMode::D3d10,
+        &file.patches,
+        &resolved.patches,
+    )
+    .map_err(|e| anyhow::anyhow!("materials: {e}"))?;
     edit.apply_to(file.patches.to_mut());
     if let Some(mesh) = &mut file.mesh {
         for t in mesh.triangles.to_mut() {

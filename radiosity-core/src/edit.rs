@@ -83,8 +83,8 @@ impl fmt::Display for EditError {
 impl std::error::Error for EditError {}
 
 /// A reflectance edit of some patches, prepared against one matrix: the edited patches, their
-/// change of reflectance, and per channel the LU factors of `I − M_SS·D` (f64, partial
-/// pivoting; `k × k`).
+/// change of reflectance, and per channel the LU factors of `I − M_SS·D` (`k × k`, partial
+/// pivoting; factored in f64, kept in f32).
 #[derive(Clone, Debug)]
 pub struct ReflectanceEdit {
     n: usize,
@@ -95,7 +95,7 @@ pub struct ReflectanceEdit {
     /// Δρ of each.
     delta: Vec<Rgb>,
     /// Per colour channel: the LU factors (row-major `k × k`) and the row permutation.
-    lu: [(Vec<f64>, Vec<usize>); 3],
+    lu: [(Vec<f32>, Vec<usize>); 3],
 }
 
 impl ReflectanceEdit {
@@ -171,7 +171,9 @@ impl ReflectanceEdit {
                     a[i * k + j] = f64::from(u8::from(i == j)) - m * f64::from(delta[j].channel(c));
                 }
             }
-            lu_factor(&mut a, k).map(|piv| (a, piv))
+            // Factored in f64, kept in f32: a frame reads the factors once (k² per channel),
+            // and f32 halves what it reads; the solve still sums in f64.
+            lu_factor(&mut a, k).map(|piv| (a.iter().map(|&v| v as f32).collect(), piv))
         });
         let [l0, l1, l2] = lu;
         Ok(ReflectanceEdit {
@@ -217,7 +219,7 @@ impl ReflectanceEdit {
     /// Bytes the edit holds: the LU factors and the lists.
     pub fn bytes(&self) -> usize {
         let k = self.patches.len();
-        3 * (k * k * 8 + k * 8) + k * (4 + 2 * 12)
+        3 * (k * k * 4 + k * 8) + k * (4 + 2 * 12)
     }
 
     /// Turns `gathered = (M·x')` (the gather of the first exitance under the new reflectance)
@@ -376,7 +378,7 @@ fn lu_factor(a: &mut [f64], k: usize) -> Option<Vec<usize>> {
 
 /// Solves `A·x = b` in place with [`lu_factor`]'s factors: `k²` multiply-adds, row by row as
 /// contiguous dot products.
-fn lu_solve(lu: &[f64], piv: &[usize], k: usize, b: &mut [f64]) {
+fn lu_solve(lu: &[f32], piv: &[usize], k: usize, b: &mut [f64]) {
     let mut x: Vec<f64> = piv.iter().map(|&p| b[p]).collect();
     for i in 0..k {
         let row = &lu[i * k..(i + 1) * k];
@@ -384,23 +386,23 @@ fn lu_solve(lu: &[f64], piv: &[usize], k: usize, b: &mut [f64]) {
     }
     for i in (0..k).rev() {
         let row = &lu[i * k..(i + 1) * k];
-        x[i] = (x[i] - dot(&row[i + 1..], &x[i + 1..])) / row[i];
+        x[i] = (x[i] - dot(&row[i + 1..], &x[i + 1..])) / f64::from(row[i]);
     }
     b.copy_from_slice(&x);
 }
 
 /// `Σ a_i·b_i` in four interleaved partial sums (which the compiler can keep in one vector
 /// register; the order is fixed, so the result is the same on every run).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+fn dot(a: &[f32], b: &[f64]) -> f64 {
     let mut acc = [0f64; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
     let (ra, rb) = (ca.remainder(), cb.remainder());
     for (x, y) in ca.zip(cb) {
         for l in 0..4 {
-            acc[l] += x[l] * y[l];
+            acc[l] += f64::from(x[l]) * y[l];
         }
     }
-    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| f64::from(*x) * y).sum();
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
@@ -413,6 +415,7 @@ mod tests {
         // [[0, 2], [3, 1]] x = [4, 5] → x = [1, 2]; the zero pivot forces a swap.
         let mut a = vec![0.0, 2.0, 3.0, 1.0];
         let piv = lu_factor(&mut a, 2).unwrap();
+        let a: Vec<f32> = a.iter().map(|&v| v as f32).collect();
         let mut b = vec![4.0, 5.0];
         lu_solve(&a, &piv, 2, &mut b);
         assert!(
