@@ -27,6 +27,7 @@ mod materials;
 mod output;
 mod pathtrace;
 mod picture;
+mod points;
 mod progress;
 mod render;
 mod report;
@@ -104,8 +105,13 @@ enum Command {
         /// [0, 1).
         #[arg(long, value_name = "EDITS.json")]
         materials: Option<PathBuf>,
+        /// Points at which to report the total irradiance (JSON): {"points": [{"position":
+        /// [x,y,z], "normal": [x,y,z]}]}; a point inside an object or outside the scene is
+        /// reported as such.
+        #[arg(long, value_name = "POINTS.json")]
+        points: Option<PathBuf>,
         /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"},
-        /// and "materials" with --materials.
+        /// "materials" with --materials, "points" with --points.
         #[arg(long)]
         json: bool,
     },
@@ -292,13 +298,17 @@ fn main() -> ExitCode {
             lights,
             backend,
             materials,
+            points,
             json,
         } => solve::run(
             &input,
             &bake,
-            lights.as_deref(),
+            solve::Inputs {
+                lights: lights.as_deref(),
+                materials: materials.as_deref(),
+                points: points.as_deref(),
+            },
             backend.as_deref(),
-            materials.as_deref(),
             json,
         ),
         Command::Demo {

@@ -55,6 +55,8 @@ const CHUNK: usize = 256;
 
 /// Random-number streams, so objects and the image never share samples.
 const RENDER_STREAM: u64 = u64::MAX;
+/// Streams of the point queries: `POINT_STREAM ^ point`, apart from objects' and the image's.
+const POINT_STREAM: u64 = 1 << 62;
 
 /// One triangle as the tracer needs it.
 #[derive(Clone, Copy, Debug)]
@@ -440,6 +442,37 @@ impl PathTracer {
             l[c] = (t.emission[c] + t.rho[c] * h[c]) / PI;
         }
         l
+    }
+
+    /// Irradiance at each `(point, unit normal)` with `samples` paths a point: the mean and its
+    /// standard error per channel. A point inside a closed object sees its back faces, which
+    /// are black: it reads (near) zero.
+    pub(crate) fn point_irradiance(
+        &self,
+        points: &[(DVec3, DVec3)],
+        samples: usize,
+        seed: u64,
+    ) -> Vec<([f64; 3], [f64; 3])> {
+        points
+            .par_iter()
+            .enumerate()
+            .map(|(k, &(x, n))| {
+                let (mut sum, mut sq) = ([0.0; 3], [0.0; 3]);
+                for i in 0..samples {
+                    let mut rng = sample_rng(seed, POINT_STREAM ^ k as u64, i as u64);
+                    let h = self.irradiance_at(x, n, &mut rng);
+                    for c in 0..3 {
+                        sum[c] += h[c];
+                        sq[c] += h[c] * h[c];
+                    }
+                }
+                let m = samples as f64;
+                let mean = sum.map(|v| v / m);
+                let stderr = [0, 1, 2]
+                    .map(|c| ((sq[c] / m - mean[c] * mean[c]).max(0.0) / (m - 1.0)).sqrt());
+                (mean, stderr)
+            })
+            .collect()
     }
 
     /// One-path estimate of the irradiance at `x` on the front of a surface with unit normal `n`.

@@ -42,7 +42,7 @@ pub(crate) struct Primary {
 }
 
 /// Patch centres bucketed in a grid of cells of the kernel radius.
-struct PatchGrid {
+pub(crate) struct PatchGrid {
     cell: f64,
     radius: f64,
     /// Half the patch size: how far off a hit's plane a patch centre may lie.
@@ -54,7 +54,7 @@ struct PatchGrid {
 const SAME_SURFACE_COS: f64 = 0.8;
 
 impl PatchGrid {
-    fn new(patches: &[radiosity_core::Patch]) -> Self {
+    pub(crate) fn new(patches: &[radiosity_core::Patch]) -> Self {
         let mut areas: Vec<f32> = patches.iter().map(|p| p.area).collect();
         areas.sort_by(f32::total_cmp);
         let h = f64::from(areas.get(areas.len() / 2).copied().unwrap_or(1.0))
@@ -79,7 +79,7 @@ impl PatchGrid {
 
     /// Kernel weights `area·(1 − d²/r²)²` of the patches near `point` on the surface with unit
     /// `normal`, normalised; appended to `out`. Returns whether any patch was near.
-    fn weights(
+    pub(crate) fn weights(
         &self,
         patches: &[radiosity_core::Patch],
         point: DVec3,

@@ -14,20 +14,27 @@ use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Instant;
 
+/// The files `solve` reads besides its input.
+pub(crate) struct Inputs<'a> {
+    pub(crate) lights: Option<&'a Path>,
+    pub(crate) materials: Option<&'a Path>,
+    pub(crate) points: Option<&'a Path>,
+}
+
 pub(crate) fn run(
     input: &Path,
     args: &BakeArgs,
-    lights: Option<&Path>,
+    inputs: Inputs<'_>,
     backend: Option<&str>,
-    materials: Option<&Path>,
     json_out: bool,
 ) -> anyhow::Result<()> {
-    // Read the lights and the edits first: a bad file fails before any bake.
-    let lights = match lights {
+    // Read the lights, edits and points first: a bad file fails before any bake.
+    let lights = match inputs.lights {
         Some(p) => crate::lights::load(p)?,
         None => Vec::new(),
     };
-    let materials = materials.map(crate::materials::load).transpose()?;
+    let materials = inputs.materials.map(crate::materials::load).transpose()?;
+    let points = inputs.points.map(crate::points::load).transpose()?;
     let crate::runtime::Loaded {
         mut runtime,
         effects,
@@ -77,6 +84,15 @@ pub(crate) fn run(
     crate::runtime::ensure_finite(&h, &b)?;
 
     let objects = per_object(file, &h, &b, &direct, &at_samples);
+    let answers = match &points {
+        Some(points) => {
+            let t = Instant::now();
+            let a = crate::points::answer(&runtime, &y, &lights, points)?;
+            timings.insert("points", t.elapsed().as_secs_f64() * 1e3);
+            Some(points.iter().zip(a).collect::<Vec<_>>())
+        }
+        None => None,
+    };
     if json_out {
         let out = json!({
             "patches": n,
@@ -91,6 +107,13 @@ pub(crate) fn run(
         let mut out = out;
         if let Some(m) = edit_json {
             out["materials"] = m;
+        }
+        if let Some(answers) = &answers {
+            out["points"] = answers
+                .iter()
+                .map(|(p, a)| point_json(p, *a))
+                .collect::<Vec<_>>()
+                .into();
         }
         outln!("{}", serde_json::to_string_pretty(&out)?);
     } else {
@@ -126,9 +149,52 @@ pub(crate) fn run(
             );
         }
     }
+    if let (false, Some(answers)) = (json_out, &answers) {
+        outln!(
+            "{:<44} {:>36}",
+            "point (position; normal)",
+            "irradiance W/m² (r g b)"
+        );
+        for (p, a) in answers {
+            let q = p.position;
+            let n = p.given_normal;
+            let what = match a {
+                crate::points::Answer::Irradiance(e) => {
+                    format!("{:>11.4} {:>11.4} {:>11.4}", e.r, e.g, e.b)
+                }
+                crate::points::Answer::Inside => "inside an object".into(),
+                crate::points::Answer::Outside => "outside the scene".into(),
+            };
+            outln!(
+                "{:<44} {:>36}",
+                format!(
+                    "[{:.3}, {:.3}, {:.3}]; [{:.2}, {:.2}, {:.2}]",
+                    q.x, q.y, q.z, n.x, n.y, n.z
+                ),
+                what
+            );
+        }
+    }
     // After the results, as every warning: a failure stays the one `error:` line.
     crate::runtime::warn_if_unlit(&runtime, &lights);
     Ok(())
+}
+
+/// A point's entry in `solve --json`: `irradiance` null and `status` saying why for a point
+/// inside an object or outside the scene.
+fn point_json(p: &crate::points::Point, a: crate::points::Answer) -> Value {
+    use crate::points::Answer;
+    let (irradiance, status) = match a {
+        Answer::Irradiance(e) => (json!([e.r, e.g, e.b]), "ok"),
+        Answer::Inside => (Value::Null, "inside an object"),
+        Answer::Outside => (Value::Null, "outside the scene"),
+    };
+    json!({
+        "position": p.position.to_array(),
+        "normal": p.given_normal.to_array(),
+        "irradiance": irradiance,
+        "status": status,
+    })
 }
 
 /// Prepares the reflectance edit of `materials` on the runtime's file and sets the new

@@ -51,6 +51,11 @@ pub(crate) struct PathtraceArgs {
     /// scene)
     #[arg(long, value_name = "R")]
     max_reflectance: Option<f64>,
+    /// Points at which to estimate the irradiance, `--samples` paths each (JSON, as `solve
+    /// --points`); `--json` then gains "points": [{"position", "normal", "irradiance",
+    /// "stderr"}].
+    #[arg(long, value_name = "POINTS.json")]
+    points: Option<std::path::PathBuf>,
 }
 
 pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
@@ -89,6 +94,11 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
         Some(p) => crate::lights::load(p)?,
         None => Vec::new(),
     };
+    let points = args
+        .points
+        .as_deref()
+        .map(crate::points::load)
+        .transpose()?;
 
     let mut timings = serde_json::Map::new();
     let mut lap = |name: &str, t: Instant| {
@@ -107,6 +117,13 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     let t = Instant::now();
     let objects = tracer.object_irradiance(args.samples, args.seed);
     lap("objects", t);
+    let point_estimates = points.as_ref().map(|points| {
+        let t = Instant::now();
+        let at: Vec<_> = points.iter().map(|p| (p.position, p.normal)).collect();
+        let e = tracer.point_irradiance(&at, args.samples, args.seed);
+        lap("points", t);
+        e
+    });
 
     let mut image = serde_json::Value::Null;
     if let Some(out) = &args.output {
@@ -137,6 +154,22 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
             "image": image,
             "timings_ms": timings,
         });
+        let mut out = out;
+        if let (Some(points), Some(estimates)) = (&points, &point_estimates) {
+            out["points"] = points
+                .iter()
+                .zip(estimates)
+                .map(|(p, (h, se))| {
+                    json!({
+                        "position": p.position.to_array(),
+                        "normal": p.given_normal.to_array(),
+                        "irradiance": h,
+                        "stderr": se,
+                    })
+                })
+                .collect::<Vec<_>>()
+                .into();
+        }
         outln!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         outln!(
@@ -167,6 +200,23 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
                 h.join(" "),
                 b.join(" ")
             );
+        }
+        if let (Some(points), Some(estimates)) = (&points, &point_estimates) {
+            for (p, (h, se)) in points.iter().zip(estimates) {
+                let q = p.position;
+                outln!(
+                    "point [{:.3}, {:.3}, {:.3}]: {:.4} ±{:.2e} {:.4} ±{:.2e} {:.4} ±{:.2e}",
+                    q.x,
+                    q.y,
+                    q.z,
+                    h[0],
+                    se[0],
+                    h[1],
+                    se[1],
+                    h[2],
+                    se[2]
+                );
+            }
         }
         if let Some(out) = &args.output {
             outln!("image: {}", out.display());

@@ -10,6 +10,7 @@ mod ux;
 
 mod parts;
 mod pathtrace;
+mod points;
 mod runtime;
 mod solve_physics;
 

@@ -1,0 +1,211 @@
+//! The points file (`solve --points`, `docs/contract.md`) and the total irradiance at each
+//! point: `{"points":[{"position":[x,y,z],"normal":[x,y,z]}]}`.
+//!
+//! At a point facing `normal`: the direct light of the analytic lights (shadow rays, as at a
+//! patch) plus what the surfaces send, gathered over the hemisphere by [`RAYS`]
+//! cosine-weighted rays, stratified. Each ray's first surface shows its radiosity as `render`
+//! shades a pixel: `s·E + ρ∘(H_d + y)`, with `H_d` from shadow rays at the hit and `y` (the
+//! frame's gathered irradiance) interpolated from the patches around the hit. With
+//! cosine-weighted rays the irradiance is the mean of those radiosities. This is a final
+//! gather at the point, exact up to the frame's patch resolution and the rays' noise; it
+//! costs [`RAYS`] rays (and a shadow ray per light at each hit) a point, so it answers queries
+//! rather than lighting moving objects every frame.
+//!
+//! A point whose rays mostly meet the backs of faces is inside an object, and one outside the
+//! bounding box of the scene's mesh is outside it: both are answered as such, without a figure.
+
+use crate::render::PatchGrid;
+use crate::runtime::Runtime;
+use anyhow::{Context, bail};
+use glam::{DVec3, Vec3};
+use radiosity_bake::rng::SplitMix64;
+use radiosity_core::{Light, Rgb};
+use rayon::prelude::*;
+use serde::Deserialize;
+use std::path::Path;
+
+/// Hemisphere rays a point: 64 × 64 strata, one jittered ray in each.
+pub(crate) const RAYS: usize = 64 * 64;
+
+/// Share of rays meeting back faces above which a point is inside an object.
+const INSIDE_SHARE: f64 = 0.5;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PointsFile {
+    points: Vec<Entry>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Entry {
+    position: [f64; 3],
+    normal: [f64; 3],
+}
+
+/// A query point with its unit normal (as given, normalised).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Point {
+    pub(crate) position: DVec3,
+    pub(crate) normal: DVec3,
+    /// The normal as given.
+    pub(crate) given_normal: DVec3,
+}
+
+/// What a point is answered with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Answer {
+    /// Total irradiance, W/m².
+    Irradiance(Rgb),
+    /// The point lies inside an object (most of its rays meet back faces).
+    Inside,
+    /// The point lies outside the scene's bounding box.
+    Outside,
+}
+
+/// Parses a points file's text.
+pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Point>> {
+    let file: PointsFile = serde_json::from_str(text).context("not a points file")?;
+    file.points
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let (p, n) = (DVec3::from(e.position), DVec3::from(e.normal));
+            if !p.is_finite() || !n.is_finite() {
+                bail!("point {i}: position and normal must be finite");
+            }
+            let len = n.length();
+            if !(len > 1e-12) {
+                bail!(
+                    "point {i}: normal [{}, {}, {}] has zero length",
+                    n.x,
+                    n.y,
+                    n.z
+                );
+            }
+            Ok(Point {
+                position: p,
+                normal: n / len,
+                given_normal: n,
+            })
+        })
+        .collect()
+}
+
+/// Reads and parses a points file.
+pub(crate) fn load(path: &Path) -> anyhow::Result<Vec<Point>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read points file {}", path.display()))?;
+    parse(&text).with_context(|| format!("bad points file {}", path.display()))
+}
+
+/// A cosine-weighted direction about the unit normal `n` from `(u1, u2)` in [0, 1)².
+fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
+    let r = u1.sqrt();
+    let phi = 2.0 * std::f64::consts::PI * u2;
+    let z = (1.0 - u1).max(0.0).sqrt();
+    let (t1, t2) = n.any_orthonormal_pair();
+    (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * z).normalize()
+}
+
+/// The answer at every point for a frame whose gathered irradiance is `gathered` (file
+/// numbering) under `lights`. The file needs its mesh.
+pub(crate) fn answer(
+    rt: &Runtime,
+    gathered: &[Rgb],
+    lights: &[Light],
+    points: &[Point],
+) -> anyhow::Result<Vec<Answer>> {
+    let mesh = rt.mesh("--points")?;
+    let occ = rt.occluders().expect("a mesh has a BVH");
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in mesh.positions.iter() {
+        let p = Vec3::from(*p).as_dvec3();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    // A point on the box's faces (a floor at y = 0) is inside it.
+    let slack = 1e-9 * (hi - lo).max_element().max(1e-300);
+    let grid = PatchGrid::new(&rt.file.patches);
+    let side = (RAYS as f64).sqrt() as usize;
+    Ok(points
+        .par_iter()
+        .enumerate()
+        .map(|(k, q)| {
+            let (p, n) = (q.position, q.normal);
+            if p.cmplt(lo - slack).any() || p.cmpgt(hi + slack).any() {
+                return Answer::Outside;
+            }
+            let mut rng = SplitMix64(0x5eed ^ k as u64);
+            let (mut sum, mut backs) = (Rgb::ZERO, 0usize);
+            let mut weights = Vec::new();
+            for s in 0..side * side {
+                let u1 = ((s % side) as f64 + rng.next_f64()) / side as f64;
+                let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
+                let dir = cosine_direction(n, u1, u2);
+                let Some((hit, front)) = occ.first_surface(p, dir, 0.0, f64::INFINITY) else {
+                    continue; // the sky sends nothing
+                };
+                if !front {
+                    backs += 1;
+                    continue; // the back of a one-sided surface sends nothing
+                }
+                let t = hit.triangle as usize;
+                let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
+                let normal = (b - a).cross(c - a).normalize_or_zero();
+                let at = p + dir * hit.distance;
+                weights.clear();
+                if !grid.weights(&rt.file.patches, at, normal, &mut weights) {
+                    let bary = [1.0 - hit.u - hit.v, hit.u, hit.v];
+                    for (corner, bc) in bary.into_iter().enumerate() {
+                        for e in mesh.corner(t, corner) {
+                            weights.push((e.patch, bc * e.weight));
+                        }
+                    }
+                }
+                let mut y = Rgb::ZERO;
+                for &(i, w) in &weights {
+                    y += gathered[i as usize] * w;
+                }
+                let tri = &mesh.triangles[t];
+                let direct = rt.direct_at(lights, at, normal);
+                sum += tri.emission + tri.reflectance * (direct + y);
+            }
+            if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
+                return Answer::Inside;
+            }
+            let e = sum * (1.0 / (side * side) as f32) + rt.direct_at(lights, p, n);
+            Answer::Irradiance(e)
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_and_refuses_with_the_reason() {
+        let p = parse(r#"{"points":[{"position":[1,2,3],"normal":[0,2,0]}]}"#).unwrap();
+        assert_eq!(p[0].position, DVec3::new(1.0, 2.0, 3.0));
+        assert_eq!(p[0].normal, DVec3::Y);
+        for (text, needle) in [
+            ("[", "not a points file"),
+            (
+                r#"{"points":[{"position":[0,0,0],"normal":[0,0,0]}]}"#,
+                "zero length",
+            ),
+            (
+                r#"{"points":[{"position":[0,0],"normal":[0,1,0]}]}"#,
+                "not a points file",
+            ),
+            (
+                r#"{"points":[{"position":[0,0,0],"normal":[0,1,0],"x":1}]}"#,
+                "not a points file",
+            ),
+        ] {
+            let err = format!("{:#}", parse(text).unwrap_err());
+            assert!(err.contains(needle), "{text}: {err}");
+        }
+    }
+}
