@@ -56,3 +56,23 @@ pub(crate) fn open(
     let pair = pollster::block_on(adapter.request_device(descriptor))?;
     Ok(SerialDevice { inner: Some(pair) })
 }
+
+/// Maps `buffer` (with `MAP_READ`, its copy already submitted) for reading and waits for it;
+/// `what` names the failure.
+pub(crate) fn map_read_and_wait(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    what: &str,
+) -> Result<(), crate::GpuError> {
+    use crate::GpuError;
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuError::Device(format!("{what}: {e}")))?;
+    rx.recv()
+        .map_err(|_| GpuError::Device(format!("{what}: the readback callback never ran")))?
+        .map_err(|e| GpuError::Device(format!("{what}: readback failed: {e}")))
+}

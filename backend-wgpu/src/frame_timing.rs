@@ -8,7 +8,6 @@ use crate::{
     CornerBuffers, CornerPass, DecodePath, GpuError, GpuOptions, HostGather, HostGatherBuffers,
 };
 use radiosity_core::{Mesh, Rgb, TransferMatrix};
-use std::sync::mpsc;
 use std::time::Instant;
 
 /// One frame of [`HostGather`] plus [`CornerPass`] on one adapter, medians over the frames.
@@ -121,16 +120,7 @@ pub fn time_host_frame(
                 .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
             continue;
         }
-        let (tx, rx) = mpsc::channel();
-        readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
-        rx.recv()
-            .map_err(|_| GpuError::Device(format!("{info}: the readback callback never ran")))?
-            .map_err(|e| GpuError::Device(format!("{info}: readback failed: {e}")))?;
+        device::map_read_and_wait(device, &readback, &info.to_string())?;
         {
             let view = readback
                 .get_mapped_range(..)

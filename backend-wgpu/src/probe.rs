@@ -101,16 +101,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
     }
     enc.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
     queue.submit([enc.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    read.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
-    rx.recv()
-        .map_err(|_| GpuError::Device("probe readback never ran".into()))?
-        .map_err(|e| GpuError::Device(format!("probe readback: {e}")))?;
+    crate::device::map_read_and_wait(device, &read, &format!("{info}: probe"))?;
     let view = read
         .get_mapped_range(..)
         .map_err(|e| GpuError::Device(format!("probe readback: {e}")))?;

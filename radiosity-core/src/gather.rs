@@ -64,33 +64,30 @@ pub trait Gather {
     fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError>;
 }
 
-impl<G: Gather + ?Sized> Gather for alloc::boxed::Box<G> {
-    fn name(&self) -> &str {
-        (**self).name()
-    }
+/// A boxed or borrowed gather gathers as the gather it points to.
+macro_rules! forward_gather {
+    ($($ty:ty),*) => {$(
+        impl<G: Gather + ?Sized> Gather for $ty {
+            fn name(&self) -> &str {
+                (**self).name()
+            }
 
-    fn patches(&self) -> usize {
-        (**self).patches()
-    }
+            fn patches(&self) -> usize {
+                (**self).patches()
+            }
 
-    fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
-        (**self).gather(exitance, irradiance)
-    }
+            fn gather(
+                &mut self,
+                exitance: &[Rgb],
+                irradiance: &mut [Rgb],
+            ) -> Result<(), GatherError> {
+                (**self).gather(exitance, irradiance)
+            }
+        }
+    )*};
 }
 
-impl<G: Gather + ?Sized> Gather for &mut G {
-    fn name(&self) -> &str {
-        (**self).name()
-    }
-
-    fn patches(&self) -> usize {
-        (**self).patches()
-    }
-
-    fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
-        (**self).gather(exitance, irradiance)
-    }
-}
+forward_gather!(alloc::boxed::Box<G>, &mut G);
 
 /// Checks the slices a gather is given; shared by every backend.
 pub fn check_gather_args(
