@@ -130,6 +130,20 @@ fn bench_json_has_every_method_with_sane_values() {
         let expect = num(against, "ms") / num("cpu-bc1", "ms");
         assert!((s - expect).abs() <= 1e-9 * expect, "{s} vs {expect}");
     }
+    // The host-device frame, on every adapter that runs it: CI has lavapipe, whose Vulkan
+    // adapter has timestamps; each frame records the gather and the box's corner pass.
+    let frames = v["host_frames"].as_array().unwrap();
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        assert!(!frames.is_empty(), "no host-device frame under CI");
+    }
+    for f in frames {
+        assert_eq!(f["format"], "bc1", "{f}");
+        assert!(f["corners"].as_u64().unwrap() >= 3, "{f}");
+        assert!(f["record_ms"].as_f64().unwrap() > 0.0, "{f}");
+        for k in ["gather_ms", "corners_ms"] {
+            assert!(f[k].is_null() || f[k].as_f64().unwrap() > 0.0, "{f}");
+        }
+    }
     let roof = &v["roofline"];
     assert!(roof["bandwidth_gb_s"].as_f64().unwrap() > 0.1, "{roof}");
     assert!(roof["fma_gflop_s"].as_f64().unwrap() > 0.01, "{roof}");
