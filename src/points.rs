@@ -2,11 +2,14 @@
 //! point: `{"points":[{"position":[x,y,z],"normal":[x,y,z]}]}`.
 //!
 //! At a point facing `normal`: the direct light of the analytic lights (shadow rays, as at a
-//! patch) plus what the surfaces send, gathered over the hemisphere by [`RAYS`]
-//! cosine-weighted rays, stratified. Each ray's first surface shows its radiosity as `render`
-//! shades a pixel: `s·E + ρ∘(H_d + y)`, with `H_d` from shadow rays at the hit and `y` (the
-//! frame's gathered irradiance) interpolated from the patches around the hit. With
-//! cosine-weighted rays the irradiance is the mean of those radiosities. This is a final
+//! patch), the direct light of the emitting surfaces ([`EMITTER_SAMPLES`] shadow rays to points
+//! on them, stratified over a pick in proportion to their power), and the light the surfaces
+//! reflect, gathered over the hemisphere by [`RAYS`] cosine-weighted rays, stratified. Each
+//! ray's first surface shows its reflected radiosity as `render` shades a pixel: `ρ∘(H_d + y)`,
+//! with `H_d` from shadow rays at the hit and `y` (the frame's gathered irradiance)
+//! interpolated from the patches around the hit. With cosine-weighted rays that irradiance is
+//! the mean of those radiosities. A small bright emitter met by the gather's rays instead
+//! would be a few dozen of them, a noise of several per cent. This is a final
 //! gather at the point, exact up to the frame's patch resolution and the rays' noise; it
 //! costs [`RAYS`] rays (and a shadow ray per light at each hit) a point, so it answers queries
 //! rather than lighting moving objects every frame.
@@ -26,6 +29,9 @@ use std::path::Path;
 
 /// Hemisphere rays a point: 64 × 64 strata, one jittered ray in each.
 pub(crate) const RAYS: usize = 64 * 64;
+
+/// Shadow rays a point to the emitting surfaces.
+pub(crate) const EMITTER_SAMPLES: usize = 1024;
 
 /// Share of rays meeting back faces above which a point is inside an object.
 const INSIDE_SHARE: f64 = 0.5;
@@ -108,6 +114,81 @@ fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * z).normalize()
 }
 
+/// The mesh's emitting triangles with the cumulative sums of `area × mean exitance` (the pick).
+struct Emitters {
+    triangles: Vec<u32>,
+    cdf: Vec<f64>,
+}
+
+impl Emitters {
+    fn new(mesh: &radiosity_core::Mesh<'_>) -> Self {
+        let (mut triangles, mut cdf, mut total) = (Vec::new(), Vec::new(), 0.0);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let e = f64::from(tri.emission.mean());
+            if e > 0.0 {
+                let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
+                total += 0.5 * (b - a).cross(c - a).length() * e;
+                triangles.push(t as u32);
+                cdf.push(total);
+            }
+        }
+        Self { triangles, cdf }
+    }
+
+    /// Direct irradiance at `p` facing unit `n` from every emitting surface's front, with
+    /// shadow rays: `Σ L_e·cosθ_p·cosθ_e / r² / pdf` over stratified samples, `L_e = E/π`.
+    fn irradiance_at(
+        &self,
+        rt: &Runtime,
+        mesh: &radiosity_core::Mesh<'_>,
+        p: DVec3,
+        n: DVec3,
+        rng: &mut SplitMix64,
+    ) -> Rgb {
+        let Some(&total) = self.cdf.last() else {
+            return Rgb::ZERO;
+        };
+        let occ = rt.occluders().expect("a mesh has a BVH");
+        let mut sum = [0f64; 3];
+        for s in 0..EMITTER_SAMPLES {
+            let u = (s as f64 + rng.next_f64()) / EMITTER_SAMPLES as f64 * total;
+            let k = self
+                .cdf
+                .partition_point(|&c| c <= u)
+                .min(self.cdf.len() - 1);
+            let t = self.triangles[k] as usize;
+            let tri = &mesh.triangles[t];
+            let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
+            let (r1, r2) = (rng.next_f64().sqrt(), rng.next_f64());
+            let y = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
+            let normal = (b - a).cross(c - a).normalize_or_zero();
+            let d = y - p;
+            let dist2 = d.length_squared();
+            if !(dist2 > 0.0) {
+                continue;
+            }
+            let dir = d / dist2.sqrt();
+            let (cos_p, cos_e) = (n.dot(dir), -normal.dot(dir));
+            if cos_p <= 0.0 || cos_e <= 0.0 || !occ.segment_visible(p, y) {
+                continue;
+            }
+            // pdf over area: mean(E_t) / total; L_e = E_t / π.
+            let g = cos_p * cos_e / dist2 * total
+                / f64::from(tri.emission.mean())
+                / std::f64::consts::PI;
+            for (ch, acc) in sum.iter_mut().enumerate() {
+                *acc += f64::from(tri.emission.channel(ch)) * g;
+            }
+        }
+        let m = EMITTER_SAMPLES as f64;
+        Rgb::new(
+            (sum[0] / m) as f32,
+            (sum[1] / m) as f32,
+            (sum[2] / m) as f32,
+        )
+    }
+}
+
 /// The answer at every point for a frame whose gathered irradiance is `gathered` (file
 /// numbering) under `lights`. The file needs its mesh.
 pub(crate) fn answer(
@@ -127,6 +208,7 @@ pub(crate) fn answer(
     // A point on the box's faces (a floor at y = 0) is inside it.
     let slack = 1e-9 * (hi - lo).max_element().max(1e-300);
     let grid = PatchGrid::new(&rt.file.patches);
+    let emitters = Emitters::new(mesh);
     let side = (RAYS as f64).sqrt() as usize;
     Ok(points
         .par_iter()
@@ -169,12 +251,15 @@ pub(crate) fn answer(
                 }
                 let tri = &mesh.triangles[t];
                 let direct = rt.direct_at(lights, at, normal);
-                sum += tri.emission + tri.reflectance * (direct + y);
+                // Emitted light is the emitters' own shadow rays' below.
+                sum += tri.reflectance * (direct + y);
             }
             if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
                 return Answer::Inside;
             }
-            let e = sum * (1.0 / (side * side) as f32) + rt.direct_at(lights, p, n);
+            let e = sum * (1.0 / (side * side) as f32)
+                + rt.direct_at(lights, p, n)
+                + emitters.irradiance_at(rt, mesh, p, n, &mut rng);
             Answer::Irradiance(e)
         })
         .collect())
