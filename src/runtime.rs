@@ -374,6 +374,7 @@ mod tests {
             lighting_error: None,
             report: None,
             mesh: Some(mesh),
+            probes: None,
         };
         file.validate().unwrap();
         Runtime::new(file)

@@ -37,11 +37,13 @@ pub enum SectionKind {
     CorrectionExponents = 14,
     /// `[u32; count · channels · 2]` block-correction nibbles.
     CorrectionCodes = 15,
+    /// Optional light probes ([`crate::probes::Probes`]).
+    Probes = 16,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 15] = [
+    pub const ALL: [SectionKind; 16] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -57,6 +59,7 @@ impl SectionKind {
         SectionKind::CorrectionCols,
         SectionKind::CorrectionExponents,
         SectionKind::CorrectionCodes,
+        SectionKind::Probes,
     ];
 
     /// The kind with this code.
@@ -74,6 +77,7 @@ impl SectionKind {
                 | SectionKind::CorrectionCols
                 | SectionKind::CorrectionExponents
                 | SectionKind::CorrectionCodes
+                | SectionKind::Probes
         )
     }
 
@@ -95,6 +99,7 @@ impl SectionKind {
             SectionKind::CorrectionCols => "CORRECTION_COLS",
             SectionKind::CorrectionExponents => "CORRECTION_EXPONENTS",
             SectionKind::CorrectionCodes => "CORRECTION_CODES",
+            SectionKind::Probes => "PROBES",
         }
     }
 }

@@ -50,6 +50,7 @@
 //!     lighting_error: None,
 //!     report: None,
 //!     mesh: None,
+//!     probes: None,
 //! };
 //! let bytes = file.to_bytes().unwrap();
 //! let parsed = RadFile::parse(&bytes).unwrap();
@@ -83,6 +84,7 @@ mod light;
 mod math;
 pub mod mesh;
 mod patch;
+pub mod probes;
 mod quantise;
 mod sparse;
 mod transfer;
@@ -106,6 +108,7 @@ pub use layout::{DEFAULT_MAX_TILE, Format, LayoutError, MatrixLayout, Tile};
 pub use light::{Light, LightError, ShadowRay, finish_frame, first_exitance};
 pub use mesh::{CornerLengthError, CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
 pub use patch::Patch;
+pub use probes::{ProbeWeight, Probes, SH_COEFFICIENTS, sh_irradiance};
 pub use quantise::{DEFAULT_SHIFT, LogScale};
 pub use sparse::SparseRows;
 pub use transfer::{BlockDecoder, BlockValues, TransferMatrix};

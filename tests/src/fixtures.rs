@@ -88,6 +88,28 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         lighting_error: None,
         report: Some(Cow::Borrowed("{\"note\":\"sample\"}")),
         mesh: Some(sample_mesh(n)),
+        probes: Some(sample_probes(n)),
+    }
+}
+
+/// Two valid probes for a file of `n ≥ 1` patches: the first weighs patches 0 and `n − 1`,
+/// the second none.
+pub fn sample_probes(n: usize) -> radiosity_core::Probes<'static> {
+    use radiosity_core::{ProbeWeight, SH_COEFFICIENTS};
+    let mut weights = vec![ProbeWeight {
+        patch: 0,
+        sh: [0.25; SH_COEFFICIENTS],
+    }];
+    if n > 1 {
+        weights.push(ProbeWeight {
+            patch: n as u32 - 1,
+            sh: [-0.125; SH_COEFFICIENTS],
+        });
+    }
+    radiosity_core::Probes {
+        positions: Cow::Owned(vec![[0.5, 0.5, 0.5], [0.25, 0.75, 0.5]]),
+        rows: Cow::Owned(vec![0, weights.len() as u32, weights.len() as u32]),
+        weights: Cow::Owned(weights),
     }
 }
 

@@ -396,6 +396,7 @@ fn second_half(
         lighting_error: measured.lighting_error.map(|e| e as f32),
         report: None,
         mesh: None,
+        probes: None,
     };
     let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
     file.mesh = Some(mesh);

@@ -32,6 +32,7 @@ pub use write::reseal;
 
 use crate::checksum::Crc32;
 use crate::mesh::Mesh;
+use crate::probes::Probes;
 use crate::{Patch, RadError, SectionKind, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
@@ -203,6 +204,8 @@ pub struct RadFile<'a> {
     pub report: Option<Cow<'a, str>>,
     /// The full-detail mesh, if the bake stored it (runtime lights, rendering).
     pub mesh: Option<Mesh<'a>>,
+    /// Light probes, if the bake stored them.
+    pub probes: Option<Probes<'a>>,
 }
 
 fn align(x: u64) -> u64 {
@@ -311,6 +314,9 @@ impl<'a> RadFile<'a> {
         if let Bounces::Finite(0) = self.bounces {
             return Err(bad(SectionKind::Meta, 0, "bounces must be at least 1"));
         }
+        if let Some(probes) = &self.probes {
+            probes.validate(n)?;
+        }
         if let Some(mesh) = &self.mesh {
             mesh.validate(n, self.objects.len())?;
         }
@@ -334,6 +340,7 @@ impl<'a> RadFile<'a> {
             lighting_error: self.lighting_error,
             report: self.report.map(|r| Cow::Owned(r.into_owned())),
             mesh: self.mesh.map(Mesh::into_owned),
+            probes: self.probes.map(Probes::into_owned),
         }
     }
 }

@@ -9,6 +9,7 @@ use super::{
 use crate::checksum::crc32;
 use crate::layout::{Format, MatrixLayout};
 use crate::mesh::Mesh;
+use crate::probes::Probes;
 use crate::{BlockCorrections, Patch, RadError, SectionKind, SparseRows, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
@@ -116,6 +117,9 @@ impl<'a> RadFile<'a> {
             report,
             mesh: sec(SectionKind::Mesh)
                 .map(|m| Mesh::from_bytes(m, n as usize))
+                .transpose()?,
+            probes: sec(SectionKind::Probes)
+                .map(Probes::from_bytes)
                 .transpose()?,
         };
         file.validate()?;

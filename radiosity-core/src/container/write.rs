@@ -5,6 +5,7 @@ use super::{
 };
 use crate::checksum::crc32;
 use crate::mesh::Mesh;
+use crate::probes::Probes;
 use crate::{RadError, SectionKind};
 use alloc::borrow::Cow;
 use alloc::string::String;
@@ -73,6 +74,10 @@ impl RadFile<'_> {
                 (SectionKind::CorrectionExponents, &c.exponents[..]),
                 (SectionKind::CorrectionCodes, bytemuck::cast_slice(&c.codes)),
             ]);
+        }
+        let probes = self.probes.as_ref().map(Probes::to_bytes);
+        if let Some(p) = &probes {
+            sections.push((SectionKind::Probes, p));
         }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());

@@ -156,6 +156,7 @@ pub fn rad_file_around(
         lighting_error: None,
         report: report.then_some(Cow::Borrowed("{\"fuzz\":true}")),
         mesh: None,
+        probes: None,
     }
 }
 

@@ -1,0 +1,244 @@
+//! Light probes a `.rad` file may carry (its optional PROBES section): points in the scene's
+//! empty space that hold, per matrix patch, what that patch's reflected radiosity adds to the
+//! radiance arriving there, as spherical harmonics up to order 2 (nine coefficients). Each
+//! frame `c = P·(B − E)` gives every probe's SH; [`sh_irradiance`] turns them into the
+//! irradiance for any normal. Emitted light is left out on purpose: a small bright emitter is
+//! a near-delta in direction, whose SH ring (`docs/decisions/probe-sh-order.md`); a runtime
+//! takes emitters' direct light at the query point, as it takes the analytic lights'.
+//!
+//! The weight of patch `j` in coefficient `lm` of a probe is `(1/π)·∫_{Ω_j} Y_lm(ω) dω` over
+//! the directions in which the probe sees the patch (radiance `L = B/π`). Real SH, in the
+//! order `Y00, Y1−1, Y10, Y11, Y2−2, Y2−1, Y20, Y21, Y22` with `Y1−1 ∝ y`, `Y10 ∝ z`,
+//! `Y11 ∝ x`.
+//!
+//! Section layout (little-endian, 4-byte aligned):
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | probes `m`, weights `w` (`u32` each) |
+//! | 12·m | positions `[f32; 3]` |
+//! | 4·(m+1) | weight row starts, one row per probe |
+//! | 40·w | [`ProbeWeight`]s: patch index and nine f32 coefficients |
+
+use crate::{RadError, Rgb, SectionKind};
+use alloc::borrow::Cow;
+use alloc::vec::Vec;
+use bytemuck::{Pod, Zeroable};
+
+/// SH coefficients a probe holds per channel (orders 0 to 2).
+pub const SH_COEFFICIENTS: usize = 9;
+
+/// One patch's weights in one probe.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ProbeWeight {
+    /// Patch index in the matrix numbering.
+    pub patch: u32,
+    /// `(1/π)·∫ Y_lm dω` over the directions the probe sees the patch in, per coefficient.
+    pub sh: [f32; SH_COEFFICIENTS],
+}
+
+/// The probes, borrowing from the file where aligned.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Probes<'a> {
+    /// Probe positions, scene units.
+    pub positions: Cow<'a, [[f32; 3]]>,
+    /// Weight row starts (`probes + 1`).
+    pub rows: Cow<'a, [u32]>,
+    /// Weights, each probe's patches in increasing order.
+    pub weights: Cow<'a, [ProbeWeight]>,
+}
+
+fn invalid(index: usize, reason: &'static str) -> RadError {
+    RadError::Invalid {
+        section: SectionKind::Probes,
+        index: index as u64,
+        reason,
+    }
+}
+
+/// The real SH basis up to order 2 at the unit direction `d`.
+pub fn sh_basis(d: [f32; 3]) -> [f32; SH_COEFFICIENTS] {
+    let [x, y, z] = d;
+    [
+        0.282_094_8,
+        0.488_602_5 * y,
+        0.488_602_5 * z,
+        0.488_602_5 * x,
+        1.092_548_4 * x * y,
+        1.092_548_4 * y * z,
+        0.315_391_57 * (3.0 * z * z - 1.0),
+        1.092_548_4 * x * z,
+        0.546_274_2 * (x * x - y * y),
+    ]
+}
+
+/// Irradiance on a surface with unit normal `n` from radiance SH `c` (Ramamoorthi & Hanrahan
+/// 2001: the clamped cosine's SH `Â_0 = π`, `Â_1 = 2π/3`, `Â_2 = π/4`).
+pub fn sh_irradiance(c: &[Rgb; SH_COEFFICIENTS], n: [f32; 3]) -> Rgb {
+    use core::f32::consts::PI;
+    let a = [
+        PI,
+        2.0 * PI / 3.0,
+        2.0 * PI / 3.0,
+        2.0 * PI / 3.0,
+        PI / 4.0,
+        PI / 4.0,
+        PI / 4.0,
+        PI / 4.0,
+        PI / 4.0,
+    ];
+    let y = sh_basis(n);
+    let mut e = Rgb::ZERO;
+    for k in 0..SH_COEFFICIENTS {
+        e += c[k] * (a[k] * y[k]);
+    }
+    e
+}
+
+impl<'a> Probes<'a> {
+    /// Probes held.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// The weights of probe `p`.
+    pub fn weights_of(&self, p: usize) -> &[ProbeWeight] {
+        &self.weights[self.rows[p] as usize..self.rows[p + 1] as usize]
+    }
+
+    /// Every probe's radiance SH from the patches' reflected radiosity `reflected` (`B − E`,
+    /// one entry per matrix patch): `out[p] = Σ_j w_pj·reflected_j`. Panics if `reflected`
+    /// or `out` has the wrong length (a programming error).
+    pub fn gather(&self, reflected: &[Rgb], out: &mut [[Rgb; SH_COEFFICIENTS]]) {
+        assert_eq!(out.len(), self.len(), "one entry per probe");
+        for (p, o) in out.iter_mut().enumerate() {
+            *o = [Rgb::ZERO; SH_COEFFICIENTS];
+            for w in self.weights_of(p) {
+                let b = reflected[w.patch as usize];
+                for k in 0..SH_COEFFICIENTS {
+                    o[k] += b * w.sh[k];
+                }
+            }
+        }
+    }
+
+    /// Checks every index and value against a file of `patches` patches.
+    pub fn validate(&self, patches: usize) -> Result<(), RadError> {
+        let m = self.positions.len();
+        if m > (u32::MAX as usize - 1) || self.weights.len() > u32::MAX as usize {
+            return Err(invalid(0, "probes too large"));
+        }
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(invalid(i, "probe position is NaN or infinite"));
+        }
+        if self.rows.len() != m + 1 {
+            return Err(RadError::Count {
+                section: SectionKind::Probes,
+                expected: m as u64 + 1,
+                found: self.rows.len() as u64,
+            });
+        }
+        if self.rows[0] != 0 {
+            return Err(invalid(0, "probe rows do not start at 0"));
+        }
+        if let Some(i) = self.rows.windows(2).position(|w| w[1] < w[0]) {
+            return Err(invalid(i + 1, "probe rows decrease"));
+        }
+        if self.rows[m] as usize != self.weights.len() {
+            return Err(invalid(m, "probe rows do not end at the weight count"));
+        }
+        for p in 0..m {
+            let row = self.weights_of(p);
+            for (i, w) in row.iter().enumerate() {
+                let at = self.rows[p] as usize + i;
+                if w.patch as usize >= patches {
+                    return Err(invalid(at, "probe weight patch index out of range"));
+                }
+                if i > 0 && row[i - 1].patch >= w.patch {
+                    return Err(invalid(at, "probe weight patches not increasing"));
+                }
+                if !w.sh.iter().all(|v| v.is_finite()) {
+                    return Err(invalid(at, "probe weight is NaN or infinite"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The section's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        out.extend_from_slice(&(self.positions.len() as u32).to_le_bytes());
+        out.extend_from_slice(&(self.weights.len() as u32).to_le_bytes());
+        out.extend_from_slice(bytemuck::cast_slice(&self.positions));
+        out.extend_from_slice(bytemuck::cast_slice(&self.rows));
+        out.extend_from_slice(bytemuck::cast_slice(&self.weights));
+        out
+    }
+
+    /// Splits the section bytes, checking the length against the counts. Values are checked
+    /// by [`Self::validate`].
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, RadError> {
+        let short = |expected: u64| RadError::SectionLength {
+            kind: SectionKind::Probes,
+            expected,
+            found: bytes.len() as u64,
+        };
+        if bytes.len() < 8 {
+            return Err(short(8));
+        }
+        let word = |i: usize| u64::from(u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap()));
+        let (m, w) = (word(0), word(4));
+        let sizes = [12 * m, 4 * (m + 1), 40 * w];
+        let expected = 8 + sizes.iter().sum::<u64>();
+        if bytes.len() as u64 != expected {
+            return Err(short(expected));
+        }
+        let mut at = 8usize;
+        let mut next = |len: u64| {
+            let s = &bytes[at..at + len as usize];
+            at += len as usize;
+            s
+        };
+        Ok(Probes {
+            positions: crate::container::cast(next(sizes[0])),
+            rows: crate::container::cast(next(sizes[1])),
+            weights: crate::container::cast(next(sizes[2])),
+        })
+    }
+
+    /// Copies every borrowed part.
+    pub fn into_owned(self) -> Probes<'static> {
+        Probes {
+            positions: Cow::Owned(self.positions.into_owned()),
+            rows: Cow::Owned(self.rows.into_owned()),
+            weights: Cow::Owned(self.weights.into_owned()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_uniform_sky_gives_pi_times_its_radiance_for_every_normal() {
+        // Radiance L = 1 everywhere: only Y00 is non-zero, c00 = 4π·0.2821 = √(4π).
+        let mut c = [Rgb::ZERO; SH_COEFFICIENTS];
+        c[0] = Rgb::splat((4.0 * core::f32::consts::PI).sqrt());
+        for n in [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]] {
+            let e = sh_irradiance(&c, n);
+            assert!((e.r - core::f32::consts::PI).abs() < 1e-5, "{e:?}");
+        }
+    }
+}
