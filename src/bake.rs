@@ -231,22 +231,49 @@ pub(crate) fn run(
     scene: &Path,
     output: &Path,
     args: &BakeArgs,
+    probes: &str,
     json_out: bool,
 ) -> anyhow::Result<()> {
     let params = params(args)?;
     let load = load_options(args)?;
+    let probe_spec = crate::probes::parse_spec(probes)?;
     // Refuse an unwritable destination before spending minutes on the bake.
     crate::output::check_file(output)?;
     let (mut out, load_ms) = bake_scene(scene, None, &load, &params, json_out)?;
     out.report.timings_ms.insert("load", load_ms);
+    let mut probe_report = None;
+    if probe_spec != crate::probes::ProbeSpec::None {
+        let rt = crate::runtime::Runtime::new(out.file);
+        let baked = crate::probes::bake(&rt, &probe_spec)?;
+        let mut file = rt.file;
+        if let Some((p, r)) = baked {
+            file.probes = Some(p);
+            probe_report = Some(r);
+        }
+        out.file = file;
+    }
     let bytes = out
         .file
         .to_bytes()
         .context("internal error: the bake produced an invalid file")?;
     crate::output::write_bytes(output, &bytes)?;
     if json_out {
-        outln!("{}", serde_json::to_string_pretty(&out.report)?);
+        let mut v = serde_json::to_value(&out.report)?;
+        if let Some(r) = &probe_report {
+            v["probes"] = serde_json::to_value(r)?;
+        }
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
+        if let Some(r) = &probe_report {
+            outln!(
+                "  probes: {} placed ({} inside objects dropped), {} weights, {:.2} MB, {:.1} s",
+                r.placed,
+                r.dropped_inside,
+                r.weights,
+                r.bytes as f64 / 1e6,
+                r.seconds
+            );
+        }
         let r = &out.report;
         outln!("{} → {}", scene.display(), output.display());
         outln!(

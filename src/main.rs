@@ -28,6 +28,7 @@ mod output;
 mod pathtrace;
 mod picture;
 mod points;
+mod probes;
 mod progress;
 mod render;
 mod report;
@@ -75,6 +76,11 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
+        /// Light probes for points off the surfaces: `none`, `auto` (a grid of about 64 cells
+        /// over the scene), a grid spacing in scene units, or a JSON file {"probes": [[x,y,z],
+        /// ...]}; probes inside solid objects are dropped.
+        #[arg(long, default_value = "none", allow_negative_numbers = true)]
+        probes: String,
         /// Print the bake report as JSON.
         #[arg(long)]
         json: bool,
@@ -290,8 +296,9 @@ fn main() -> ExitCode {
             scene,
             output,
             bake,
+            probes,
             json,
-        } => bake::run(&scene, &output, &bake, json),
+        } => bake::run(&scene, &output, &bake, &probes, json),
         Command::Solve {
             input,
             bake,

@@ -61,8 +61,13 @@ pub(crate) struct Point {
 /// What a point is answered with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Answer {
-    /// Total irradiance, W/m².
-    Irradiance(Rgb),
+    /// Total irradiance, W/m², by the final gather; and where the file has probes, by the
+    /// probes (the same direct light plus the probes' reflected light), `None` for a point
+    /// outside the probe grid.
+    Irradiance {
+        total: Rgb,
+        probes: Option<Option<Rgb>>,
+    },
     /// The point lies inside an object (most of its rays meet back faces).
     Inside,
     /// The point lies outside the scene's bounding box.
@@ -194,9 +199,12 @@ impl Emitters {
 pub(crate) fn answer(
     rt: &Runtime,
     gathered: &[Rgb],
+    radiosity: &[Rgb],
     lights: &[Light],
     points: &[Point],
 ) -> anyhow::Result<Vec<Answer>> {
+    let probe_sh = crate::probes::frame_sh(rt, radiosity);
+    let probe_spacing = rt.file.probes.as_ref().map(crate::probes::spacing);
     let mesh = rt.mesh("--points")?;
     let occ = rt.occluders().expect("a mesh has a BVH");
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
@@ -257,10 +265,12 @@ pub(crate) fn answer(
             if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
                 return Answer::Inside;
             }
-            let e = sum * (1.0 / (side * side) as f32)
-                + rt.direct_at(lights, p, n)
-                + emitters.irradiance_at(rt, mesh, p, n, &mut rng);
-            Answer::Irradiance(e)
+            let direct =
+                rt.direct_at(lights, p, n) + emitters.irradiance_at(rt, mesh, p, n, &mut rng);
+            let total = sum * (1.0 / (side * side) as f32) + direct;
+            let probes = probe_spacing
+                .map(|h| crate::probes::reflected_at(rt, &probe_sh, h, p, n).map(|r| r + direct));
+            Answer::Irradiance { total, probes }
         })
         .collect())
 }

@@ -87,7 +87,7 @@ pub(crate) fn run(
     let answers = match &points {
         Some(points) => {
             let t = Instant::now();
-            let a = crate::points::answer(&runtime, &y, &lights, points)?;
+            let a = crate::points::answer(&runtime, &y, &b, &lights, points)?;
             timings.insert("points", t.elapsed().as_secs_f64() * 1e3);
             Some(points.iter().zip(a).collect::<Vec<_>>())
         }
@@ -159,7 +159,7 @@ pub(crate) fn run(
             let q = p.position;
             let n = p.given_normal;
             let what = match a {
-                crate::points::Answer::Irradiance(e) => {
+                crate::points::Answer::Irradiance { total: e, .. } => {
                     format!("{:>11.4} {:>11.4} {:>11.4}", e.r, e.g, e.b)
                 }
                 crate::points::Answer::Inside => "inside an object".into(),
@@ -184,17 +184,25 @@ pub(crate) fn run(
 /// inside an object or outside the scene.
 fn point_json(p: &crate::points::Point, a: crate::points::Answer) -> Value {
     use crate::points::Answer;
-    let (irradiance, status) = match a {
-        Answer::Irradiance(e) => (json!([e.r, e.g, e.b]), "ok"),
-        Answer::Inside => (Value::Null, "inside an object"),
-        Answer::Outside => (Value::Null, "outside the scene"),
+    let rgb = |e: radiosity_core::Rgb| json!([e.r, e.g, e.b]);
+    let (irradiance, status, probes) = match a {
+        Answer::Irradiance { total, probes } => (rgb(total), "ok", probes),
+        Answer::Inside => (Value::Null, "inside an object", None),
+        Answer::Outside => (Value::Null, "outside the scene", None),
     };
-    json!({
+    let mut v = json!({
         "position": p.position.to_array(),
         "normal": p.given_normal.to_array(),
         "irradiance": irradiance,
         "status": status,
-    })
+    });
+    if let Some(from_probes) = probes {
+        v["probe_irradiance"] = from_probes.map_or(Value::Null, rgb);
+        if from_probes.is_none() {
+            v["probe_status"] = "outside the probe grid".into();
+        }
+    }
+    v
 }
 
 /// Prepares the reflectance edit of `materials` on the runtime's file and sets the new

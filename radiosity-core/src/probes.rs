@@ -230,6 +230,72 @@ impl<'a> Probes<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use alloc::vec;
+
+    fn two() -> Probes<'static> {
+        Probes {
+            positions: Cow::Owned(vec![[0.0; 3], [1.0, 0.0, 0.0]]),
+            rows: Cow::Owned(vec![0, 2, 3]),
+            weights: Cow::Owned(vec![
+                ProbeWeight {
+                    patch: 0,
+                    sh: [0.5; SH_COEFFICIENTS],
+                },
+                ProbeWeight {
+                    patch: 2,
+                    sh: [0.25; SH_COEFFICIENTS],
+                },
+                ProbeWeight {
+                    patch: 1,
+                    sh: [1.0; SH_COEFFICIENTS],
+                },
+            ]),
+        }
+    }
+
+    #[test]
+    fn bytes_round_trip_and_bad_values_are_named() {
+        let p = two();
+        p.validate(3).unwrap();
+        let bytes = p.to_bytes();
+        assert_eq!(Probes::from_bytes(&bytes).unwrap(), p);
+        assert!(matches!(
+            Probes::from_bytes(&bytes[..bytes.len() - 4]),
+            Err(RadError::SectionLength {
+                kind: SectionKind::Probes,
+                ..
+            })
+        ));
+        let reason = |q: Probes<'_>| match q.validate(3) {
+            Err(RadError::Invalid { reason, .. }) => reason,
+            other => panic!("{other:?}"),
+        };
+        let mut q = two();
+        q.weights.to_mut()[1].patch = 3;
+        assert_eq!(reason(q), "probe weight patch index out of range");
+        let mut q = two();
+        q.weights.to_mut()[1].patch = 0;
+        assert_eq!(reason(q), "probe weight patches not increasing");
+        let mut q = two();
+        q.weights.to_mut()[2].sh[4] = f32::NAN;
+        assert_eq!(reason(q), "probe weight is NaN or infinite");
+        let mut q = two();
+        q.positions.to_mut()[1][2] = f32::INFINITY;
+        assert_eq!(reason(q), "probe position is NaN or infinite");
+        let mut q = two();
+        q.rows.to_mut()[1] = 4;
+        assert_eq!(reason(q), "probe rows decrease");
+    }
+
+    #[test]
+    fn a_gather_sums_each_probes_row() {
+        let p = two();
+        let b = [Rgb::splat(2.0), Rgb::splat(4.0), Rgb::splat(8.0)];
+        let mut out = [[Rgb::ZERO; SH_COEFFICIENTS]; 2];
+        p.gather(&b, &mut out);
+        assert_eq!(out[0][0], Rgb::splat(0.5 * 2.0 + 0.25 * 8.0));
+        assert_eq!(out[1][8], Rgb::splat(4.0));
+    }
 
     #[test]
     fn a_uniform_sky_gives_pi_times_its_radiance_for_every_normal() {

@@ -144,3 +144,91 @@ fn bad_points_files_fail_with_one_line() {
         "cannot read points file",
     );
 }
+
+#[test]
+fn probes_are_baked_and_answer_points_off_the_surfaces() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rad = d.join("cb.rad");
+    let bake: Value = json_of(&[
+        "bake",
+        &s(&cornell()),
+        "-o",
+        &s(&rad),
+        "--patches",
+        "1024",
+        "--probes",
+        "auto",
+        "--json",
+    ]);
+    let probes = &bake["probes"];
+    // `auto` lays about 64 cells over the box's bounds; the ones inside the two blocks go.
+    let placed = probes["placed"].as_u64().unwrap();
+    assert!((40..=120).contains(&placed), "{probes}");
+    assert!(probes["dropped_inside"].as_u64().unwrap() >= 1, "{probes}");
+    let mut points = POINTS.to_vec();
+    points.push(([0.3, 0.3, 0.4], [0.0, 1.0, 0.0]));
+    let file = d.join("points.json");
+    write_points(&file, &points);
+    let out = json_of(&["solve", &s(&rad), "--points", &s(&file), "--json"]);
+    let out = out["points"].as_array().unwrap();
+    let sum = |v: &Value| -> f64 {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .sum()
+    };
+    let mut errors = Vec::new();
+    for p in &out[..POINTS.len()] {
+        let (gather, probe) = (sum(&p["irradiance"]), sum(&p["probe_irradiance"]));
+        errors.push((probe - gather).abs() / gather);
+    }
+    let worst = errors.iter().copied().fold(0.0, f64::max);
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    eprintln!(
+        "probes against the final gather: mean {:.2}%, worst {:.2}%",
+        100.0 * mean,
+        100.0 * worst
+    );
+    // Measured 4.7% and 26% here (L2 alone costs up to 5%, the interpolation between probes
+    // 0.43 m apart the rest: docs/decisions/probe-sh-order.md). The bounds catch a broken
+    // weight or SH convention (errors of 100% and more), not the issue's target, which these
+    // probes do not meet.
+    assert!(
+        mean < 0.07 && worst < 0.35,
+        "mean {mean:.4}, worst {worst:.4}"
+    );
+    // A point inside the short box has neither figure.
+    let inside = &out[POINTS.len()];
+    assert_eq!(inside["status"], "inside an object");
+    assert!(inside.get("probe_irradiance").is_none(), "{inside}");
+}
+
+#[test]
+fn bad_probe_flags_fail_with_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rad = d.join("cb.rad");
+    let bad = d.join("bad.json");
+    std::fs::write(&bad, r#"{"probes": [[0, 1]]}"#).unwrap();
+    for (value, needle) in [
+        ("-1", "--probes spacing must be positive"),
+        ("0", "--probes spacing must be positive"),
+        ("nothere.json", "cannot read it as a file"),
+        (bad.to_str().unwrap(), "bad probes file"),
+    ] {
+        let out = radiosity(&[
+            "bake",
+            &s(&cornell()),
+            "-o",
+            &s(&rad),
+            "--patches",
+            "64",
+            "--probes",
+            value,
+        ]);
+        assert_one_line_error(&out, needle);
+        assert!(!rad.exists(), "nothing is written");
+    }
+}

@@ -1,0 +1,318 @@
+//! Light probes (`bake --probes`, `radiosity_core::Probes`): where they go, what each stores,
+//! and the irradiance a point takes from them.
+//!
+//! Placement: `auto` lays a grid over the bounding box of the scene's mesh with about
+//! [`AUTO_PROBES`] cells, `SPACING` a grid of that cell size, `FILE.json`
+//! (`{"probes": [[x, y, z], …]}`) the given points; a probe is at each cell's centre. A probe
+//! whose rays mostly meet the backs of faces lies inside a solid object and is dropped.
+//!
+//! Weights: [`RAYS`] rays over the sphere, stratified; each ray's first front face gives its
+//! direction's share `(4π/RAYS)·Y_lm(ω)/π` to the patches around the hit, with the same kernel
+//! `render` interpolates with (`PatchGrid`), so a probe sees a patch where an image shows it.
+//! Stored as f32, not compressed as the matrix is: SH weights are signed (the matrix's log
+//! codes are not), and a probe's row holds only the patches it sees.
+//!
+//! Interpolation: a point takes the probes within [`REACH`] spacings that it sees (a segment
+//! from the point to the probe clear of the mesh), each weighted by `1/(d² + (h/4)²)` and by
+//! `((1 + n·ω)/2)²` towards probes in front of its surface, so light does not come through a
+//! wall from a probe in the next room. No probe in reach and in sight: "outside the probe
+//! grid".
+
+use crate::render::PatchGrid;
+use crate::runtime::Runtime;
+use anyhow::{Context, bail};
+use glam::{DVec3, Vec3};
+use radiosity_bake::rng::SplitMix64;
+use radiosity_core::{ProbeWeight, Probes, Rgb, SH_COEFFICIENTS, probes::sh_basis, sh_irradiance};
+use rayon::prelude::*;
+use serde::Deserialize;
+use std::borrow::Cow;
+use std::path::Path;
+
+/// Rays a probe: 64 × 64 strata over the sphere.
+pub(crate) const RAYS: usize = 64 * 64;
+/// Grid cells `auto` aims at over the scene's bounding box.
+pub(crate) const AUTO_PROBES: f64 = 64.0;
+/// How far a point looks for probes, in probe spacings.
+const REACH: f64 = 1.5;
+
+/// Where probes go.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum ProbeSpec {
+    None,
+    Auto,
+    Spacing(f64),
+    Points(Vec<DVec3>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProbesFile {
+    probes: Vec<[f64; 3]>,
+}
+
+/// Parses `--probes`: `auto`, `none`, a spacing in scene units, or a JSON file of points.
+pub(crate) fn parse_spec(s: &str) -> anyhow::Result<ProbeSpec> {
+    match s {
+        "none" => return Ok(ProbeSpec::None),
+        "auto" => return Ok(ProbeSpec::Auto),
+        _ => {}
+    }
+    if let Ok(h) = s.parse::<f64>() {
+        if !(h.is_finite() && h > 0.0) {
+            bail!("--probes spacing must be positive and finite, not {s}");
+        }
+        return Ok(ProbeSpec::Spacing(h));
+    }
+    let path = Path::new(s);
+    let text = std::fs::read_to_string(path).with_context(|| {
+        format!("--probes {s}: not auto, none or a spacing, and cannot read it as a file")
+    })?;
+    let file: ProbesFile = serde_json::from_str(&text)
+        .with_context(|| format!("bad probes file {s}: not {{\"probes\": [[x, y, z], …]}}"))?;
+    let points: Vec<DVec3> = file.probes.iter().map(|p| DVec3::from(*p)).collect();
+    if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+        bail!("bad probes file {s}: probe {i} is not finite");
+    }
+    Ok(ProbeSpec::Points(points))
+}
+
+/// What the bake says about its probes.
+#[derive(Clone, Debug, serde::Serialize)]
+pub(crate) struct ProbeReport {
+    pub(crate) placed: usize,
+    pub(crate) dropped_inside: usize,
+    pub(crate) weights: usize,
+    pub(crate) bytes: usize,
+    pub(crate) spacing: Option<f64>,
+    pub(crate) seconds: f64,
+}
+
+fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
+    let mesh = rt.mesh("probes")?;
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in mesh.positions.iter() {
+        let p = Vec3::from(*p).as_dvec3();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    if !(lo.cmple(hi).all()) {
+        bail!("probes need a mesh with vertices");
+    }
+    Ok((lo, hi))
+}
+
+/// Cell centres of a grid of cell size `h` over `[lo, hi]` (at least one cell an axis).
+fn grid(lo: DVec3, hi: DVec3, h: f64) -> anyhow::Result<Vec<DVec3>> {
+    let cells = ((hi - lo) / h).ceil().max(DVec3::ONE);
+    let count = cells.x * cells.y * cells.z;
+    if count > 1e6 {
+        bail!("--probes spacing {h} gives {count:.0} probes over the scene (at most 1 000 000)");
+    }
+    let (nx, ny, nz) = (cells.x as usize, cells.y as usize, cells.z as usize);
+    let step = (hi - lo) / cells;
+    let mut out = Vec::with_capacity(nx * ny * nz);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                out.push(lo + step * DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A uniform direction on the sphere from `(u1, u2)` in [0, 1)².
+fn sphere_direction(u1: f64, u2: f64) -> DVec3 {
+    let z = 1.0 - 2.0 * u1;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f64::consts::PI * u2;
+    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// One probe's weights, or `None` when most of its rays meet back faces (inside a solid).
+fn weigh(rt: &Runtime, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<ProbeWeight>> {
+    let mesh = rt.mesh("probes").expect("checked by the caller");
+    let occ = rt.occluders().expect("a mesh has a BVH");
+    let side = (RAYS as f64).sqrt() as usize;
+    let mut rng = SplitMix64(seed);
+    let mut acc: std::collections::BTreeMap<u32, [f64; SH_COEFFICIENTS]> = Default::default();
+    let mut backs = 0usize;
+    let mut weights = Vec::new();
+    let share = 4.0 / RAYS as f64; // (4π / RAYS) / π
+    for s in 0..side * side {
+        let u1 = ((s % side) as f64 + rng.next_f64()) / side as f64;
+        let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
+        let dir = sphere_direction(u1, u2);
+        let Some((hit, front)) = occ.first_surface(at, dir, 0.0, f64::INFINITY) else {
+            continue;
+        };
+        if !front {
+            backs += 1;
+            continue;
+        }
+        let t = hit.triangle as usize;
+        let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
+        let normal = (b - a).cross(c - a).normalize_or_zero();
+        let p = at + dir * hit.distance;
+        weights.clear();
+        if !grid.weights(&rt.file.patches, p, normal, &mut weights) {
+            let bary = [1.0 - hit.u - hit.v, hit.u, hit.v];
+            for (corner, bc) in bary.into_iter().enumerate() {
+                for e in mesh.corner(t, corner) {
+                    weights.push((e.patch, bc * e.weight));
+                }
+            }
+        }
+        let y = sh_basis(dir.as_vec3().to_array());
+        for &(patch, w) in &weights {
+            let e = acc.entry(patch).or_insert([0.0; SH_COEFFICIENTS]);
+            for k in 0..SH_COEFFICIENTS {
+                e[k] += share * f64::from(w) * f64::from(y[k]);
+            }
+        }
+    }
+    if backs * 2 > side * side {
+        return None;
+    }
+    Some(
+        acc.into_iter()
+            .map(|(patch, sh)| ProbeWeight {
+                patch,
+                sh: sh.map(|v| v as f32),
+            })
+            .collect(),
+    )
+}
+
+/// Places and weighs the probes of `spec` over the runtime's file (which needs its mesh).
+pub(crate) fn bake(
+    rt: &Runtime,
+    spec: &ProbeSpec,
+) -> anyhow::Result<Option<(Probes<'static>, ProbeReport)>> {
+    let t = std::time::Instant::now();
+    let (candidates, spacing) = match spec {
+        ProbeSpec::None => return Ok(None),
+        ProbeSpec::Points(p) => (p.clone(), None),
+        ProbeSpec::Auto | ProbeSpec::Spacing(_) => {
+            let (lo, hi) = bounds(rt)?;
+            let h = match spec {
+                ProbeSpec::Spacing(h) => *h,
+                _ => {
+                    let size = (hi - lo).max(DVec3::splat(1e-9 * (hi - lo).max_element()));
+                    (size.x * size.y * size.z / AUTO_PROBES).cbrt()
+                }
+            };
+            (grid(lo, hi, h)?, Some(h))
+        }
+    };
+    rt.mesh("--probes")?;
+    let patch_grid = PatchGrid::new(&rt.file.patches);
+    let rows: Vec<Option<Vec<ProbeWeight>>> = candidates
+        .par_iter()
+        .enumerate()
+        .map(|(i, &p)| weigh(rt, &patch_grid, p, 0x9e37_79b9 ^ i as u64))
+        .collect();
+    let (mut positions, mut starts, mut weights) = (Vec::new(), vec![0u32], Vec::new());
+    let mut dropped = 0;
+    for (p, row) in candidates.iter().zip(rows) {
+        match row {
+            Some(r) => {
+                positions.push(p.as_vec3().to_array());
+                weights.extend(r);
+                starts.push(weights.len() as u32);
+            }
+            None => dropped += 1,
+        }
+    }
+    let probes = Probes {
+        positions: Cow::Owned(positions),
+        rows: Cow::Owned(starts),
+        weights: Cow::Owned(weights),
+    };
+    let report = ProbeReport {
+        placed: probes.len(),
+        dropped_inside: dropped,
+        weights: probes.weights.len(),
+        bytes: probes.to_bytes().len(),
+        spacing,
+        seconds: t.elapsed().as_secs_f64(),
+    };
+    Ok(Some((probes, report)))
+}
+
+/// The probes' radiance SH for a frame of radiosity `b` (file numbering): `P·(B − E)`.
+pub(crate) fn frame_sh(rt: &Runtime, b: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
+    let Some(probes) = &rt.file.probes else {
+        return Vec::new();
+    };
+    let reflected: Vec<Rgb> = b
+        .iter()
+        .zip(rt.file.patches.iter())
+        .map(|(b, p)| *b + p.emission * -1.0)
+        .collect();
+    let mut out = vec![[Rgb::ZERO; SH_COEFFICIENTS]; probes.len()];
+    probes.gather(&reflected, &mut out);
+    out
+}
+
+/// The reflected irradiance at `p` facing unit `n` from the probes around it (module docs), or
+/// `None` when no probe in reach is in sight.
+pub(crate) fn reflected_at(
+    rt: &Runtime,
+    sh: &[[Rgb; SH_COEFFICIENTS]],
+    spacing: f64,
+    p: DVec3,
+    n: DVec3,
+) -> Option<Rgb> {
+    let probes = rt.file.probes.as_ref()?;
+    let occ = rt.occluders()?;
+    let reach = REACH * spacing;
+    let (mut sum, mut total) = (Rgb::ZERO, 0.0f64);
+    for (i, q) in probes.positions.iter().enumerate() {
+        let q = Vec3::from(*q).as_dvec3();
+        let d = q - p;
+        let dist = d.length();
+        if dist > reach {
+            continue;
+        }
+        if dist > 1e-9 * spacing && !occ.segment_visible(p, q) {
+            continue;
+        }
+        let facing = if dist > 0.0 {
+            ((1.0 + n.dot(d / dist)) / 2.0).powi(2)
+        } else {
+            1.0
+        };
+        let w = facing / (dist * dist + (spacing / 4.0).powi(2));
+        if w > 0.0 {
+            sum += sh_irradiance(&sh[i], n.as_vec3().to_array()) * w as f32;
+            total += w;
+        }
+    }
+    (total > 0.0).then(|| sum * (1.0 / total) as f32)
+}
+
+/// The probes' spacing: the median distance from a probe to its nearest neighbour (the grid's
+/// cell size for a grid).
+pub(crate) fn spacing(probes: &Probes<'_>) -> f64 {
+    let pos: Vec<DVec3> = probes
+        .positions
+        .iter()
+        .map(|p| Vec3::from(*p).as_dvec3())
+        .collect();
+    let mut nearest: Vec<f64> = pos
+        .par_iter()
+        .enumerate()
+        .map(|(i, a)| {
+            pos.iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, b)| a.distance(*b))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .filter(|d| d.is_finite())
+        .collect();
+    nearest.sort_by(f64::total_cmp);
+    nearest.get(nearest.len() / 2).copied().unwrap_or(1.0)
+}
