@@ -65,6 +65,11 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
         "compression_rmse": rmse,
         "lighting_error": file.lighting_error,
         "objects": file.objects.iter().map(|o| o.as_ref()).collect::<Vec<_>>(),
+        "probes": file.probes.as_ref().map(|p| json!({
+            "count": p.len(),
+            "weights": p.weights.len(),
+            "bytes": p.to_bytes().len(),
+        })),
     });
     let obj = out.as_object_mut().expect("object");
     for (k, v) in own.as_object().expect("object") {
@@ -128,6 +133,14 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
     }
     if let Some(d) = describe_form_factors(&s["form_factors"]) {
         outln!("  form factors {d}");
+    }
+    if let Some(p) = &file.probes {
+        outln!(
+            "  probes       {} ({} patch weights, {:.3} MiB)",
+            p.len(),
+            p.weights.len(),
+            mib(&s["probes"]["bytes"])
+        );
     }
     if let Some(effects) = s.get("effects").and_then(Value::as_object) {
         outln!("  effects");
