@@ -17,7 +17,7 @@
 //! A point whose rays mostly meet the backs of faces is inside an object, and one outside the
 //! bounding box of the scene's mesh is outside it: both are answered as such, without a figure.
 
-use crate::render::PatchGrid;
+use crate::render::{PatchGrid, triangle_normal};
 use crate::runtime::Runtime;
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
@@ -207,12 +207,10 @@ pub(crate) fn answer(
     let probe_spacing = rt.file.probes.as_ref().map(crate::probes::spacing);
     let mesh = rt.mesh("--points")?;
     let occ = rt.occluders().expect("a mesh has a BVH");
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for p in mesh.positions.iter() {
-        let p = Vec3::from(*p).as_dvec3();
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
+    // A mesh without vertices holds every point outside it.
+    let (lo, hi) = rt
+        .mesh_bounds()
+        .unwrap_or((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)));
     // A point on the box's faces (a floor at y = 0) is inside it.
     let slack = 1e-9 * (hi - lo).max_element().max(1e-300);
     let grid = PatchGrid::new(&rt.file.patches);
@@ -241,18 +239,11 @@ pub(crate) fn answer(
                     continue; // the back of a one-sided surface sends nothing
                 }
                 let t = hit.triangle as usize;
-                let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
-                let normal = (b - a).cross(c - a).normalize_or_zero();
+                let normal = triangle_normal(mesh, t);
                 let at = p + dir * hit.distance;
                 weights.clear();
-                if !grid.weights(&rt.file.patches, at, normal, &mut weights) {
-                    let bary = [1.0 - hit.u - hit.v, hit.u, hit.v];
-                    for (corner, bc) in bary.into_iter().enumerate() {
-                        for e in mesh.corner(t, corner) {
-                            weights.push((e.patch, bc * e.weight));
-                        }
-                    }
-                }
+                let uv = (hit.u, hit.v);
+                grid.weights_at_hit(&rt.file.patches, mesh, t, uv, at, normal, &mut weights);
                 let mut y = Rgb::ZERO;
                 for &(i, w) in &weights {
                     y += gathered[i as usize] * w;

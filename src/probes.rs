@@ -18,7 +18,7 @@
 //! wall from a probe in the next room. No probe in reach and in sight: "outside the probe
 //! grid".
 
-use crate::render::PatchGrid;
+use crate::render::{PatchGrid, triangle_normal};
 use crate::runtime::Runtime;
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
@@ -89,17 +89,8 @@ pub(crate) struct ProbeReport {
 }
 
 fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
-    let mesh = rt.mesh("probes")?;
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for p in mesh.positions.iter() {
-        let p = Vec3::from(*p).as_dvec3();
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    if !(lo.cmple(hi).all()) {
-        bail!("probes need a mesh with vertices");
-    }
-    Ok((lo, hi))
+    rt.mesh("probes")?;
+    rt.mesh_bounds().context("probes need a mesh with vertices")
 }
 
 /// Cell centres of a grid of cell size `h` over `[lo, hi]` (at least one cell an axis).
@@ -152,18 +143,11 @@ fn weigh(rt: &Runtime, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<Pro
             continue;
         }
         let t = hit.triangle as usize;
-        let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
-        let normal = (b - a).cross(c - a).normalize_or_zero();
+        let normal = triangle_normal(mesh, t);
         let p = at + dir * hit.distance;
         weights.clear();
-        if !grid.weights(&rt.file.patches, p, normal, &mut weights) {
-            let bary = [1.0 - hit.u - hit.v, hit.u, hit.v];
-            for (corner, bc) in bary.into_iter().enumerate() {
-                for e in mesh.corner(t, corner) {
-                    weights.push((e.patch, bc * e.weight));
-                }
-            }
-        }
+        let uv = (hit.u, hit.v);
+        grid.weights_at_hit(&rt.file.patches, mesh, t, uv, p, normal, &mut weights);
         let y = sh_basis(dir.as_vec3().to_array());
         for &(patch, w) in &weights {
             let e = acc.entry(patch).or_insert([0.0; SH_COEFFICIENTS]);

@@ -122,6 +122,38 @@ impl PatchGrid {
     }
 }
 
+impl PatchGrid {
+    /// The patches' weights at `point` of mesh triangle `t` (barycentrics `u`, `v` of corners 1
+    /// and 2) on its surface with unit `normal`, appended to `out`: the kernel over the patch
+    /// centres near it ([`PatchGrid::weights`]), or the triangle's corner weights where no
+    /// patch is near.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn weights_at_hit(
+        &self,
+        patches: &[radiosity_core::Patch],
+        mesh: &radiosity_core::Mesh<'_>,
+        t: usize,
+        (u, v): (f32, f32),
+        point: DVec3,
+        normal: DVec3,
+        out: &mut Vec<(u32, f32)>,
+    ) {
+        if !self.weights(patches, point, normal, out) {
+            for (c, bc) in [1.0 - u - v, u, v].into_iter().enumerate() {
+                for e in mesh.corner(t, c) {
+                    out.push((e.patch, bc * e.weight));
+                }
+            }
+        }
+    }
+}
+
+/// The unit front normal of mesh triangle `t`.
+pub(crate) fn triangle_normal(mesh: &radiosity_core::Mesh<'_>, t: usize) -> DVec3 {
+    let [a, b, c] = mesh.corners(t).map(|p| Vec3::from(p).as_dvec3());
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
 /// Casts the camera's primary rays into the runtime's mesh.
 pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Result<Primary> {
     let mesh = rt.mesh("rendering")?;
@@ -147,9 +179,7 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
             if !front {
                 return None; // the back of a one-sided surface sends nothing
             }
-            let t = hit.triangle as usize;
-            let [a, b, c] = mesh.corners(t).map(|p| Vec3::from(p).as_dvec3());
-            let normal = (b - a).cross(c - a).normalize_or_zero();
+            let normal = triangle_normal(mesh, hit.triangle as usize);
             Some(SampleHit {
                 triangle: hit.triangle,
                 u: hit.u,
@@ -165,15 +195,16 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
         .par_iter()
         .map(|h| {
             let mut out = Vec::new();
-            if let Some(s) = h
-                && !grid.weights(&rt.file.patches, s.point, s.normal, &mut out)
-            {
-                let b = [1.0 - s.u - s.v, s.u, s.v];
-                for (c, bc) in b.into_iter().enumerate() {
-                    for e in mesh.corner(s.triangle as usize, c) {
-                        out.push((e.patch, bc * e.weight));
-                    }
-                }
+            if let Some(s) = h {
+                grid.weights_at_hit(
+                    &rt.file.patches,
+                    mesh,
+                    s.triangle as usize,
+                    (s.u, s.v),
+                    s.point,
+                    s.normal,
+                    &mut out,
+                );
             }
             out
         })

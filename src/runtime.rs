@@ -53,6 +53,18 @@ impl Runtime {
         })
     }
 
+    /// The bounding box of the mesh's vertices, if the file has a mesh with any.
+    pub(crate) fn mesh_bounds(&self) -> Option<(DVec3, DVec3)> {
+        let mesh = self.file.mesh.as_ref()?;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in mesh.positions.iter() {
+            let p = Vec3::from(*p).as_dvec3();
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        lo.cmple(hi).all().then_some((lo, hi))
+    }
+
     /// The BVH over the mesh, if the file has one.
     pub(crate) fn occluders(&self) -> Option<&Occluders> {
         self.occluders.as_ref()
