@@ -225,17 +225,27 @@ impl ReflectanceEdit {
     /// Turns `gathered = (M·x')` (the gather of the first exitance under the new reflectance)
     /// into the correction of the exitance: `x̃ = x' + D·H'_S` is `exitance` with
     /// `correction` added on the edited patches.
-    fn correction(&self, gathered: &[Rgb], out: &mut Vec<(usize, Rgb)>) {
+    /// `scratch` is reused from frame to frame (resized to `k`, four vectors).
+    fn correction(
+        &self,
+        gathered: &[Rgb],
+        scratch: &mut [Vec<f64>; 4],
+        out: &mut Vec<(usize, Rgb)>,
+    ) {
         let k = self.patches.len();
         out.clear();
-        let mut u = [vec![0f64; k], vec![0f64; k], vec![0f64; k]];
-        for (c, uc) in u.iter_mut().enumerate() {
+        for v in scratch.iter_mut() {
+            v.resize(k, 0.0);
+        }
+        let [u0, u1, u2, tmp] = scratch;
+        for (c, uc) in [&mut *u0, &mut *u1, &mut *u2].into_iter().enumerate() {
             for (a, &p) in self.patches.iter().enumerate() {
                 uc[a] = f64::from(gathered[p as usize].channel(c));
             }
             let (lu, piv) = &self.lu[c];
-            lu_solve(lu, piv, k, uc);
+            lu_solve(lu, piv, k, uc, tmp);
         }
+        let u = [&*u0, &*u1, &*u2];
         for (a, &p) in self.patches.iter().enumerate() {
             let d = self.delta[a];
             out.push((
@@ -259,6 +269,8 @@ pub struct EditedGather<G> {
     name: alloc::string::String,
     corrected: Vec<Rgb>,
     correction: Vec<(usize, Rgb)>,
+    /// The solve's vectors, kept between frames.
+    scratch: [Vec<f64>; 4],
 }
 
 impl<G: Gather> EditedGather<G> {
@@ -276,6 +288,7 @@ impl<G: Gather> EditedGather<G> {
             name,
             corrected: vec![Rgb::ZERO; edit.n],
             correction: Vec::with_capacity(edit.len()),
+            scratch: Default::default(),
             edit,
         })
     }
@@ -318,7 +331,8 @@ impl<G: Gather> Gather for EditedGather<G> {
             return self.inner.gather(exitance, irradiance);
         }
         self.inner.gather(exitance, irradiance)?;
-        self.edit.correction(irradiance, &mut self.correction);
+        self.edit
+            .correction(irradiance, &mut self.scratch, &mut self.correction);
         self.corrected.copy_from_slice(exitance);
         for &(p, d) in &self.correction {
             self.corrected[p] += d;
@@ -377,9 +391,11 @@ fn lu_factor(a: &mut [f64], k: usize) -> Option<Vec<usize>> {
 }
 
 /// Solves `A·x = b` in place with [`lu_factor`]'s factors: `k²` multiply-adds, row by row as
-/// contiguous dot products.
-fn lu_solve(lu: &[f32], piv: &[usize], k: usize, b: &mut [f64]) {
-    let mut x: Vec<f64> = piv.iter().map(|&p| b[p]).collect();
+/// contiguous dot products. `x` is scratch of length `k`.
+fn lu_solve(lu: &[f32], piv: &[usize], k: usize, b: &mut [f64], x: &mut [f64]) {
+    for (xi, &p) in x.iter_mut().zip(piv) {
+        *xi = b[p];
+    }
     for i in 0..k {
         let row = &lu[i * k..(i + 1) * k];
         x[i] -= dot(&row[..i], &x[..i]);
@@ -388,7 +404,7 @@ fn lu_solve(lu: &[f32], piv: &[usize], k: usize, b: &mut [f64]) {
         let row = &lu[i * k..(i + 1) * k];
         x[i] = (x[i] - dot(&row[i + 1..], &x[i + 1..])) / f64::from(row[i]);
     }
-    b.copy_from_slice(&x);
+    b.copy_from_slice(x);
 }
 
 /// `Σ a_i·b_i` in four interleaved partial sums (which the compiler can keep in one vector
@@ -417,7 +433,7 @@ mod tests {
         let piv = lu_factor(&mut a, 2).unwrap();
         let a: Vec<f32> = a.iter().map(|&v| v as f32).collect();
         let mut b = vec![4.0, 5.0];
-        lu_solve(&a, &piv, 2, &mut b);
+        lu_solve(&a, &piv, 2, &mut b, &mut [0.0; 2]);
         assert!(
             (b[0] - 1.0).abs() < 1e-12 && (b[1] - 2.0).abs() < 1e-12,
             "{b:?}"
