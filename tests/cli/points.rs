@@ -38,6 +38,21 @@ fn json_of(args: &[&str]) -> Value {
     serde_json::from_slice(&radiosity_ok(args).stdout).unwrap()
 }
 
+/// The sum of a JSON `[r, g, b]`.
+fn sum(v: &Value) -> f64 {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .sum()
+}
+
+/// The mean and the largest of `errors`.
+fn mean_and_worst(errors: &[f64]) -> (f64, f64) {
+    let worst = errors.iter().copied().fold(0.0, f64::max);
+    (errors.iter().sum::<f64>() / errors.len() as f64, worst)
+}
+
 fn write_points(path: &Path, points: &[([f64; 3], [f64; 3])]) {
     let list: Vec<Value> = points
         .iter()
@@ -73,13 +88,6 @@ fn point_irradiance_matches_the_path_tracer() {
         pt["points"].as_array().unwrap(),
     );
     assert_eq!(ours.len(), points.len());
-    let sum = |v: &Value| -> f64 {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .sum()
-    };
     let mut errors = Vec::new();
     for (k, (a, b)) in ours.iter().zip(pt).take(POINTS.len()).enumerate() {
         assert_eq!(a["status"], "ok", "point {k}: {a}");
@@ -87,8 +95,7 @@ fn point_irradiance_matches_the_path_tracer() {
         // The path tracer's standard error here is 0.1–0.9% of each point's value.
         errors.push((h - q).abs() / q);
     }
-    let worst = errors.iter().copied().fold(0.0, f64::max);
-    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let (mean, worst) = mean_and_worst(&errors);
     eprintln!(
         "points against the path tracer: mean {:.2}%, worst {:.2}%",
         100.0 * mean,
@@ -172,20 +179,12 @@ fn probes_are_baked_and_answer_points_off_the_surfaces() {
     write_points(&file, &points);
     let out = json_of(&["solve", &s(&rad), "--points", &s(&file), "--json"]);
     let out = out["points"].as_array().unwrap();
-    let sum = |v: &Value| -> f64 {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .sum()
-    };
     let mut errors = Vec::new();
     for p in &out[..POINTS.len()] {
         let (gather, probe) = (sum(&p["irradiance"]), sum(&p["probe_irradiance"]));
         errors.push((probe - gather).abs() / gather);
     }
-    let worst = errors.iter().copied().fold(0.0, f64::max);
-    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let (mean, worst) = mean_and_worst(&errors);
     eprintln!(
         "probes against the final gather: mean {:.2}%, worst {:.2}%",
         100.0 * mean,
