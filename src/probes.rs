@@ -12,11 +12,12 @@
 //! Stored as f32, not compressed as the matrix is: SH weights are signed (the matrix's log
 //! codes are not), and a probe's row holds only the patches it sees.
 //!
-//! Interpolation: a point takes the probes within [`REACH`] spacings that it sees (a segment
-//! from the point to the probe clear of the mesh), each weighted by `1/(d² + (h/4)²)` and by
-//! `((1 + n·ω)/2)²` towards probes in front of its surface, so light does not come through a
-//! wall from a probe in the next room. No probe in reach and in sight: "outside the probe
-//! grid".
+//! Interpolation: a point takes the probes of its lattice cell that it sees (a segment from the
+//! point to the probe clear of the mesh), each with its trilinear (tent) weight times
+//! `FACING_FLOOR + ((1 + n·ω)/2)²`, more towards probes in front of its surface. A probe behind
+//! a wall is out of sight, so light does not come through a wall from the next room. Where no
+//! probe of the cell is in sight, a tent twice as wide; no probe there either: "outside the
+//! probe grid".
 
 use crate::render::{PatchGrid, triangle_normal};
 use crate::runtime::Runtime;
@@ -33,8 +34,9 @@ use std::path::Path;
 pub(crate) const RAYS: usize = 64 * 64;
 /// Grid cells `auto` aims at over the scene's bounding box.
 pub(crate) const AUTO_PROBES: f64 = 64.0;
-/// How far a point looks for probes, in probe spacings.
-const REACH: f64 = 1.5;
+/// The part of a probe's weight that does not depend on which side of the point's surface it
+/// lies (`docs/decisions/probe-sh-order.md`: 0.5 of the range 0–2 measured best).
+const FACING_FLOOR: f64 = 0.5;
 
 /// Where probes go.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,7 +95,9 @@ fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
     rt.mesh_bounds().context("probes need a mesh with vertices")
 }
 
-/// Cell centres of a grid of cell size `h` over `[lo, hi]` (at least one cell an axis).
+/// Centres of a grid of cell size `h` covering `[lo, hi]`, centred on the box (at least one
+/// cell an axis): the step is `h` on every axis, so the probes form a cubic lattice and a point
+/// between them takes trilinear weights.
 fn grid(lo: DVec3, hi: DVec3, h: f64) -> anyhow::Result<Vec<DVec3>> {
     let cells = ((hi - lo) / h).ceil().max(DVec3::ONE);
     let count = cells.x * cells.y * cells.z;
@@ -101,12 +105,12 @@ fn grid(lo: DVec3, hi: DVec3, h: f64) -> anyhow::Result<Vec<DVec3>> {
         bail!("--probes spacing {h} gives {count:.0} probes over the scene (at most 1 000 000)");
     }
     let (nx, ny, nz) = (cells.x as usize, cells.y as usize, cells.z as usize);
-    let step = (hi - lo) / cells;
+    let first = (lo + hi) / 2.0 - (cells - DVec3::ONE) * (h / 2.0);
     let mut out = Vec::with_capacity(nx * ny * nz);
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
-                out.push(lo + step * DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5));
+                out.push(first + h * DVec3::new(i as f64, j as f64, k as f64));
             }
         }
     }
@@ -251,30 +255,36 @@ pub(crate) fn reflected_at(
 ) -> Option<Rgb> {
     let probes = rt.file.probes.as_ref()?;
     let occ = rt.occluders()?;
-    let reach = REACH * spacing;
-    let (mut sum, mut total) = (Rgb::ZERO, 0.0f64);
-    for (i, q) in probes.positions.iter().enumerate() {
-        let q = Vec3::from(*q).as_dvec3();
-        let d = q - p;
-        let dist = d.length();
-        if dist > reach {
-            continue;
-        }
-        if dist > 1e-9 * spacing && !occ.segment_visible(p, q) {
-            continue;
-        }
-        let facing = if dist > 0.0 {
-            ((1.0 + n.dot(d / dist)) / 2.0).powi(2)
-        } else {
-            1.0
-        };
-        let w = facing / (dist * dist + (spacing / 4.0).powi(2));
-        if w > 0.0 {
-            sum += sh_irradiance(&sh[i], n.as_vec3().to_array()) * w as f32;
+    let normal = n.as_vec3().to_array();
+    // The lattice's own cell first; where every probe of it is hidden or gone (dropped inside
+    // a solid), a tent twice as wide.
+    for width in [spacing, 2.0 * spacing] {
+        let (mut sum, mut total) = (Rgb::ZERO, 0.0f64);
+        for (i, q) in probes.positions.iter().enumerate() {
+            let d = Vec3::from(*q).as_dvec3() - p;
+            let a = d.abs() / width;
+            if a.max_element() >= 1.0 {
+                continue;
+            }
+            let tent = (1.0 - a.x) * (1.0 - a.y) * (1.0 - a.z);
+            let dist = d.length();
+            if dist > 1e-9 * spacing && !occ.segment_visible(p, p + d) {
+                continue;
+            }
+            let facing = if dist > 0.0 {
+                ((1.0 + n.dot(d / dist)) / 2.0).powi(2)
+            } else {
+                1.0
+            };
+            let w = tent * (FACING_FLOOR + facing);
+            sum += sh_irradiance(&sh[i], normal) * w as f32;
             total += w;
         }
+        if total > 0.0 {
+            return Some(sum * (1.0 / total) as f32);
+        }
     }
-    (total > 0.0).then(|| sum * (1.0 / total) as f32)
+    None
 }
 
 /// The probes' spacing: the median distance from a probe to its nearest neighbour (the grid's

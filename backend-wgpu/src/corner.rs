@@ -3,8 +3,8 @@
 
 use crate::GpuError;
 use crate::gather::{
-    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, layout_entry, pipeline, storage,
-    storage_binding_limit,
+    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, in_error_scopes,
+    layout_entry, pipeline, sized, storage, storage_binding_limit, workgroup_grid,
 };
 use crate::shader::WORKGROUP;
 use bytemuck::{Pod, Zeroable};
@@ -52,19 +52,6 @@ pub struct CornerPass {
     device_bytes: u64,
 }
 
-/// The first `bytes` of `buffer` (at least 4: an empty binding is invalid; the pass then
-/// dispatches nothing, see `record`).
-fn sized(binding: u32, buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-            buffer,
-            offset: 0,
-            size: wgpu::BufferSize::new(bytes.max(4).min(buffer.size())),
-        }),
-    }
-}
-
 impl CornerPass {
     /// The pass for `mesh` (a parsed `.rad`'s) on the host's `device`, between `buffers`.
     /// Uploads the corner rows and weights once. A mesh whose rows
@@ -97,36 +84,8 @@ impl CornerPass {
                 e.patch
             ));
         }
+        check_pass_limits(device, "the corner pass", 4)?;
         let dl = device.limits();
-        let needs = [
-            (
-                "max_compute_workgroup_size_x",
-                dl.max_compute_workgroup_size_x,
-                WORKGROUP,
-            ),
-            (
-                "max_compute_invocations_per_workgroup",
-                dl.max_compute_invocations_per_workgroup,
-                WORKGROUP,
-            ),
-            (
-                "max_storage_buffers_per_shader_stage",
-                dl.max_storage_buffers_per_shader_stage,
-                4,
-            ),
-            (
-                "max_uniform_buffers_per_shader_stage",
-                dl.max_uniform_buffers_per_shader_stage,
-                1,
-            ),
-        ];
-        for (name, has, need) in needs {
-            if has < need {
-                return unsupported(format!(
-                    "the device's {name} is {has}, the corner pass needs {need}"
-                ));
-            }
-        }
         let y_bytes = 12 * patches as u64;
         let out_bytes = 12 * corners as u64;
         check_host_buffer(
@@ -158,24 +117,12 @@ impl CornerPass {
                 ));
             }
         }
-        let workgroups = u32::try_from(corners.div_ceil(WORKGROUP as usize))
-            .map_err(|_| GpuError::Unsupported(format!("{corners} corners")))?;
-        let per_dim = dl.max_compute_workgroups_per_dimension.max(1);
-        let gx = workgroups.clamp(1, per_dim);
-        let gy = workgroups.div_ceil(gx);
-        if gy > per_dim {
-            return unsupported(format!(
-                "{corners} corners need {workgroups} workgroups, more than {per_dim}²"
-            ));
-        }
-        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let built = Self::build(device, mesh, buffers, (gx, gy), y_bytes, out_bytes);
-        let oom = pollster::block_on(oom.pop());
-        let validation = pollster::block_on(validation.pop());
-        if let Some(e) = oom.or(validation) {
-            return Err(GpuError::Device(e.to_string()));
-        }
+        let (gx, gy) = workgroup_grid(&dl, corners.div_ceil(WORKGROUP as usize), || {
+            format!("{corners} corners")
+        })?;
+        let built = in_error_scopes(device, || {
+            Self::build(device, mesh, buffers, (gx, gy), y_bytes, out_bytes)
+        })?;
         Ok(CornerPass {
             device_bytes: rows_bytes + weight_bytes,
             ..built

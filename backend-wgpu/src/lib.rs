@@ -120,6 +120,7 @@ mod corner;
 mod device;
 mod frame_timing;
 mod gather;
+mod light_probes;
 mod plan;
 pub mod probe;
 mod shader;
@@ -129,6 +130,7 @@ pub use auto::auto_gather;
 pub use corner::{CornerBuffers, CornerPass};
 pub use frame_timing::{HostFrameTimes, time_host_frame};
 pub use gather::{HostGather, HostGatherBuffers, WgpuGather};
+pub use light_probes::{PROBE_OUT_BYTES, ProbeBuffers, ProbePass};
 pub use radiosity_core::DecodeMode;
 
 use std::fmt;

@@ -1,5 +1,5 @@
-//! The gather and the corner pass on a device the host owns ([`HostGather`], [`CornerPass`]),
-//! on every adapter found except GL ones (as in `wgpu_gather.rs`, whose reasons apply).
+//! The gather, the corner pass and the probe pass on a device the host owns ([`HostGather`],
+//! [`CornerPass`], [`ProbePass`]), on every adapter found except GL ones (as in `wgpu_gather.rs`, whose reasons apply).
 //!
 //! With no adapter these tests print why and pass, except when `CI=true`: CI installs the
 //! software Vulkan driver (scripts/test.sh), so a missing adapter there is a failure.
@@ -14,15 +14,23 @@
 //!   summation bound over the products and the k adds), with a factor 2 of margin and
 //!   k·`f32::MIN_POSITIVE` for subnormal products a GPU may flush. On lavapipe the values are
 //!   bit-identical (asserted there: `is_mesa_software`).
+//! - **The probe pass** sums each probe's row in 64 strided partial sums added by a tree, not
+//!   in the core's order ([`Probes::gather`]): each coefficient is a sum of k products, whose
+//!   error under any order of summation is at most γ_k·Σ|r·w| (Higham's bound for any
+//!   summation tree), and the reflected radiosity `x − E + ρ∘y` itself takes three more
+//!   roundings (γ_3·(|x| + |E| + |ρ∘y|) per term). Asserted with a factor 2 of margin.
 
 mod gpu_support;
 
 use gpu_support::gpu_adapters;
 use radiosity_backend_wgpu::{
     Adapter, CornerBuffers, CornerPass, DecodePath, GpuError, GpuOptions, HostGather,
-    HostGatherBuffers, WgpuGather,
+    HostGatherBuffers, PROBE_OUT_BYTES, ProbeBuffers, ProbePass, WgpuGather,
 };
-use radiosity_core::{CornerWeight, Gather, Mesh, MeshTriangle, Rgb, TransferMatrix};
+use radiosity_core::{
+    CornerWeight, Gather, Mesh, MeshTriangle, Patch, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS,
+    TransferMatrix,
+};
 use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, exitance, sample_file};
 use std::borrow::Cow;
 use std::sync::Mutex;
@@ -429,5 +437,187 @@ fn gather_then_corner_pass_in_one_encoder() {
         assert_eq!(bits(&y), bits(&want));
         assert!(y.iter().any(|v| v.to_array()[0] > 0.0));
         assert_corners_match(&adapter, mesh, &y, &got);
+    }
+}
+
+/// `count` probes over `n` patches, each row a random ascending subset (empty to all of
+/// them, so rows both shorter and longer than a workgroup), weights of either sign.
+fn random_probes(n: usize, count: usize, seed: u64) -> Probes<'static> {
+    let mut rng = SplitMix64(seed);
+    let (mut rows, mut weights, mut positions) = (vec![0u32], Vec::new(), Vec::new());
+    for p in 0..count {
+        let keep = rng.next_f64();
+        for patch in 0..n as u32 {
+            if rng.next_f64() < keep {
+                let sh = [0; SH_COEFFICIENTS].map(|_| (rng.next_f64() - 0.4) as f32);
+                weights.push(ProbeWeight { patch, sh });
+            }
+        }
+        rows.push(weights.len() as u32);
+        positions.push([p as f32, 0.5, 0.5]);
+    }
+    Probes {
+        positions: Cow::Owned(positions),
+        rows: Cow::Owned(rows),
+        weights: Cow::Owned(weights),
+    }
+}
+
+fn abs(v: Rgb) -> Rgb {
+    Rgb::from_array(v.to_array().map(f32::abs))
+}
+
+/// The core's probe SH from `x` and `y` (`Probes::gather` on `x − E + ρ∘y`) against the
+/// pass's `got`, within the bound of the module docs.
+fn assert_probes_match(probes: &Probes<'_>, patches: &[Patch], x: &[Rgb], y: &[Rgb], got: &[Rgb]) {
+    let reflected: Vec<Rgb> = (0..patches.len())
+        .map(|j| x[j] + patches[j].emission * -1.0 + patches[j].reflectance * y[j])
+        .collect();
+    let scale: Vec<Rgb> = (0..patches.len())
+        .map(|j| abs(x[j]) + abs(patches[j].emission) + abs(patches[j].reflectance * y[j]))
+        .collect();
+    let mut want = vec![[Rgb::ZERO; SH_COEFFICIENTS]; probes.len()];
+    probes.gather(&reflected, &mut want);
+    assert_eq!(got.len(), SH_COEFFICIENTS * probes.len());
+    let gamma = |k: usize| k as f32 * f32::EPSILON / 2.0 / (1.0 - k as f32 * f32::EPSILON / 2.0);
+    for p in 0..probes.len() {
+        let row = probes.weights_of(p);
+        for c in 0..SH_COEFFICIENTS {
+            for ch in 0..3 {
+                let abs: f32 = row
+                    .iter()
+                    .map(|w| (scale[w.patch as usize].channel(ch) * w.sh[c]).abs())
+                    .sum();
+                let tol = 2.0 * (gamma(row.len()) + gamma(3)) * abs
+                    + row.len() as f32 * f32::MIN_POSITIVE;
+                let (g, w) = (
+                    got[SH_COEFFICIENTS * p + c].channel(ch),
+                    want[p][c].channel(ch),
+                );
+                assert!(
+                    (g - w).abs() <= tol,
+                    "probe {p} coefficient {c} channel {ch}: gpu {g} core {w} tolerance {tol:e}"
+                );
+            }
+        }
+    }
+}
+
+/// The whole frame with probes, as an engine records it: the gather, then the probe pass
+/// reading that frame's `x` and `y`, in one encoder; then the emission changed at run time.
+#[test]
+fn gather_then_probe_pass_in_one_encoder() {
+    use wgpu::BufferUsages as U;
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        // 300 patches: rows up to 300 weights (about five a thread); 3 probes and 600, the
+        // latter one workgroup each.
+        for (n, count) in [(70, 3), (300, 600)] {
+            let file = sample_file(n, 3, radiosity_core::Format::Bc1, 32);
+            let mut patches = file.patches.to_vec();
+            for (j, p) in patches.iter_mut().enumerate() {
+                if j % 7 == 0 {
+                    p.emission = Rgb::new(3.0, 2.0, 1.0);
+                }
+            }
+            let probes = random_probes(n, count, n as u64);
+            let xb = buffer(
+                &device,
+                12 * n as u64,
+                U::COPY_DST | U::COPY_SRC | U::STORAGE,
+            );
+            let yb = buffer(&device, 12 * n as u64, U::STORAGE | U::COPY_SRC);
+            let out = buffer(
+                &device,
+                PROBE_OUT_BYTES * count as u64,
+                U::STORAGE | U::COPY_SRC,
+            );
+            let options = GpuOptions::default();
+            let buffers = HostGatherBuffers { x: &xb, y: &yb };
+            let gather = HostGather::new(&device, &queue, &file.matrix, &options, buffers).unwrap();
+            let pass_buffers = ProbeBuffers {
+                x: &xb,
+                y: &yb,
+                out: &out,
+            };
+            let pass = ProbePass::new(&device, &probes, &patches, pass_buffers)
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(pass.probes(), count);
+            let x = exitance(n, 5);
+            queue.write_buffer(&xb, 0, bytemuck::cast_slice(&x));
+            let mut e = encoder(&device);
+            gather.record(&mut e);
+            pass.record(&mut e);
+            let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
+            let y = submit_and_read(&device, &queue, encoder(&device), &yb, n);
+            assert!(got.iter().any(|v| v.r != 0.0));
+            assert_probes_match(&probes, &patches, &x, &y, &got);
+            // The emitters turned off: the pass now subtracts nothing.
+            for p in &mut patches {
+                p.emission = Rgb::ZERO;
+            }
+            let emission = vec![Rgb::ZERO; n];
+            pass.set_emission(&queue, &emission).unwrap();
+            let mut e = encoder(&device);
+            pass.record(&mut e);
+            let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
+            assert_probes_match(&probes, &patches, &x, &y, &got);
+            assert!(pass.set_emission(&queue, &emission[1..]).is_err());
+        }
+    }
+}
+
+#[test]
+fn wrong_probe_pass_input_is_an_error_not_a_panic() {
+    use wgpu::BufferUsages as U;
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, _queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        let n = 10;
+        let patches = sample_file(n, 3, radiosity_core::Format::F32, 32)
+            .patches
+            .to_vec();
+        let probes = random_probes(n, 4, 1);
+        let good = buffer(&device, 12 * n as u64, U::STORAGE);
+        let out = buffer(&device, PROBE_OUT_BYTES * 4, U::STORAGE);
+        let small = buffer(&device, PROBE_OUT_BYTES * 3, U::STORAGE);
+        let unbound = buffer(&device, 12 * n as u64, U::COPY_SRC);
+        for (what, buffers, needle) in [
+            (
+                "small out",
+                ProbeBuffers {
+                    x: &good,
+                    y: &good,
+                    out: &small,
+                },
+                "out buffer has",
+            ),
+            (
+                "x usage",
+                ProbeBuffers {
+                    x: &unbound,
+                    y: &good,
+                    out: &out,
+                },
+                "lacks usage",
+            ),
+        ] {
+            match ProbePass::new(&device, &probes, &patches, buffers) {
+                Err(GpuError::Unsupported(m)) => assert!(m.contains(needle), "{what}: {m}"),
+                other => panic!("{what}: {other:?}"),
+            }
+        }
+        // Probes of more patches than the file has.
+        let wide = random_probes(n + 5, 4, 2);
+        let buffers = ProbeBuffers {
+            x: &good,
+            y: &good,
+            out: &out,
+        };
+        match ProbePass::new(&device, &wide, &patches, buffers) {
+            Err(GpuError::Unsupported(m)) => assert!(m.contains("do not fit"), "{m}"),
+            other => panic!("{other:?}"),
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! ([`Pipelines::new`]). The bind groups of each dispatch are made in `bind.rs`.
 
 use crate::plan::{self, Band, PlanLimits};
-use crate::shader::{self, Source};
+use crate::shader::{self, Source, WORKGROUP};
 use crate::{DecodePath, GpuError, GpuOptions};
 use radiosity_core::{DecodeMode, MatrixLayout, SparseRows, TransferMatrix};
 use wgpu::util::DeviceExt;
@@ -57,6 +57,100 @@ pub(crate) fn check_host_buffer(
         )));
     }
     Ok(())
+}
+
+/// Refuses a device short of what a host-device pass of one 64-wide workgroup, `storage`
+/// storage buffers and one uniform needs, naming the limit.
+pub(crate) fn check_pass_limits(
+    device: &wgpu::Device,
+    pass: &str,
+    storage: u32,
+) -> Result<(), GpuError> {
+    let dl = device.limits();
+    let needs = [
+        (
+            "max_compute_workgroup_size_x",
+            dl.max_compute_workgroup_size_x,
+            WORKGROUP,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            dl.max_compute_invocations_per_workgroup,
+            WORKGROUP,
+        ),
+        (
+            "max_storage_buffers_per_shader_stage",
+            dl.max_storage_buffers_per_shader_stage,
+            storage,
+        ),
+        (
+            "max_uniform_buffers_per_shader_stage",
+            dl.max_uniform_buffers_per_shader_stage,
+            1,
+        ),
+    ];
+    for (name, has, need) in needs {
+        if has < need {
+            return Err(GpuError::Unsupported(format!(
+                "the device's {name} is {has}, {pass} needs {need}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Runs `build` inside validation and out-of-memory error scopes, so a failed build is an
+/// `Err` and never reaches the device's error handler.
+pub(crate) fn in_error_scopes<T>(
+    device: &wgpu::Device,
+    build: impl FnOnce() -> T,
+) -> Result<T, GpuError> {
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let built = build();
+    let oom = pollster::block_on(oom.pop());
+    let validation = pollster::block_on(validation.pop());
+    match oom.or(validation) {
+        Some(e) => Err(GpuError::Device(e.to_string())),
+        None => Ok(built),
+    }
+}
+
+/// The first `bytes` of `buffer` as bind group entry `binding` (at least 4 bytes: an empty
+/// binding is invalid; a pass with nothing to do then dispatches nothing).
+pub(crate) fn sized(binding: u32, buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer,
+            offset: 0,
+            size: wgpu::BufferSize::new(bytes.max(4).min(buffer.size())),
+        }),
+    }
+}
+
+/// A dispatch grid `(x, y)` of at least `workgroups` workgroups within the device's
+/// per-dimension limit, or an `Err` naming `what` needs them.
+pub(crate) fn workgroup_grid(
+    dl: &wgpu::Limits,
+    workgroups: usize,
+    what: impl FnOnce() -> String,
+) -> Result<(u32, u32), GpuError> {
+    let per_dim = dl.max_compute_workgroups_per_dimension.max(1);
+    let too_many = |what: String| {
+        GpuError::Unsupported(format!(
+            "{what} need {workgroups} workgroups, more than {per_dim}²"
+        ))
+    };
+    let Ok(count) = u32::try_from(workgroups) else {
+        return Err(too_many(what()));
+    };
+    let gx = count.clamp(1, per_dim);
+    let gy = count.div_ceil(gx).max(1);
+    if gy > per_dim {
+        return Err(too_many(what()));
+    }
+    Ok((gx, gy))
 }
 
 /// Bytes one storage binding may have on a device of limits `dl`.
