@@ -124,7 +124,10 @@ struct Report {
     roofline: RooflineOut,
     rows: Vec<RowOut>,
     ratios: Vec<Ratio>,
-    /// The host-device frame on every adapter (gather and corner pass), empty without one.
+    /// The box's light probes at `--probes auto` and the CPU cost of their frame.
+    probes: Option<ProbesOut>,
+    /// The host-device frame on every adapter (gather, corner pass, probe pass), empty without
+    /// one.
     host_frames: Vec<HostFrameOut>,
     timings_ms: BTreeMap<&'static str, f64>,
 }
@@ -143,38 +146,113 @@ struct HostFrameOut {
     gather_ms: Option<f64>,
     /// GPU time of the corner pass, ms (`null` without timestamps).
     corners_ms: Option<f64>,
+    /// Probes the probe pass writes.
+    probes: usize,
+    /// GPU time of the probe pass, ms (`null` without probes or timestamps).
+    probes_ms: Option<f64>,
     frames: usize,
+}
+
+/// The box's probes (`bake --probes auto`) and one CPU frame of them, `P·(B − E)`.
+#[derive(Serialize)]
+struct ProbesOut {
+    count: usize,
+    weights: usize,
+    bytes: usize,
+    /// Median CPU time of `P·(B − E)` (the probes over the threads) over [`HOST_FRAMES`]
+    /// frames, ms.
+    cpu_ms: f64,
+}
+
+/// Probes over the box as `bake --probes auto` places them, for a file of `matrix` over the
+/// patches of `sys` in the order `perm` with the full-detail `mesh`; and their CPU frame time.
+fn bench_probes(
+    scene: &radiosity_bake::scene::Scene,
+    sys: &Discretised,
+    perm: &[u32],
+    matrix: &radiosity_core::TransferMatrix<'_>,
+    mesh: &radiosity_core::Mesh<'static>,
+) -> anyhow::Result<(
+    radiosity_core::Probes<'static>,
+    Vec<radiosity_core::Patch>,
+    ProbesOut,
+)> {
+    use std::borrow::Cow;
+    let patches = order::permute_rows(&sys.core_patches, perm);
+    let file = radiosity_core::RadFile {
+        patches: Cow::Owned(patches.clone()),
+        order: Cow::Owned(perm.to_vec()),
+        matrix: matrix.clone().into_owned(),
+        objects: scene
+            .objects
+            .iter()
+            .map(|o| Cow::Owned(o.clone()))
+            .collect(),
+        bounces: radiosity_core::Bounces::Infinite,
+        patch_order: radiosity_core::PatchOrder::Natural,
+        compression_rmse: None,
+        lighting_error: None,
+        report: None,
+        mesh: Some(mesh.clone()),
+        probes: None,
+    };
+    let rt = crate::runtime::Runtime::new(file);
+    let (probes, report) =
+        crate::probes::bake(&rt, &crate::probes::ProbeSpec::Auto)?.context("probes at auto")?;
+    let reflected: Vec<Rgb> = (0..patches.len())
+        .map(|i| Rgb::splat(1.0 + (i % 7) as f32))
+        .collect();
+    let mut times: Vec<f64> = (0..HOST_FRAMES)
+        .map(|_| {
+            let t = Instant::now();
+            std::hint::black_box(crate::probes::gather_all(&probes, &reflected));
+            ms(t.elapsed())
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    let cpu = ProbesOut {
+        count: probes.len(),
+        weights: report.weights,
+        bytes: report.bytes,
+        cpu_ms: times[times.len() / 2],
+    };
+    Ok((probes, patches, cpu))
 }
 
 /// Frames each host-device measurement runs (medians over them).
 const HOST_FRAMES: usize = 21;
 
-/// [`time_host_frame`] of `matrix` and `mesh` on every adapter; an adapter that cannot run it
-/// gets a note on stderr instead of a row.
+/// [`time_host_frame`] of `matrix`, `mesh` and `probes` on every adapter; an adapter that
+/// cannot run it gets a note on stderr instead of a row.
 fn host_frames(
     matrix: &radiosity_core::TransferMatrix<'_>,
     mesh: &radiosity_core::Mesh<'_>,
+    probes: Option<(&radiosity_core::Probes<'_>, &[radiosity_core::Patch])>,
 ) -> Vec<HostFrameOut> {
     let format = matrix.layout.format();
     radiosity_backend_wgpu::adapters()
         .iter()
-        .filter_map(|a| match time_host_frame(a, matrix, mesh, HOST_FRAMES) {
-            Ok(t) => Some(HostFrameOut {
-                adapter: t.adapter.to_string(),
-                format: format.name(),
-                path: t.path.to_string(),
-                dispatches: t.dispatches,
-                corners: t.corners,
-                record_ms: t.record_ms,
-                gather_ms: t.gather_ms,
-                corners_ms: t.corners_ms,
-                frames: HOST_FRAMES,
-            }),
-            Err(e) => {
-                eprintln!("note: no host-device frame on {}: {e}", a.info);
-                None
-            }
-        })
+        .filter_map(
+            |a| match time_host_frame(a, matrix, mesh, probes, HOST_FRAMES) {
+                Ok(t) => Some(HostFrameOut {
+                    adapter: t.adapter.to_string(),
+                    format: format.name(),
+                    path: t.path.to_string(),
+                    dispatches: t.dispatches,
+                    corners: t.corners,
+                    record_ms: t.record_ms,
+                    gather_ms: t.gather_ms,
+                    corners_ms: t.corners_ms,
+                    probes: t.probes,
+                    probes_ms: t.probes_ms,
+                    frames: HOST_FRAMES,
+                }),
+                Err(e) => {
+                    eprintln!("note: no host-device frame on {}: {e}", a.info);
+                    None
+                }
+            },
+        )
         .collect()
 }
 
@@ -235,6 +313,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         .collect();
     let (mesh, _) = file_mesh(&scene, &sys, &patch_source);
     let mut frames = Vec::new();
+    let mut probes_out = None;
     let mut rows = encoded_rows(
         n,
         channels,
@@ -242,8 +321,20 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         &ordered.weights,
         &stage,
         &mut |matrix| {
+            stage("probes");
+            let probes = match bench_probes(&scene, &sys, &ordered.perm, matrix, &mesh) {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    eprintln!("note: no probes over the box: {e:#}");
+                    None
+                }
+            };
             stage("host-device frame");
-            frames = host_frames(matrix, &mesh);
+            let pass = probes
+                .as_ref()
+                .map(|(p, patches, _)| (p, patches.as_slice()));
+            frames = host_frames(matrix, &mesh, pass);
+            probes_out = probes.map(|(_, _, out)| out);
         },
     )?;
     timings.insert("encode", rows.iter().map(|r| r.setup_ms).sum());
@@ -279,6 +370,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         },
         rows: out_rows,
         ratios,
+        probes: probes_out,
         host_frames: frames,
         timings_ms: timings,
     };
@@ -597,22 +689,34 @@ fn print_text(r: &Report) {
         outln!("  {}: {}", row.method, row.note);
     }
     outln!("");
+    if let Some(p) = &r.probes {
+        outln!(
+            "probes (bake --probes auto): {} probes, {} weights, {:.2} MB; P·(B − E) on the CPU {:.3} ms",
+            p.count,
+            p.weights,
+            p.bytes as f64 / 1e6,
+            p.cpu_ms
+        );
+        outln!("");
+    }
     if !r.host_frames.is_empty() {
         outln!(
-            "host-device frame (HostGather + CornerPass recorded into one encoder, medians of {HOST_FRAMES} frames; GPU times from timestamps):"
+            "host-device frame (HostGather + CornerPass + ProbePass recorded into one encoder, medians of {HOST_FRAMES} frames; GPU times from timestamps):"
         );
         let gpu = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.3}"));
         for f in &r.host_frames {
             outln!(
-                "  {}: {} {} decode, {} dispatches, {} corners: record {:.4} ms CPU, gather {} ms GPU, corners {} ms GPU",
+                "  {}: {} {} decode, {} dispatches, {} corners, {} probes: record {:.4} ms CPU, gather {} ms GPU, corners {} ms GPU, probes {} ms GPU",
                 f.adapter,
                 f.format,
                 f.path,
                 f.dispatches,
                 f.corners,
+                f.probes,
                 f.record_ms,
                 gpu(f.gather_ms),
-                gpu(f.corners_ms)
+                gpu(f.corners_ms),
+                gpu(f.probes_ms)
             );
         }
         outln!("");

@@ -9,8 +9,7 @@
 //! Weights: [`RAYS`] rays over the sphere, stratified; each ray's first front face gives its
 //! direction's share `(4π/RAYS)·Y_lm(ω)/π` to the patches around the hit, with the same kernel
 //! `render` interpolates with (`PatchGrid`), so a probe sees a patch where an image shows it.
-//! Stored as f32, not compressed as the matrix is: SH weights are signed (the matrix's log
-//! codes are not), and a probe's row holds only the patches it sees.
+//! Stored as binary16 (`radiosity_core::probes` says why not as block codes).
 //!
 //! Interpolation: a point takes the probes of its lattice cell that it sees (a segment from the
 //! point to the probe clear of the mesh), each with its trilinear (tent) weight times
@@ -165,10 +164,7 @@ fn weigh(rt: &Runtime, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<Pro
     }
     Some(
         acc.into_iter()
-            .map(|(patch, sh)| ProbeWeight {
-                patch,
-                sh: sh.map(|v| v as f32),
-            })
+            .map(|(patch, sh)| ProbeWeight::new(patch, sh.map(|v| v as f32)))
             .collect(),
     )
 }
@@ -239,9 +235,15 @@ pub(crate) fn frame_sh(rt: &Runtime, b: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
         .zip(rt.file.patches.iter())
         .map(|(b, p)| *b + p.emission * -1.0)
         .collect();
-    let mut out = vec![[Rgb::ZERO; SH_COEFFICIENTS]; probes.len()];
-    probes.gather(&reflected, &mut out);
-    out
+    gather_all(probes, &reflected)
+}
+
+/// Every probe's SH from the patches' reflected radiosity, the probes spread over the threads.
+pub(crate) fn gather_all(probes: &Probes<'_>, reflected: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
+    (0..probes.len())
+        .into_par_iter()
+        .map(|p| probes.gather_probe(p, reflected))
+        .collect()
 }
 
 /// The reflected irradiance at `p` facing unit `n` from the probes around it (module docs), or

@@ -22,7 +22,7 @@ struct ProbeUniform {
 }
 
 const _: () = assert!(size_of::<ProbeUniform>() == 16);
-const _: () = assert!(size_of::<ProbeWeight>() == 40);
+const _: () = assert!(size_of::<ProbeWeight>() == 24);
 
 /// Bytes of one probe's output: nine RGB f32 coefficients.
 pub const PROBE_OUT_BYTES: u64 = (SH_COEFFICIENTS * 12) as u64;
@@ -102,7 +102,7 @@ impl ProbePass {
         }
         let most = storage_binding_limit(&dl);
         let rows_bytes = 4 * probes.rows.len() as u64;
-        let weight_bytes = 40 * probes.weights.len() as u64;
+        let weight_bytes = 24 * probes.weights.len() as u64;
         let table_bytes = 2 * patch_bytes;
         for (what, bytes) in [
             ("probe output", out_bytes),

@@ -136,11 +136,19 @@ fn bench_json_has_every_method_with_sane_values() {
     if std::env::var("CI").is_ok_and(|v| v == "true") {
         assert!(!frames.is_empty(), "no host-device frame under CI");
     }
+    // The box's probes at `--probes auto` (about 64 cells, those inside the blocks dropped),
+    // timed on the CPU and, in each host-device frame, by the probe pass.
+    let probes = &v["probes"];
+    let count = probes["count"].as_u64().unwrap();
+    assert!((40..=120).contains(&count), "{probes}");
+    assert!(probes["weights"].as_u64().unwrap() > count, "{probes}");
+    assert!(probes["cpu_ms"].as_f64().unwrap() > 0.0, "{probes}");
     for f in frames {
         assert_eq!(f["format"], "bc1", "{f}");
         assert!(f["corners"].as_u64().unwrap() >= 3, "{f}");
+        assert_eq!(f["probes"].as_u64(), Some(count), "{f}");
         assert!(f["record_ms"].as_f64().unwrap() > 0.0, "{f}");
-        for k in ["gather_ms", "corners_ms"] {
+        for k in ["gather_ms", "corners_ms", "probes_ms"] {
             assert!(f[k].is_null() || f[k].as_f64().unwrap() > 0.0, "{f}");
         }
     }

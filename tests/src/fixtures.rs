@@ -96,15 +96,9 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
 /// the second none.
 pub fn sample_probes(n: usize) -> radiosity_core::Probes<'static> {
     use radiosity_core::{ProbeWeight, SH_COEFFICIENTS};
-    let mut weights = vec![ProbeWeight {
-        patch: 0,
-        sh: [0.25; SH_COEFFICIENTS],
-    }];
+    let mut weights = vec![ProbeWeight::new(0, [0.25; SH_COEFFICIENTS])];
     if n > 1 {
-        weights.push(ProbeWeight {
-            patch: n as u32 - 1,
-            sh: [-0.125; SH_COEFFICIENTS],
-        });
+        weights.push(ProbeWeight::new(n as u32 - 1, [-0.125; SH_COEFFICIENTS]));
     }
     radiosity_core::Probes {
         positions: Cow::Owned(vec![[0.5, 0.5, 0.5], [0.25, 0.75, 0.5]]),

@@ -15,7 +15,8 @@ struct ProbeCfg {
 @group(0) @binding(0) var<uniform> cfg: ProbeCfg;
 // count + 1 row starts into `weights`.
 @group(0) @binding(1) var<storage, read> rows: array<u32>;
-// ProbeWeight as stored: the patch, then the bits of nine f32 SH weights (10 words).
+// ProbeWeight as stored (6 words): the patch, then nine binary16 SH weights two a word,
+// the first in the low half, and a zero half.
 @group(0) @binding(2) var<storage, read> weights: array<u32>;
 // First exitance x, RGB f32 per patch.
 @group(0) @binding(3) var<storage, read> x: array<f32>;
@@ -42,16 +43,19 @@ fn probes(
         acc[c] = vec3<f32>(0.0);
     }
     for (var k = rows[p] + li; k < rows[p + 1u]; k += 64u) {
-        let base = 10u * k;
+        let base = 6u * k;
         let j = weights[base];
         let e = 6u * j;
         let r = vec3<f32>(x[3u * j], x[3u * j + 1u], x[3u * j + 2u])
             - vec3<f32>(table[e], table[e + 1u], table[e + 2u])
             + vec3<f32>(table[e + 3u], table[e + 4u], table[e + 5u])
             * vec3<f32>(y[3u * j], y[3u * j + 1u], y[3u * j + 2u]);
-        for (var c = 0u; c < 9u; c++) {
-            acc[c] += r * bitcast<f32>(weights[base + 1u + c]);
+        for (var c = 0u; c < 4u; c++) {
+            let h = unpack2x16float(weights[base + 1u + c]);
+            acc[2u * c] += r * h.x;
+            acc[2u * c + 1u] += r * h.y;
         }
+        acc[8] += r * unpack2x16float(weights[base + 5u]).x;
     }
     part[li] = acc;
     workgroupBarrier();
