@@ -227,6 +227,38 @@ pub(crate) fn bake_scene(
     Ok((out, load_ms))
 }
 
+/// Places and weighs the probes of `spec` in a bake's file and stores its report again, with
+/// the file's new size. Nothing for `ProbeSpec::None`.
+pub(crate) fn attach_probes(
+    out: BakeOutput,
+    spec: &crate::probes::ProbeSpec,
+) -> anyhow::Result<(BakeOutput, Option<crate::probes::ProbeReport>)> {
+    if *spec == crate::probes::ProbeSpec::None {
+        return Ok((out, None));
+    }
+    let BakeOutput {
+        file,
+        mut report,
+        patch_source,
+    } = out;
+    let rt = crate::runtime::Runtime::new(file);
+    let baked = crate::probes::bake(&rt, spec)?;
+    let mut file = rt.file;
+    let probe_report = baked.map(|(probes, r)| {
+        file.probes = Some(probes);
+        report.bytes.probes = r.bytes;
+        r
+    });
+    let report = radiosity_bake::pipeline::store(&mut file, report)
+        .context("internal error: the bake produced an invalid file")?;
+    let out = BakeOutput {
+        file,
+        report,
+        patch_source,
+    };
+    Ok((out, probe_report))
+}
+
 pub(crate) fn run(
     scene: &Path,
     output: &Path,
@@ -241,17 +273,7 @@ pub(crate) fn run(
     crate::output::check_file(output)?;
     let (mut out, load_ms) = bake_scene(scene, None, &load, &params, json_out)?;
     out.report.timings_ms.insert("load", load_ms);
-    let mut probe_report = None;
-    if probe_spec != crate::probes::ProbeSpec::None {
-        let rt = crate::runtime::Runtime::new(out.file);
-        let baked = crate::probes::bake(&rt, &probe_spec)?;
-        let mut file = rt.file;
-        if let Some((p, r)) = baked {
-            file.probes = Some(p);
-            probe_report = Some(r);
-        }
-        out.file = file;
-    }
+    let (out, probe_report) = attach_probes(out, &probe_spec)?;
     let bytes = out
         .file
         .to_bytes()
@@ -259,9 +281,7 @@ pub(crate) fn run(
     crate::output::write_bytes(output, &bytes)?;
     if json_out {
         let mut v = serde_json::to_value(&out.report)?;
-        if let Some(r) = &probe_report {
-            v["probes"] = serde_json::to_value(r)?;
-        }
+        v["probes"] = serde_json::to_value(&probe_report)?;
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         if let Some(r) = &probe_report {

@@ -202,10 +202,11 @@ fn bench_probes(
     let reflected: Vec<Rgb> = (0..patches.len())
         .map(|i| Rgb::splat(1.0 + (i % 7) as f32))
         .collect();
+    let decoded = radiosity_core::DecodedProbes::new(&probes);
     let mut times: Vec<f64> = (0..HOST_FRAMES)
         .map(|_| {
             let t = Instant::now();
-            std::hint::black_box(crate::probes::gather_all(&probes, &reflected));
+            std::hint::black_box(crate::probes::gather_all(&decoded, &reflected));
             ms(t.elapsed())
         })
         .collect();

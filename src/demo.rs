@@ -1,14 +1,15 @@
 //! `radiosity demo [--out DIR] [--backend auto|cpu|gpu]`: the whole product on the embedded
 //! Cornell box. Bakes it (progress bar), then lights it every frame with one gather: writes
 //! `demo.png` (the box lit by its own ceiling light) and `demo.gif` (the ceiling light off, a
-//! point light circling through the box, its colour bleeding off the walls), and prints the
+//! point light circling through the box, its colour bleeding off the walls, and a white sphere
+//! that is not in the matrix floating through it, lit by the light probes), and prints the
 //! bake time, the file size and the per-frame times.
 
 use crate::args::BakeArgs;
 use crate::picture::LinearImage;
 use crate::runtime::Runtime;
 use anyhow::Context;
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use radiosity_core::{Light, Rgb};
 use std::path::Path;
 use std::time::Instant;
@@ -44,6 +45,8 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     let t = Instant::now();
     let (baked, _) =
         crate::bake::bake_scene(&obj, Some("embedded"), &Default::default(), &params, false)?;
+    let (baked, probe_report) = crate::bake::attach_probes(baked, &crate::probes::ProbeSpec::Auto)?;
+    let probe_report = probe_report.context("the demo's probes")?;
     let bake_s = t.elapsed().as_secs_f64();
     let bytes = baked.file.to_bytes()?;
     let rad = out.join("demo.rad");
@@ -60,12 +63,20 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
             .map_or("n/a".into(), |e| format!("{:.2}%", 100.0 * e))
     );
     let dense = 4.0 * 3.0 * (r.patches as f64).powi(2);
+    let without_probes = (bytes.len() - probe_report.bytes) as f64;
     outln!(
-        "file: {} ({:.2} MB; a dense f32 RGB matrix would be {:.1} MB, {:.1}x more)",
+        "file: {} ({:.2} MB; without its probes {:.2} MB, a dense f32 RGB matrix would be {:.1} MB, {:.1}x more)",
         rad.display(),
         bytes.len() as f64 / 1e6,
+        without_probes / 1e6,
         dense / 1e6,
-        dense / bytes.len() as f64
+        dense / without_probes
+    );
+
+    outln!(
+        "probes: {} ({:.2} MB of the file)",
+        probe_report.placed,
+        probe_report.bytes as f64 / 1e6
     );
 
     let rt = Runtime::new(baked.file);
@@ -76,7 +87,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     let t = Instant::now();
     let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &[], 1.0)?;
     let prim = crate::render::primary(&rt, &cam, 2)?;
-    let img = crate::render::shade(&rt, &prim, &frame, &[], 1.0)?;
+    let img = crate::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
     let png = out.join("demo.png");
     img.save_png(&png, img.auto_exposure())?;
     outln!(
@@ -86,13 +97,17 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         t.elapsed().as_secs_f64() * 1e3 - gather_ms
     );
 
-    // demo.gif: ceiling light off, a point light circling under the ceiling.
-    let (lo, hi) = bounds(&rt)?;
+    // demo.gif: ceiling light off, a point light circling under the ceiling, a sphere floating
+    // through the box's middle (over the short block, in front of the tall one).
+    let (lo, hi) = rt
+        .mesh_bounds()
+        .context("the demo's mesh has no vertices")?;
     let (centre, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
     let cam = crate::render::camera(&rt, None, 256, 256)?;
     let prim = crate::render::primary(&rt, &cam, 1)?;
     let mut gathers = Vec::with_capacity(FRAMES);
     let mut frames_ms = Vec::with_capacity(FRAMES);
+    let mut probes_ms = Vec::with_capacity(FRAMES);
     let mut images: Vec<LinearImage> = Vec::with_capacity(FRAMES);
     for f in 0..FRAMES {
         let a = std::f64::consts::TAU * f as f64 / FRAMES as f64;
@@ -110,7 +125,30 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         let (frame, g) = rt.frame(chosen.gather.as_mut(), &lights, 0.0)?;
         frames_ms.push(t.elapsed().as_secs_f64() * 1e3);
         gathers.push(g);
-        images.push(crate::render::shade(&rt, &prim, &frame, &lights, 0.0)?);
+        let t = Instant::now();
+        let sh = crate::probes::frame_sh(&rt, &frame.irradiance);
+        probes_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let b = -2.0 * a;
+        let centre = DVec3::new(
+            centre.x + 0.1 * half.x + 0.35 * half.x * b.cos(),
+            lo.y + (1.05 + 0.25 * (2.0 * b).sin()) * half.y,
+            centre.z + 0.5 * half.z + 0.35 * half.z * b.sin(),
+        );
+        let sphere = crate::render::Sphere {
+            centre,
+            radius: 0.18 * half.y,
+            reflectance: Rgb::splat(0.75),
+            sh: crate::probes::sh_at(&rt, &sh, centre)
+                .context("the demo's sphere left the probe grid")?,
+        };
+        images.push(crate::render::shade(
+            &rt,
+            &prim,
+            &frame,
+            &lights,
+            0.0,
+            Some(&sphere),
+        )?);
     }
     // One exposure for the whole animation, so that brightness changes are real.
     let mut exposures: Vec<f32> = images.iter().map(LinearImage::auto_exposure).collect();
@@ -119,12 +157,13 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     let gif = out.join("demo.gif");
     write_gif(&gif, &images, exposure)?;
     outln!(
-        "{}: {} frames 256×256, per frame: gather {:.2} ms ({}), direct light + gather {:.2} ms (medians)",
+        "{}: {} frames 256×256, per frame: gather {:.2} ms ({}), direct light + gather {:.2} ms, probes {:.2} ms (medians)",
         gif.display(),
         FRAMES,
         median(&mut gathers),
         chosen.gather.name(),
-        median(&mut frames_ms)
+        median(&mut frames_ms),
+        median(&mut probes_ms)
     );
     Ok(())
 }
@@ -132,17 +171,6 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
-}
-
-fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
-    let mesh = rt.mesh("the demo")?;
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for p in mesh.positions.iter() {
-        let p = Vec3::from(*p).as_dvec3();
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    Ok((lo, hi))
 }
 
 /// Writes an animated GIF (looping, 80 ms per frame) atomically.

@@ -69,6 +69,7 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "count": p.len(),
             "weights": p.weights.len(),
             "bytes": p.to_bytes().len(),
+            "spacing": p.spacing,
         })),
     });
     let obj = out.as_object_mut().expect("object");
@@ -136,9 +137,10 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
     }
     if let Some(p) = &file.probes {
         outln!(
-            "  probes       {} ({} patch weights, {:.3} MiB)",
+            "  probes       {} ({} patch weights, spacing {}, {:.3} MiB)",
             p.len(),
             p.weights.len(),
+            p.spacing,
             mib(&s["probes"]["bytes"])
         );
     }

@@ -76,10 +76,10 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
-        /// Light probes for points off the surfaces: `none`, `auto` (a grid of about 64 cells
-        /// over the scene), a grid spacing in scene units, or a JSON file {"probes": [[x,y,z],
-        /// ...]}; probes inside solid objects are dropped.
-        #[arg(long, default_value = "none", allow_negative_numbers = true)]
+        /// Light probes for moving objects and points off the surfaces: `auto` (a grid of about
+        /// 64 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
+        /// {"probes": [[x,y,z], ...]}; probes inside solid objects are dropped.
+        #[arg(long, default_value = "auto", allow_negative_numbers = true)]
         probes: String,
         /// Print the bake report as JSON.
         #[arg(long)]

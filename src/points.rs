@@ -194,17 +194,16 @@ impl Emitters {
     }
 }
 
-/// The answer at every point for a frame whose gathered irradiance is `gathered` (file
-/// numbering) under `lights`. The file needs its mesh.
+/// The answer at every point for a frame whose gathered irradiance is `gathered` and total
+/// irradiance `irradiance` (file numbering) under `lights`. The file needs its mesh.
 pub(crate) fn answer(
     rt: &Runtime,
     gathered: &[Rgb],
-    radiosity: &[Rgb],
+    irradiance: &[Rgb],
     lights: &[Light],
     points: &[Point],
 ) -> anyhow::Result<Vec<Answer>> {
-    let probe_sh = crate::probes::frame_sh(rt, radiosity);
-    let probe_spacing = rt.file.probes.as_ref().map(crate::probes::spacing);
+    let probe_sh = crate::probes::frame_sh(rt, irradiance);
     let mesh = rt.mesh("--points")?;
     let occ = rt.occluders().expect("a mesh has a BVH");
     // A mesh without vertices holds every point outside it.
@@ -259,8 +258,11 @@ pub(crate) fn answer(
             let direct =
                 rt.direct_at(lights, p, n) + emitters.irradiance_at(rt, mesh, p, n, &mut rng);
             let total = sum * (1.0 / (side * side) as f32) + direct;
-            let probes = probe_spacing
-                .map(|h| crate::probes::reflected_at(rt, &probe_sh, h, p, n).map(|r| r + direct));
+            let probes = rt
+                .file
+                .probes
+                .as_ref()
+                .map(|_| crate::probes::reflected_at(rt, &probe_sh, p, n).map(|r| r + direct));
             Answer::Irradiance { total, probes }
         })
         .collect())

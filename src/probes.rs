@@ -1,10 +1,10 @@
 //! Light probes (`bake --probes`, `radiosity_core::Probes`): where they go, what each stores,
 //! and the irradiance a point takes from them.
 //!
-//! Placement: `auto` lays a grid over the bounding box of the scene's mesh with about
-//! [`AUTO_PROBES`] cells, `SPACING` a grid of that cell size, `FILE.json`
-//! (`{"probes": [[x, y, z], …]}`) the given points; a probe is at each cell's centre. A probe
-//! whose rays mostly meet the backs of faces lies inside a solid object and is dropped.
+//! Placement: `auto` lays a cubic lattice of about [`AUTO_PROBES`] probes over the bounding box
+//! of the scene's mesh, `SPACING` a lattice of that step, `FILE.json`
+//! (`{"probes": [[x, y, z], …]}`) the given points. A probe whose rays mostly meet the backs of
+//! faces lies inside a solid object and is dropped.
 //!
 //! Weights: [`RAYS`] rays over the sphere, stratified; each ray's first front face gives its
 //! direction's share `(4π/RAYS)·Y_lm(ω)/π` to the patches around the hit, with the same kernel
@@ -23,7 +23,9 @@ use crate::runtime::Runtime;
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
 use radiosity_bake::rng::SplitMix64;
-use radiosity_core::{ProbeWeight, Probes, Rgb, SH_COEFFICIENTS, probes::sh_basis, sh_irradiance};
+use radiosity_core::{
+    DecodedProbes, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS, probes::sh_basis, sh_irradiance,
+};
 use rayon::prelude::*;
 use serde::Deserialize;
 use std::borrow::Cow;
@@ -31,12 +33,9 @@ use std::path::Path;
 
 /// Rays a probe: 64 × 64 strata over the sphere.
 pub(crate) const RAYS: usize = 64 * 64;
-/// Grid cells `auto` aims at over the scene's bounding box.
-pub(crate) const AUTO_PROBES: f64 = 64.0;
-/// The part of a probe's weight that does not depend on which side of the point's surface it
-/// lies (`docs/decisions/probe-sh-order.md`: 0.5 of the range 0–2 measured best).
-const FACING_FLOOR: f64 = 0.5;
-
+/// Probes `auto` aims at over the scene's bounding box, before those inside solids are
+/// dropped: five a side of a cube (docs/decisions/probe-interpolation.md weighs 64 to 323).
+pub(crate) const AUTO_PROBES: f64 = 125.0;
 /// Where probes go.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum ProbeSpec {
@@ -85,7 +84,7 @@ pub(crate) struct ProbeReport {
     pub(crate) dropped_inside: usize,
     pub(crate) weights: usize,
     pub(crate) bytes: usize,
-    pub(crate) spacing: Option<f64>,
+    pub(crate) spacing: f64,
     pub(crate) seconds: f64,
 }
 
@@ -94,11 +93,12 @@ fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
     rt.mesh_bounds().context("probes need a mesh with vertices")
 }
 
-/// Centres of a grid of cell size `h` covering `[lo, hi]`, centred on the box (at least one
-/// cell an axis): the step is `h` on every axis, so the probes form a cubic lattice and a point
-/// between them takes trilinear weights.
+/// A lattice of step `h` over `[lo, hi]`, centred on the box: `round(size/h)` probes an axis
+/// (at least one), so the outermost lie between a quarter and three quarters of a step inside
+/// the bounds (a scene's walls are on its bounds, and a probe on a wall sees nothing right).
+/// The step is `h` on every axis, so a point between probes takes trilinear weights.
 fn grid(lo: DVec3, hi: DVec3, h: f64) -> anyhow::Result<Vec<DVec3>> {
-    let cells = ((hi - lo) / h).ceil().max(DVec3::ONE);
+    let cells = ((hi - lo) / h).round().max(DVec3::ONE);
     let count = cells.x * cells.y * cells.z;
     if count > 1e6 {
         bail!("--probes spacing {h} gives {count:.0} probes over the scene (at most 1 000 000)");
@@ -209,7 +209,16 @@ pub(crate) fn bake(
             None => dropped += 1,
         }
     }
+    let spacing = spacing.unwrap_or_else(|| {
+        let pos: Vec<DVec3> = positions
+            .iter()
+            .map(|p| Vec3::from(*p).as_dvec3())
+            .collect();
+        let size = bounds(rt).map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+        median_spacing(&pos, size)
+    });
     let probes = Probes {
+        spacing: spacing as f32,
         positions: Cow::Owned(positions),
         rows: Cow::Owned(starts),
         weights: Cow::Owned(weights),
@@ -225,21 +234,22 @@ pub(crate) fn bake(
     Ok(Some((probes, report)))
 }
 
-/// The probes' radiance SH for a frame of radiosity `b` (file numbering): `P·(B − E)`.
-pub(crate) fn frame_sh(rt: &Runtime, b: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
-    let Some(probes) = &rt.file.probes else {
+/// The probes' radiance SH for a frame of total irradiance `h` (file numbering): `P·(B − E)`,
+/// with `B − E = ρ∘H` whatever the frame's emission scale.
+pub(crate) fn frame_sh(rt: &Runtime, h: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
+    let Some(probes) = rt.decoded_probes() else {
         return Vec::new();
     };
-    let reflected: Vec<Rgb> = b
+    let reflected: Vec<Rgb> = h
         .iter()
         .zip(rt.file.patches.iter())
-        .map(|(b, p)| *b + p.emission * -1.0)
+        .map(|(h, p)| p.reflectance * *h)
         .collect();
     gather_all(probes, &reflected)
 }
 
 /// Every probe's SH from the patches' reflected radiosity, the probes spread over the threads.
-pub(crate) fn gather_all(probes: &Probes<'_>, reflected: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
+pub(crate) fn gather_all(probes: &DecodedProbes, reflected: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
     (0..probes.len())
         .into_par_iter()
         .map(|p| probes.gather_probe(p, reflected))
@@ -251,64 +261,68 @@ pub(crate) fn gather_all(probes: &Probes<'_>, reflected: &[Rgb]) -> Vec<[Rgb; SH
 pub(crate) fn reflected_at(
     rt: &Runtime,
     sh: &[[Rgb; SH_COEFFICIENTS]],
-    spacing: f64,
     p: DVec3,
     n: DVec3,
 ) -> Option<Rgb> {
-    let probes = rt.file.probes.as_ref()?;
-    let occ = rt.occluders()?;
     let normal = n.as_vec3().to_array();
-    // The lattice's own cell first; where every probe of it is hidden or gone (dropped inside
-    // a solid), a tent twice as wide.
-    for width in [spacing, 2.0 * spacing] {
-        let (mut sum, mut total) = (Rgb::ZERO, 0.0f64);
-        for (i, q) in probes.positions.iter().enumerate() {
-            let d = Vec3::from(*q).as_dvec3() - p;
-            let a = d.abs() / width;
-            if a.max_element() >= 1.0 {
-                continue;
-            }
-            let tent = (1.0 - a.x) * (1.0 - a.y) * (1.0 - a.z);
-            let dist = d.length();
-            if dist > 1e-9 * spacing && !occ.segment_visible(p, p + d) {
-                continue;
-            }
-            let facing = if dist > 0.0 {
-                ((1.0 + n.dot(d / dist)) / 2.0).powi(2)
-            } else {
-                1.0
-            };
-            let w = tent * (FACING_FLOOR + facing);
-            sum += sh_irradiance(&sh[i], normal) * w as f32;
-            total += w;
-        }
-        if total > 0.0 {
-            return Some(sum * (1.0 / total) as f32);
-        }
+    let mut sum = Rgb::ZERO;
+    for (i, w) in neighbours(rt, p, Some(n))? {
+        sum += sh_irradiance(&sh[i], normal) * w;
     }
-    None
+    Some(sum)
 }
 
-/// The probes' spacing: the median distance from a probe to its nearest neighbour (the grid's
-/// cell size for a grid).
-pub(crate) fn spacing(probes: &Probes<'_>) -> f64 {
-    let pos: Vec<DVec3> = probes
-        .positions
-        .iter()
-        .map(|p| Vec3::from(*p).as_dvec3())
-        .collect();
-    let mut nearest: Vec<f64> = pos
+/// The radiance SH at `p` for an object there (a moving one, lit from every side): the probes
+/// around it with their trilinear weights, without the facing term; `None` when no probe in
+/// reach is in sight. `sh_irradiance` of it gives the object's irradiance for each normal.
+pub(crate) fn sh_at(
+    rt: &Runtime,
+    sh: &[[Rgb; SH_COEFFICIENTS]],
+    p: DVec3,
+) -> Option<[Rgb; SH_COEFFICIENTS]> {
+    let mut sum = [Rgb::ZERO; SH_COEFFICIENTS];
+    for (i, w) in neighbours(rt, p, None)? {
+        for (s, c) in sum.iter_mut().zip(&sh[i]) {
+            *s += *c * w;
+        }
+    }
+    Some(sum)
+}
+
+/// The probes `p` takes light from and their weights (`Probes::interpolation_weights`, the
+/// runtime's BVH saying which are in sight), or `None` when none is.
+fn neighbours(rt: &Runtime, p: DVec3, n: Option<DVec3>) -> Option<Vec<(usize, f32)>> {
+    let probes = rt.file.probes.as_ref()?;
+    let occ = rt.occluders()?;
+    let mut out = Vec::new();
+    let visible = |i: usize| occ.segment_visible(p, Vec3::from(probes.positions[i]).as_dvec3());
+    let at = p.as_vec3().to_array();
+    let facing = n.map(|n| n.as_vec3().to_array());
+    probes
+        .interpolation_weights(at, facing, visible, &mut out)
+        .then_some(out)
+}
+
+/// The median distance from a probe to its nearest neighbour, over at most 1024 of them
+/// (evenly picked), for scattered probes; `alone` (the scene's size) for fewer than two.
+fn median_spacing(pos: &[DVec3], alone: f64) -> f64 {
+    let stride = pos.len().div_ceil(1024).max(1);
+    let mut nearest: Vec<f64> = (0..pos.len())
+        .step_by(stride)
+        .collect::<Vec<_>>()
         .par_iter()
-        .enumerate()
-        .map(|(i, a)| {
+        .map(|&i| {
             pos.iter()
                 .enumerate()
                 .filter(|(j, _)| *j != i)
-                .map(|(_, b)| a.distance(*b))
+                .map(|(_, b)| pos[i].distance(*b))
                 .fold(f64::INFINITY, f64::min)
         })
-        .filter(|d| d.is_finite())
+        .filter(|d| d.is_finite() && *d > 0.0)
         .collect();
     nearest.sort_by(f64::total_cmp);
-    nearest.get(nearest.len() / 2).copied().unwrap_or(1.0)
+    nearest
+        .get(nearest.len() / 2)
+        .copied()
+        .unwrap_or(alone.max(1e-9))
 }

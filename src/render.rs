@@ -31,6 +31,8 @@ pub(crate) struct SampleHit {
 /// Primary visibility of an image: `spp_side²` stratified samples per pixel, cached so that
 /// a static camera pays for it once however many frames it shows.
 pub(crate) struct Primary {
+    camera: Camera,
+    side: u32,
     width: u32,
     height: u32,
     per_pixel: usize,
@@ -154,6 +156,59 @@ pub(crate) fn triangle_normal(mesh: &radiosity_core::Mesh<'_>, t: usize) -> DVec
     (b - a).cross(c - a).normalize_or_zero()
 }
 
+/// The direction of sample `s` (of `side²`, stratified) of pixel `pixel` in an image `width`
+/// wide.
+fn sample_ray(
+    cam: &Camera,
+    basis: &crate::camera::Basis,
+    width: u32,
+    side: u32,
+    pixel: usize,
+    s: u32,
+) -> DVec3 {
+    let (px, py) = (
+        (pixel % width as usize) as f64,
+        (pixel / width as usize) as f64,
+    );
+    let (sx, sy) = (
+        (f64::from(s % side) + 0.5) / f64::from(side),
+        (f64::from(s / side) + 0.5) / f64::from(side),
+    );
+    cam.ray(basis, px + sx, py + sy)
+}
+
+/// A moving object a frame draws over the baked mesh: a diffuse sphere that is not in the
+/// matrix, lit by the analytic lights (shadow rays from its surface) and by the probes' radiance
+/// SH at its centre ([`crate::probes::sh_at`]) for each of its normals.
+pub(crate) struct Sphere {
+    pub(crate) centre: DVec3,
+    pub(crate) radius: f64,
+    pub(crate) reflectance: Rgb,
+    pub(crate) sh: [Rgb; radiosity_core::SH_COEFFICIENTS],
+}
+
+impl Sphere {
+    /// The distance along unit `dir` from `origin` to the sphere's front, if it is hit.
+    fn hit(&self, origin: DVec3, dir: DVec3) -> Option<f64> {
+        let oc = origin - self.centre;
+        let b = oc.dot(dir);
+        let disc = b * b - (oc.length_squared() - self.radius * self.radius);
+        if disc < 0.0 {
+            return None;
+        }
+        let t = -b - disc.sqrt();
+        (t > 0.0).then_some(t)
+    }
+
+    /// Radiosity `ρ∘(H_d + E_probes(n))` at the sphere's surface point `p`.
+    fn radiosity(&self, rt: &Runtime, lights: &[Light], p: DVec3) -> Rgb {
+        let n = (p - self.centre) / self.radius;
+        let reflected = radiosity_core::sh_irradiance(&self.sh, n.as_vec3().to_array());
+        let reflected = Rgb::from_array(reflected.to_array().map(|v| v.max(0.0)));
+        self.reflectance * (rt.direct_at(lights, p, n) + reflected)
+    }
+}
+
 /// Casts the camera's primary rays into the runtime's mesh.
 pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Result<Primary> {
     let mesh = rt.mesh("rendering")?;
@@ -167,12 +222,7 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
         .map(|k| {
             let pixel = k / per_pixel;
             let s = (k % per_pixel) as u32;
-            let (px, py) = ((pixel % w as usize) as f64, (pixel / w as usize) as f64);
-            let (sx, sy) = (
-                (f64::from(s % side) + 0.5) / f64::from(side),
-                (f64::from(s / side) + 0.5) / f64::from(side),
-            );
-            let dir = cam.ray(&basis, px + sx, py + sy);
+            let dir = sample_ray(cam, &basis, w, side, pixel, s);
             // The two sheets of a panel modelled a hair out of order show the near one's front
             // (`Occluders::first_surface`), as the bake's rays see it.
             let (hit, front) = occ.first_surface(cam.position, dir, 0.0, f64::INFINITY)?;
@@ -217,6 +267,8 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
         rows.push(weights.len() as u32);
     }
     Ok(Primary {
+        camera: *cam,
+        side,
         width: w,
         height: h,
         per_pixel,
@@ -226,17 +278,21 @@ pub(crate) fn primary(rt: &Runtime, cam: &Camera, spp_side: u32) -> anyhow::Resu
     })
 }
 
-/// Shades a frame: radiance `(s·E + ρ∘(H_d + y))/π` per sample, averaged per pixel.
+/// Shades a frame: radiance `(s·E + ρ∘(H_d + y))/π` per sample, averaged per pixel; where
+/// `sphere` is in front of the mesh, the sphere's radiance instead.
 pub(crate) fn shade(
     rt: &Runtime,
     primary: &Primary,
     frame: &Frame,
     lights: &[Light],
     emission: f32,
+    sphere: Option<&Sphere>,
 ) -> anyhow::Result<LinearImage> {
     let mesh = rt.mesh("rendering")?;
     let mut img = LinearImage::new(primary.width, primary.height);
     let inv = 1.0 / primary.per_pixel as f32;
+    let cam = &primary.camera;
+    let basis = cam.basis();
     img.pixels
         .par_iter_mut()
         .zip(primary.hits.par_chunks(primary.per_pixel))
@@ -244,6 +300,15 @@ pub(crate) fn shade(
         .for_each(|(pixel, (px, samples))| {
             let mut acc = Rgb::ZERO;
             for (k, s) in samples.iter().enumerate() {
+                if let Some(sphere) = sphere {
+                    let dir = sample_ray(cam, &basis, primary.width, primary.side, pixel, k as u32);
+                    let behind = s.map_or(f64::INFINITY, |s| s.point.distance(cam.position));
+                    if let Some(t) = sphere.hit(cam.position, dir).filter(|&t| t < behind) {
+                        let b = sphere.radiosity(rt, lights, cam.position + dir * t);
+                        acc += b * (1.0 / std::f32::consts::PI);
+                        continue;
+                    }
+                }
                 let Some(s) = s else { continue };
                 let row = pixel * primary.per_pixel + k;
                 let range = primary.rows[row] as usize..primary.rows[row + 1] as usize;
@@ -341,7 +406,7 @@ pub(crate) fn run(
     let frame_ms = direct_ms + t.elapsed().as_secs_f64() * 1e3;
     let t = std::time::Instant::now();
     let prim = primary(rt, &cam, spp_side)?;
-    let img = shade(rt, &prim, &frame, &lights, 1.0)?;
+    let img = shade(rt, &prim, &frame, &lights, 1.0, None)?;
     let render_ms = t.elapsed().as_secs_f64() * 1e3;
     let exposure = exposure.unwrap_or_else(|| img.auto_exposure());
     img.save_png(output, exposure)?;

@@ -12,6 +12,8 @@ use radiosity_core::{Gather, Light, Mesh, RadFile, Rgb, finish_frame, first_exit
 pub(crate) struct Runtime {
     pub(crate) file: RadFile<'static>,
     occluders: Option<Occluders>,
+    /// The file's probes decoded for the CPU frame (`None` without probes).
+    probes: Option<radiosity_core::DecodedProbes>,
 }
 
 /// One frame's per-patch quantities (matrix numbering).
@@ -38,7 +40,17 @@ impl Runtime {
                 .collect();
             Occluders::from_triangles(&tris)
         });
-        Self { file, occluders }
+        let probes = file.probes.as_ref().map(radiosity_core::DecodedProbes::new);
+        Self {
+            file,
+            occluders,
+            probes,
+        }
+    }
+
+    /// The file's probes, decoded for the CPU frame.
+    pub(crate) fn decoded_probes(&self) -> Option<&radiosity_core::DecodedProbes> {
+        self.probes.as_ref()
     }
 
     /// Patches.

@@ -87,7 +87,7 @@ pub(crate) fn run(
     let answers = match &points {
         Some(points) => {
             let t = Instant::now();
-            let a = crate::points::answer(&runtime, &y, &b, &lights, points)?;
+            let a = crate::points::answer(&runtime, &y, &h, &lights, points)?;
             timings.insert("points", t.elapsed().as_secs_f64() * 1e3);
             Some(points.iter().zip(a).collect::<Vec<_>>())
         }

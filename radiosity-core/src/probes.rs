@@ -15,7 +15,7 @@
 //!
 //! | bytes | content |
 //! |---|---|
-//! | 8 | probes `m`, weights `w` (`u32` each) |
+//! | 12 | probes `m`, weights `w` (`u32` each), lattice step `h` (`f32`, positive) |
 //! | 12·m | positions `[f32; 3]` |
 //! | 4·(m+1) | weight row starts, one row per probe |
 //! | 24·w | [`ProbeWeight`]s: patch index, nine binary16 coefficients, two zero bytes |
@@ -33,6 +33,11 @@ use bytemuck::{Pod, Zeroable};
 
 /// SH coefficients a probe holds per channel (orders 0 to 2).
 pub const SH_COEFFICIENTS: usize = 9;
+
+/// The part of a probe's interpolation weight that does not depend on which side of the
+/// point's surface it lies ([`Probes::interpolation_weights`]; 0.5 of the range 0–2 measured
+/// best, `docs/decisions/probe-interpolation.md`).
+pub const FACING_FLOOR: f32 = 0.5;
 
 /// One patch's weights in one probe.
 #[repr(C)]
@@ -67,6 +72,9 @@ impl ProbeWeight {
 /// The probes, borrowing from the file where aligned.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Probes<'a> {
+    /// The lattice step a point interpolates over ([`Probes::interpolation_weights`]): the
+    /// step of a lattice, the median distance to the nearest probe for scattered probes.
+    pub spacing: f32,
     /// Probe positions, scene units.
     pub positions: Cow<'a, [[f32; 3]]>,
     /// Weight row starts (`probes + 1`).
@@ -135,6 +143,74 @@ fn finite_f16s_to_f32(h: &[u16; SH_COEFFICIENTS]) -> [f32; SH_COEFFICIENTS] {
     })
 }
 
+/// `Σ sh·reflected[patch]` over a row, in its order from zero, per coefficient and channel.
+#[inline]
+fn sum_row(
+    row: impl Iterator<Item = (u32, [f32; SH_COEFFICIENTS])>,
+    reflected: &[Rgb],
+) -> [Rgb; SH_COEFFICIENTS] {
+    // Channel-major sums: each channel's nine coefficients are one contiguous run, which the
+    // compiler keeps in vector registers.
+    let mut acc = [[0.0f32; SH_COEFFICIENTS]; 3];
+    for (patch, sh) in row {
+        let b = reflected[patch as usize].to_array();
+        for (a, b) in acc.iter_mut().zip(b) {
+            for k in 0..SH_COEFFICIENTS {
+                a[k] += b * sh[k];
+            }
+        }
+    }
+    core::array::from_fn(|k| Rgb::new(acc[0][k], acc[1][k], acc[2][k]))
+}
+
+/// [`Probes`] with their weights decoded to f32 once, for a runtime that gathers them every
+/// frame on the CPU: decoding binary16 costs as much as the sums, so this holds 40 bytes a
+/// weight to halve the frame. The results equal [`Probes::gather_probe`]'s bit for bit.
+#[derive(Clone, Debug, Default)]
+pub struct DecodedProbes {
+    rows: Vec<u32>,
+    patches: Vec<u32>,
+    sh: Vec<[f32; SH_COEFFICIENTS]>,
+}
+
+impl DecodedProbes {
+    /// Decodes `probes` (validated, as a parsed file's are).
+    pub fn new(probes: &Probes<'_>) -> Self {
+        DecodedProbes {
+            rows: probes.rows.to_vec(),
+            patches: probes.weights.iter().map(|w| w.patch).collect(),
+            sh: probes
+                .weights
+                .iter()
+                .map(|w| finite_f16s_to_f32(&w.sh_bits))
+                .collect(),
+        }
+    }
+
+    /// Probes held.
+    pub fn len(&self) -> usize {
+        self.rows.len().saturating_sub(1)
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Probe `p`'s radiance SH from the patches' reflected radiosity (as
+    /// [`Probes::gather_probe`]).
+    pub fn gather_probe(&self, p: usize, reflected: &[Rgb]) -> [Rgb; SH_COEFFICIENTS] {
+        let range = self.rows[p] as usize..self.rows[p + 1] as usize;
+        let row = self.patches[range.clone()].iter().copied();
+        sum_row(row.zip(self.sh[range].iter().copied()), reflected)
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        4 * (self.rows.len() + self.patches.len()) + 4 * SH_COEFFICIENTS * self.sh.len()
+    }
+}
+
 impl<'a> Probes<'a> {
     /// Probes held.
     pub fn len(&self) -> usize {
@@ -166,17 +242,67 @@ impl<'a> Probes<'a> {
     /// and channel. Panics if a weight names a patch past `reflected` (a programming error:
     /// validated probes do not).
     pub fn gather_probe(&self, p: usize, reflected: &[Rgb]) -> [Rgb; SH_COEFFICIENTS] {
-        let mut acc = [[0.0f32; 3]; SH_COEFFICIENTS];
-        for w in self.weights_of(p) {
-            let b = reflected[w.patch as usize];
-            let sh = finite_f16s_to_f32(&w.sh_bits);
-            for k in 0..SH_COEFFICIENTS {
-                acc[k][0] += b.r * sh[k];
-                acc[k][1] += b.g * sh[k];
-                acc[k][2] += b.b * sh[k];
+        let row = self.weights_of(p);
+        sum_row(
+            row.iter()
+                .map(|w| (w.patch, finite_f16s_to_f32(&w.sh_bits))),
+            reflected,
+        )
+    }
+
+    /// The probes a point at `p` takes its reflected light from, with weights summing to 1,
+    /// into `out` (cleared first); `false` (and `out` empty) when none is in sight.
+    ///
+    /// The probes of the point's lattice cell (each axis within one [`Probes::spacing`]) that
+    /// `visible(probe)` says the point sees (a segment from the point to the probe clear of
+    /// the scene: the caller's ray caster), each with its trilinear weight
+    /// `Π (1 − |d_axis|/h)`; for a surface of unit normal `n`, times
+    /// `FACING_FLOOR + ((1 + n·ω)/2)²` towards probes in front of it (ω the unit direction to
+    /// the probe). Where no probe of the cell is in sight, a cell twice as wide. A probe behind
+    /// a wall is out of sight, so light does not come through the wall from the next room.
+    /// `docs/decisions/probe-interpolation.md` measures the choice. The probes are scanned
+    /// linearly (about 125 of them by default).
+    pub fn interpolation_weights(
+        &self,
+        p: [f32; 3],
+        n: Option<[f32; 3]>,
+        mut visible: impl FnMut(usize) -> bool,
+        out: &mut Vec<(usize, f32)>,
+    ) -> bool {
+        let p = glam::Vec3::from(p);
+        for width in [self.spacing, 2.0 * self.spacing] {
+            out.clear();
+            let mut total = 0.0f32;
+            for (i, q) in self.positions.iter().enumerate() {
+                let d = glam::Vec3::from(*q) - p;
+                let a = d.abs() / width;
+                if a.max_element() >= 1.0 {
+                    continue;
+                }
+                let tent = (1.0 - a.x) * (1.0 - a.y) * (1.0 - a.z);
+                let dist = d.length();
+                if dist > 1e-6 * self.spacing && !visible(i) {
+                    continue;
+                }
+                let facing = match n {
+                    Some(n) if dist > 0.0 => {
+                        let c = (1.0 + glam::Vec3::from(n).dot(d / dist)) / 2.0;
+                        FACING_FLOOR + c * c
+                    }
+                    _ => 1.0,
+                };
+                out.push((i, tent * facing));
+                total += tent * facing;
+            }
+            if total > 0.0 {
+                for w in out.iter_mut() {
+                    w.1 /= total;
+                }
+                return true;
             }
         }
-        acc.map(Rgb::from_array)
+        out.clear();
+        false
     }
 
     /// Checks every index and value against a file of `patches` patches.
@@ -184,6 +310,9 @@ impl<'a> Probes<'a> {
         let m = self.positions.len();
         if m > (u32::MAX as usize - 1) || self.weights.len() > u32::MAX as usize {
             return Err(invalid(0, "probes too large"));
+        }
+        if !(self.spacing.is_finite() && self.spacing > 0.0) {
+            return Err(invalid(0, "probe spacing is not positive and finite"));
         }
         if let Some(i) = self
             .positions
@@ -234,6 +363,7 @@ impl<'a> Probes<'a> {
         let mut out = Vec::new();
         out.extend_from_slice(&(self.positions.len() as u32).to_le_bytes());
         out.extend_from_slice(&(self.weights.len() as u32).to_le_bytes());
+        out.extend_from_slice(&self.spacing.to_le_bytes());
         out.extend_from_slice(bytemuck::cast_slice(&self.positions));
         out.extend_from_slice(bytemuck::cast_slice(&self.rows));
         out.extend_from_slice(bytemuck::cast_slice(&self.weights));
@@ -248,23 +378,25 @@ impl<'a> Probes<'a> {
             expected,
             found: bytes.len() as u64,
         };
-        if bytes.len() < 8 {
-            return Err(short(8));
+        if bytes.len() < 12 {
+            return Err(short(12));
         }
-        let word = |i: usize| u64::from(u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap()));
-        let (m, w) = (word(0), word(4));
+        let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap());
+        let (m, w) = (u64::from(word(0)), u64::from(word(4)));
+        let spacing = f32::from_bits(word(8));
         let sizes = [12 * m, 4 * (m + 1), 24 * w];
-        let expected = 8 + sizes.iter().sum::<u64>();
+        let expected = 12 + sizes.iter().sum::<u64>();
         if bytes.len() as u64 != expected {
             return Err(short(expected));
         }
-        let mut at = 8usize;
+        let mut at = 12usize;
         let mut next = |len: u64| {
             let s = &bytes[at..at + len as usize];
             at += len as usize;
             s
         };
         Ok(Probes {
+            spacing,
             positions: crate::container::cast(next(sizes[0])),
             rows: crate::container::cast(next(sizes[1])),
             weights: crate::container::cast(next(sizes[2])),
@@ -274,6 +406,7 @@ impl<'a> Probes<'a> {
     /// Copies every borrowed part.
     pub fn into_owned(self) -> Probes<'static> {
         Probes {
+            spacing: self.spacing,
             positions: Cow::Owned(self.positions.into_owned()),
             rows: Cow::Owned(self.rows.into_owned()),
             weights: Cow::Owned(self.weights.into_owned()),
@@ -288,6 +421,7 @@ mod tests {
 
     fn two() -> Probes<'static> {
         Probes {
+            spacing: 1.0,
             positions: Cow::Owned(vec![[0.0; 3], [1.0, 0.0, 0.0]]),
             rows: Cow::Owned(vec![0, 2, 3]),
             weights: Cow::Owned(vec![
@@ -333,6 +467,9 @@ mod tests {
         let mut q = two();
         q.rows.to_mut()[1] = 4;
         assert_eq!(reason(q), "probe rows decrease");
+        let mut q = two();
+        q.spacing = 0.0;
+        assert_eq!(reason(q), "probe spacing is not positive and finite");
     }
 
     #[test]
@@ -360,6 +497,58 @@ mod tests {
                 assert_eq!(got.to_bits(), f16_to_f32(h).to_bits(), "{h:#06x}");
             }
         }
+    }
+
+    #[test]
+    fn decoded_probes_gather_the_same_bits() {
+        let p = two();
+        let d = DecodedProbes::new(&p);
+        assert_eq!(d.len(), 2);
+        let b = [
+            Rgb::new(2.0, 0.5, 1.0),
+            Rgb::splat(4.0),
+            Rgb::new(8.0, 3.0, 0.25),
+        ];
+        for i in 0..2 {
+            assert_eq!(d.gather_probe(i, &b), p.gather_probe(i, &b));
+        }
+    }
+
+    #[test]
+    fn interpolation_is_trilinear_and_skips_hidden_probes() {
+        // A unit lattice cell: eight probes at its corners.
+        let positions: Vec<[f32; 3]> = (0..8)
+            .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
+            .collect();
+        let p = Probes {
+            spacing: 1.0,
+            positions: Cow::Owned(positions),
+            rows: Cow::Owned(vec![0; 9]),
+            weights: Cow::Owned(vec![]),
+        };
+        let mut w = Vec::new();
+        assert!(p.interpolation_weights([0.25, 0.5, 0.5], None, |_| true, &mut w));
+        // Without a normal the weights are the trilinear ones: 0.75·0.5·0.5 at x = 0.
+        assert_eq!(w.len(), 8);
+        assert!(
+            (w[0].1 - 0.1875).abs() < 1e-6 && (w[1].1 - 0.0625).abs() < 1e-6,
+            "{w:?}"
+        );
+        // Probes at x = 1 hidden: the rest share everything.
+        assert!(p.interpolation_weights([0.25, 0.5, 0.5], None, |i| i & 1 == 0, &mut w));
+        assert_eq!(w.len(), 4);
+        assert!(
+            w.iter()
+                .all(|&(i, v)| i & 1 == 0 && (v - 0.25).abs() < 1e-6),
+            "{w:?}"
+        );
+        // A normal towards +x favours the probes at x = 1 over a plain trilinear blend.
+        assert!(p.interpolation_weights([0.5, 0.5, 0.5], Some([1.0, 0.0, 0.0]), |_| true, &mut w));
+        let ahead: f32 = w.iter().filter(|(i, _)| i & 1 == 1).map(|x| x.1).sum();
+        assert!(ahead > 0.6, "{w:?}");
+        // None in sight, even in a cell twice as wide.
+        assert!(!p.interpolation_weights([0.5, 0.5, 0.5], None, |_| false, &mut w));
+        assert!(w.is_empty());
     }
 
     #[test]

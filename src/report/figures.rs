@@ -126,7 +126,7 @@ pub(super) fn renders(
     let (frame, _) = rt.frame(&mut g, &[], 1.0)?;
     let prim = crate::render::primary(&rt, &cam, 2)?;
     let t = Instant::now();
-    let ours = crate::render::shade(&rt, &prim, &frame, &[], 1.0)?;
+    let ours = crate::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
     let ours_ms = ms(t.elapsed());
     let t = Instant::now();
     let reference: LinearImage = pt.render(&cam, plan.pt_spp, 11);

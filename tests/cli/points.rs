@@ -101,6 +101,29 @@ fn point_irradiance_matches_the_path_tracer() {
         100.0 * mean,
         100.0 * worst
     );
+    // The same points from the probes the bake placed by default (`--probes auto`).
+    let probe_errors: Vec<f64> = ours
+        .iter()
+        .zip(pt)
+        .take(POINTS.len())
+        .map(|(a, b)| {
+            let q = sum(&b["irradiance"]);
+            (sum(&a["probe_irradiance"]) - q).abs() / q
+        })
+        .collect();
+    let (probe_mean, probe_worst) = mean_and_worst(&probe_errors);
+    eprintln!(
+        "probes against the path tracer: mean {:.2}%, worst {:.2}%",
+        100.0 * probe_mean,
+        100.0 * probe_worst
+    );
+    // Measured 1.9% and 8.8% (the worst a point under the ceiling facing the floor, between
+    // probes 0.40 m apart: docs/decisions/probe-interpolation.md). The mean meets the issue's
+    // 3%; the worst point misses its 5%, and the bound says so rather than hide it.
+    assert!(
+        probe_mean <= 0.03 && probe_worst <= 0.12,
+        "probes: mean {probe_mean:.4}, worst {probe_worst:.4}"
+    );
     // The bounds: each within 5%, the mean within 3% (measured 4.6% and 1.4% at 1024
     // patches, 4.3% and 1.2% at 4096: far above the path tracer's noise, which is under 1%,
     // and about as large at every patch count; the worst point sits just under the ceiling,
@@ -169,9 +192,9 @@ fn probes_are_baked_and_answer_points_off_the_surfaces() {
         "--json",
     ]);
     let probes = &bake["probes"];
-    // `auto` lays about 64 cells over the box's bounds; the ones inside the two blocks go.
+    // `auto` lays a lattice of about 125 probes over the box; those inside the two blocks go.
     let placed = probes["placed"].as_u64().unwrap();
-    assert!((40..=120).contains(&placed), "{probes}");
+    assert!((90..=125).contains(&placed), "{probes}");
     assert!(probes["dropped_inside"].as_u64().unwrap() >= 1, "{probes}");
     let mut points = POINTS.to_vec();
     points.push(([0.3, 0.3, 0.4], [0.0, 1.0, 0.0]));
@@ -190,12 +213,12 @@ fn probes_are_baked_and_answer_points_off_the_surfaces() {
         100.0 * mean,
         100.0 * worst
     );
-    // Measured 4.7% and 26% here (L2 alone costs up to 5%, the interpolation between probes
-    // 0.43 m apart the rest: docs/decisions/probe-sh-order.md). The bounds catch a broken
-    // weight or SH convention (errors of 100% and more), not the target, which these
-    // probes do not meet.
+    // Measured 1.3% and 9.6% here (L2 alone costs up to 5%, the interpolation between probes
+    // 0.40 m apart the rest: docs/decisions/probe-interpolation.md). A broken weight or SH
+    // convention gives errors of 100% and more; the bounds leave the measured figures half
+    // again as much room.
     assert!(
-        mean < 0.07 && worst < 0.35,
+        mean < 0.03 && worst < 0.15,
         "mean {mean:.4}, worst {worst:.4}"
     );
     // A point inside the short box has neither figure.

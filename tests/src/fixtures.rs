@@ -101,6 +101,7 @@ pub fn sample_probes(n: usize) -> radiosity_core::Probes<'static> {
         weights.push(ProbeWeight::new(n as u32 - 1, [-0.125; SH_COEFFICIENTS]));
     }
     radiosity_core::Probes {
+        spacing: 0.25,
         positions: Cow::Owned(vec![[0.5, 0.5, 0.5], [0.25, 0.75, 0.5]]),
         rows: Cow::Owned(vec![0, weights.len() as u32, weights.len() as u32]),
         weights: Cow::Owned(weights),

@@ -457,6 +457,7 @@ fn random_probes(n: usize, count: usize, seed: u64) -> Probes<'static> {
         positions.push([p as f32, 0.5, 0.5]);
     }
     Probes {
+        spacing: 1.0,
         positions: Cow::Owned(positions),
         rows: Cow::Owned(rows),
         weights: Cow::Owned(weights),

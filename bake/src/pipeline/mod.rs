@@ -13,7 +13,7 @@ mod report;
 pub use closure::Exposure;
 pub use dark::{DarkCheck, check_dark};
 pub use params::{BakeParams, FormatChoice, Hooks};
-pub use report::{BakeReport, Bytes, ClosureReport, ObjectShares, SharedPatch};
+pub use report::{BakeReport, Bytes, ClosureReport, ObjectShares, SharedPatch, store};
 
 use report::{BakeSummary, Measured};
 

@@ -27,6 +27,8 @@ pub struct Bytes {
     pub corrections: usize,
     /// Blocks corrected.
     pub corrected_blocks: usize,
+    /// The PROBES section (0 without probes).
+    pub probes: usize,
 }
 
 /// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
@@ -352,6 +354,7 @@ pub(super) fn report(
             sparse: file.matrix.sparse.bytes(),
             corrections: file.matrix.corrections.bytes(),
             corrected_blocks: file.matrix.corrections.count(),
+            probes: file.probes.as_ref().map_or(0, |p| p.to_bytes().len()),
         },
         rays_cast: system.rays_cast,
         form_factors: system.form_factors,
@@ -411,11 +414,9 @@ fn emitted_power(scene: &Scene) -> Vec<[f64; 3]> {
     p
 }
 
-/// Stores `report` in `file`'s REPORT section with the file's size in it, and returns it.
-pub(super) fn store(
-    file: &mut RadFile<'static>,
-    mut report: BakeReport,
-) -> Result<BakeReport, BakeError> {
+/// Stores `report` in `file`'s REPORT section with `bytes.total` the size of the file that
+/// results; call it again after changing the file (probes added).
+pub fn store(file: &mut RadFile<'static>, mut report: BakeReport) -> Result<BakeReport, BakeError> {
     // The report stores the file size, which depends on the report: write twice (the size
     // field has the same width both times only by luck, so measure until it is stable).
     for _ in 0..3 {
