@@ -3,8 +3,8 @@
 
 use crate::GpuError;
 use crate::gather::{
-    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, in_error_scopes,
-    layout_entry, pipeline, sized, storage, storage_binding_limit, workgroup_grid,
+    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, entire, in_error_scopes,
+    layout_entry, pipeline, record_dispatch, sized, storage, storage_binding_limit, workgroup_grid,
 };
 use crate::shader::WORKGROUP;
 use bytemuck::{Pod, Zeroable};
@@ -177,18 +177,9 @@ impl CornerPass {
             label: Some("corners"),
             layout: &layout,
             entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: ubuf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: rows.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: weights.as_entire_binding(),
-                },
+                entire(0, &ubuf),
+                entire(1, &rows),
+                entire(2, &weights),
                 sized(3, buffers.y, y_bytes),
                 sized(4, buffers.out, out_bytes),
             ],
@@ -220,13 +211,14 @@ impl CornerPass {
         if self.corners == 0 {
             return;
         }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("corners"),
-            timestamp_writes: timestamps,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.dispatch_workgroups(self.grid.0, self.grid.1, 1);
+        record_dispatch(
+            encoder,
+            "corners",
+            &self.pipeline,
+            &self.bind_group,
+            self.grid,
+            timestamps,
+        );
     }
 
     /// Corners written: three per triangle.

@@ -3,8 +3,8 @@
 
 use crate::GpuError;
 use crate::gather::{
-    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, in_error_scopes,
-    layout_entry, pipeline, sized, storage, storage_binding_limit, workgroup_grid,
+    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, entire, in_error_scopes,
+    layout_entry, pipeline, record_dispatch, sized, storage, storage_binding_limit, workgroup_grid,
 };
 use bytemuck::{Pod, Zeroable};
 use radiosity_core::{Patch, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS};
@@ -184,24 +184,12 @@ impl ProbePass {
             label: Some("probes"),
             layout: &layout,
             entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: ubuf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: rows.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: weights.as_entire_binding(),
-                },
+                entire(0, &ubuf),
+                entire(1, &rows),
+                entire(2, &weights),
                 sized(3, buffers.x, patch_bytes),
                 sized(4, buffers.y, patch_bytes),
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: table.as_entire_binding(),
-                },
+                entire(5, &table),
                 sized(6, buffers.out, out_bytes),
             ],
         });
@@ -253,13 +241,14 @@ impl ProbePass {
         if self.probes == 0 {
             return;
         }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("probes"),
-            timestamp_writes: timestamps,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.dispatch_workgroups(self.grid.0, self.grid.1, 1);
+        record_dispatch(
+            encoder,
+            "probes",
+            &self.pipeline,
+            &self.bind_group,
+            self.grid,
+            timestamps,
+        );
     }
 
     /// Probes written.

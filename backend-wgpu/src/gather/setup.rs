@@ -153,6 +153,33 @@ pub(crate) fn workgroup_grid(
     Ok((gx, gy))
 }
 
+/// The whole of `buffer` as bind group entry `binding`.
+pub(crate) fn entire(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// Records one compute pass of one dispatch of `pipeline` over `grid` workgroups, between
+/// `timestamps` if given: the whole frame of a host-device pass (corners, probes).
+pub(crate) fn record_dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    grid: (u32, u32),
+    timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: timestamps,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind_group, &[]);
+    pass.dispatch_workgroups(grid.0, grid.1, 1);
+}
+
 /// Bytes one storage binding may have on a device of limits `dl`.
 pub(crate) fn storage_binding_limit(dl: &wgpu::Limits) -> u64 {
     dl.max_storage_buffer_binding_size.min(dl.max_buffer_size)
