@@ -222,6 +222,41 @@ impl ReflectanceEdit {
         3 * (k * k * 4 + k * 8) + k * (4 + 2 * 12)
     }
 
+    /// The correction as one dense `k × k` matrix per channel, for a device that applies it
+    /// as a product rather than by triangular solves: `K_c = diag(Δρ_c)·(I − M_SS·D)_c⁻¹`
+    /// (row-major), so that the correction on edited patch `a` is
+    /// `Σ_b K_c[a·k + b]·(M·x')_{S_b}` in channel `c`. Built column by column from the LU
+    /// factors (`k` solves of `k²` each per channel, summed in f64), kept in f32: `12·k²`
+    /// bytes. The edited patches are [`ReflectanceEdit::edits`]' order.
+    pub fn correction_matrices(&self) -> [Vec<f32>; 3] {
+        let k = self.patches.len();
+        [0, 1, 2].map(|c| {
+            let (lu, piv) = &self.lu[c];
+            let mut out = vec![0f32; k * k];
+            let (mut col, mut tmp) = (vec![0f64; k], vec![0f64; k]);
+            for b in 0..k {
+                col.fill(0.0);
+                col[b] = 1.0;
+                lu_solve(lu, piv, k, &mut col, &mut tmp);
+                for a in 0..k {
+                    out[a * k + b] = (f64::from(self.delta[a].channel(c)) * col[a]) as f32;
+                }
+            }
+            out
+        })
+    }
+
+    /// The edited patches, ascending (the rows and columns of
+    /// [`ReflectanceEdit::correction_matrices`]).
+    pub fn patches(&self) -> &[u32] {
+        &self.patches
+    }
+
+    /// Patches of the matrix the edit was prepared against.
+    pub fn matrix_patches(&self) -> usize {
+        self.n
+    }
+
     /// Turns `gathered = (M·x')` (the gather of the first exitance under the new reflectance)
     /// into the correction of the exitance: `x̃ = x' + D·H'_S` is `exitance` with
     /// `correction` added on the edited patches.
@@ -425,6 +460,63 @@ fn dot(a: &[f32], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_dense_correction_equals_the_solve() {
+        // A 3-patch f32 matrix with some coupling, two patches edited.
+        use crate::{BlockCorrections, Format, MatrixLayout, SparseRows};
+        use alloc::borrow::Cow;
+        // One grey channel in one 4×4 block, entry (i, j) at `4·i + j`.
+        let n = 3usize;
+        let layout = MatrixLayout::new(n as u32, 1, Format::F32, crate::DEFAULT_MAX_TILE).unwrap();
+        let mut blocks = vec![0f32; 16];
+        for i in 0..n {
+            for j in 0..n {
+                if i != j {
+                    blocks[i * 4 + j] = 0.1 + 0.05 * (i + 2 * j) as f32;
+                }
+            }
+        }
+        let matrix = TransferMatrix {
+            layout,
+            scales: Cow::Owned(vec![]),
+            blocks: Cow::Owned(bytemuck::cast_slice(&blocks).to_vec()),
+            sparse: SparseRows::empty(n),
+            corrections: BlockCorrections::empty(n),
+        };
+        let patches = vec![
+            Patch {
+                reflectance: Rgb::splat(0.5),
+                area: 1.0,
+                ..Patch::default()
+            };
+            n
+        ];
+        let edits = [(0, Rgb::new(0.9, 0.1, 0.3)), (2, Rgb::new(0.2, 0.8, 0.6))];
+        let edit = ReflectanceEdit::new(&matrix, DecodeMode::D3d10, &patches, &edits).unwrap();
+        let gathered = [
+            Rgb::new(1.0, 2.0, 3.0),
+            Rgb::splat(5.0),
+            Rgb::new(0.5, 0.25, 4.0),
+        ];
+        let mut want = Vec::new();
+        edit.correction(&gathered, &mut Default::default(), &mut want);
+        let k = edit.len();
+        let dense = edit.correction_matrices();
+        for (a, &(p, w)) in want.iter().enumerate() {
+            assert_eq!(p, edit.patches()[a] as usize);
+            for c in 0..3 {
+                let got: f32 = (0..k)
+                    .map(|b| dense[c][a * k + b] * gathered[edit.patches()[b] as usize].channel(c))
+                    .sum();
+                // Two f32 roundings of each entry against the solve's f64 sums.
+                assert!(
+                    (got - w.channel(c)).abs() <= 1e-5 * w.channel(c).abs().max(1.0),
+                    "{got} {w:?}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn lu_solves_a_pivoting_system() {

@@ -11,6 +11,10 @@ use radiosity_core::{
     Rgb, TransferMatrix,
 };
 use radiosity_tests::fixtures::{FORMAT_CASES, cornell_form_factors, exitance, sample_file};
+use std::sync::Mutex;
+
+/// GPU devices are opened one test at a time (see `wgpu_host.rs`).
+static DEVICES: Mutex<()> = Mutex::new(());
 
 #[test]
 fn decoded_rows_equal_the_dense_decode() {
@@ -205,6 +209,7 @@ fn an_edited_frame_on_the_gpu_equals_the_cpus() {
     .unwrap();
     let mut y_cpu = vec![Rgb::ZERO; c.n];
     cpu.gather(&x, &mut y_cpu).unwrap();
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
     for adapter in gpu_support::gpu_adapters() {
         // The shader's software decode under D3D10 rules: the same entries as the CPU's.
         let options = GpuOptions {
@@ -220,6 +225,73 @@ fn an_edited_frame_on_the_gpu_equals_the_cpus() {
         // Only f32 summation order differs (n = 100 terms a row, twice): 1e-5 relative.
         let err = relative_l2(&y, &exact);
         eprintln!("{}: {err:.2e} from the CPU's", adapter.info);
+        assert!(err < 1e-5, "{}: {err:.2e}", adapter.info);
+    }
+}
+
+/// The edited frame on a device the host owns (`EditedHostGather`): two host gathers and the
+/// correction as a `k × k` product on the device, against the CPU's edited frame.
+#[test]
+fn an_edited_frame_on_the_hosts_device_equals_the_cpus() {
+    use radiosity_backend_wgpu::{EditedHostGather, GpuOptions, HostGatherBuffers};
+    use wgpu::BufferUsages as U;
+    let c = case(100);
+    let x = exitance(c.n, 3);
+    let m = encoded(&c.m, c.n, Format::Bc1);
+    let edit = ReflectanceEdit::new(&m, DecodeMode::D3d10, &c.patches, &c.edits).unwrap();
+    let mut cpu = EditedGather::new(
+        ReferenceGather::new(m.clone(), DecodeMode::D3d10),
+        edit.clone(),
+    )
+    .unwrap();
+    let mut y_cpu = vec![Rgb::ZERO; c.n];
+    cpu.gather(&x, &mut y_cpu).unwrap();
+    let exact: Vec<[f64; 3]> = y_cpu.iter().map(|v| v.to_array().map(f64::from)).collect();
+    // Without the correction the frame is the unedited one, far off: the bound below tells
+    // an applied edit from a skipped one.
+    let mut unedited = vec![Rgb::ZERO; c.n];
+    cpu.into_inner().gather(&x, &mut unedited).unwrap();
+    assert!(relative_l2(&unedited, &exact) > 1e-3);
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_support::gpu_adapters() {
+        let (device, queue) = pollster::block_on(adapter.wgpu_adapter().request_device(
+            &wgpu::DeviceDescriptor {
+                label: Some("host"),
+                required_limits: adapter.wgpu_adapter().limits(),
+                ..Default::default()
+            },
+        ))
+        .unwrap();
+        let bytes = 12 * c.n as u64;
+        let buffer = |usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let (xb, yb) = (
+            buffer(U::COPY_DST | U::COPY_SRC),
+            buffer(U::STORAGE | U::COPY_SRC),
+        );
+        let read = buffer(U::MAP_READ | U::COPY_DST);
+        let buffers = HostGatherBuffers { x: &xb, y: &yb };
+        let g = EditedHostGather::new(&device, &queue, &m, &GpuOptions::default(), &edit, buffers)
+            .unwrap_or_else(|e| panic!("{}: {e}", adapter.info));
+        assert_eq!(g.edited(), c.edits.len());
+        queue.write_buffer(&xb, 0, bytemuck::cast_slice(&x));
+        let mut e = device.create_command_encoder(&Default::default());
+        g.record(&mut e);
+        e.copy_buffer_to_buffer(&yb, 0, &read, 0, bytes);
+        queue.submit([e.finish()]);
+        read.map_async(wgpu::MapMode::Read, .., |r| r.expect("maps"));
+        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        let y: Vec<Rgb> = bytemuck::cast_slice(&read.get_mapped_range(..).unwrap()).to_vec();
+        // The gathers differ from the CPU's by f32 summation order (n = 100 terms a row,
+        // twice), the correction by its f32 product against the CPU's f64 solve: 1e-5.
+        let err = relative_l2(&y, &exact);
+        eprintln!("{} (host device): {err:.2e} from the CPU's", adapter.info);
         assert!(err < 1e-5, "{}: {err:.2e}", adapter.info);
     }
 }

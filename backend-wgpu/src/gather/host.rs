@@ -2,7 +2,7 @@
 //! the host's command encoder between the host's buffers.
 
 use super::Frame;
-use super::setup::{check_host_buffer, storage_binding_limit};
+use super::setup::{check_host_buffer, in_error_scopes, storage_binding_limit};
 use crate::{DecodePath, GpuError, GpuOptions};
 use radiosity_core::{DecodeMode, TransferMatrix};
 
@@ -104,24 +104,19 @@ impl HostGather {
             )));
         }
         let hardware = device.adapter_info().device_type != wgpu::DeviceType::Cpu;
-        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let built = Frame::build(
-            matrix,
-            device,
-            queue,
-            path,
-            options,
-            hardware,
-            Some(buffers.y),
-        );
-        let oom = pollster::block_on(oom.pop());
-        let validation = pollster::block_on(validation.pop());
-        if let Some(e) = oom.or(validation) {
-            return Err(GpuError::Device(e.to_string()));
-        }
+        let frame = in_error_scopes(device, || {
+            Frame::build(
+                matrix,
+                device,
+                queue,
+                path,
+                options,
+                hardware,
+                Some(buffers.y),
+            )
+        })??;
         Ok(HostGather {
-            frame: built?,
+            frame,
             x: buffers.x.clone(),
             path,
             model,
@@ -143,9 +138,26 @@ impl HostGather {
         encoder: &mut wgpu::CommandEncoder,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        self.record_from(encoder, &self.x, timestamps);
+    }
+
+    /// [`HostGather::record_timed`] from `x` instead of the host's `x` bound at construction
+    /// (the caller checked it holds `12·n` bytes and has `COPY_SRC`): the second gather of an
+    /// edited frame ([`crate::EditedHostGather`]).
+    pub(crate) fn record_from(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        x: &wgpu::Buffer,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let b = &self.frame.buffers;
-        encoder.copy_buffer_to_buffer(&self.x, 0, &b.x, 0, b.y_bytes);
+        encoder.copy_buffer_to_buffer(x, 0, &b.x, 0, b.y_bytes);
         self.frame.record_pass(encoder, timestamps);
+    }
+
+    /// The host's `x`, bound at construction.
+    pub(crate) fn host_x(&self) -> &wgpu::Buffer {
+        &self.x
     }
 
     /// Patches: the length of `x` and `y` in RGB triples.
