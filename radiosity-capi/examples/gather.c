@@ -17,6 +17,7 @@
  *   backend  NAME GATHER-NAME max-relative-difference   (or: backend NAME unavailable MESSAGE)
  *   corners  count mean-r mean-g mean-b
  *   power    index name area r g b          (W: sum over the object's patches of area * B)
+ *   probes   count r g b     (reflected irradiance at the first probe, facing +z; or: probes 0)
  * and "ok" at the end, or "FAILED: k checks" on stderr with exit status 1.
  */
 #include "radiosity.h"
@@ -59,6 +60,15 @@ static void expect_empty(int line, int empty, const char *what) {
 }
 
 #define EXPECT_EMPTY(call) expect_empty(__LINE__, (call) == 0, #call)
+
+/* The host's visibility test for rad_probe_irradiance: every probe in sight, counting the
+ * calls in *user. A real host casts a ray from `from` to `to` through its own scene. */
+static bool all_in_sight(void *user, const float *from, const float *to) {
+    (void)from;
+    (void)to;
+    ++*(size_t *)user;
+    return true;
+}
 
 static RadRgb *rgb_array(size_t n) {
     RadRgb *a = calloc(n ? n : 1, sizeof(RadRgb));
@@ -296,6 +306,44 @@ int main(int argc, char **argv) {
         }
         printf("power\t%zu\t%s\t%.9g\t%.9g\t%.9g\t%.9g\n", o, name ? name : "", area, p[0], p[1],
                p[2]);
+    }
+
+    /* Light probes: the frame's SH from the patches' total irradiance (direct + y), then the
+     * reflected irradiance at the first probe facing +z, with and without the host's
+     * visibility callback (all in sight: the same answer). */
+    {
+        size_t probes = rad_scene_probe_count(scene);
+        if (probes == 0) {
+            RadRgb one;
+            CHECK(rad_scene_probe_positions(scene) == NULL);
+            EXPECT_ERROR(rad_scene_probes_frame(scene, y_ref, n, &one, 0));
+            printf("probes\t0\n");
+        } else {
+            RadRgb *total = rgb_array(n), *sh = rgb_array(9 * probes), e, e_seen;
+            const float *at = rad_scene_probe_positions(scene), up[3] = {0.0f, 0.0f, 1.0f};
+            size_t calls = 0;
+            for (size_t i = 0; i < n; i++) {
+                total[i].r = direct[i].r + y_ref[i].r;
+                total[i].g = direct[i].g + y_ref[i].g;
+                total[i].b = direct[i].b + y_ref[i].b;
+            }
+            CHECK(at != NULL);
+            CHECK(rad_scene_probes_frame(scene, total, n, sh, 9 * probes) == RAD_OK);
+            CHECK(rad_probe_irradiance(scene, sh, 9 * probes, at, up, NULL, NULL, &e) == RAD_OK);
+            CHECK(rad_probe_irradiance(scene, sh, 9 * probes, at, up, all_in_sight, &calls,
+                                       &e_seen) == RAD_OK);
+            CHECK(e.r == e_seen.r && e.g == e_seen.g && e.b == e_seen.b);
+            printf("probes\t%zu\t%.9g\t%.9g\t%.9g\n", probes, e.r, e.g, e.b);
+            /* Bad probe calls: NULL pointers, a wrong length, a normal not of unit length. */
+            EXPECT_ERROR(rad_scene_probes_frame(NULL, total, n, sh, 9 * probes));
+            EXPECT_ERROR(rad_scene_probes_frame(scene, total, n, NULL, 9 * probes));
+            EXPECT_ERROR(rad_scene_probes_frame(scene, total, n, sh, 9 * probes - 1));
+            EXPECT_ERROR(rad_probe_irradiance(scene, sh, 9 * probes, at, at, NULL, NULL, &e));
+            EXPECT_ERROR(rad_probe_irradiance(scene, sh, 9 * probes, NULL, up, NULL, NULL, &e));
+            EXPECT_ERROR(rad_probe_irradiance(scene, sh, 9 * probes, at, up, NULL, NULL, NULL));
+            free(total);
+            free(sh);
+        }
     }
 
     bad_calls(scene, reference, n, corners);

@@ -5,7 +5,9 @@
 //! A host opens a `.rad` ([`rad_scene_open`], [`rad_scene_from_bytes`]), reads its patches and
 //! object names, computes first exitance from its own direct light ([`rad_first_exitance`]),
 //! gathers `y = M · x` on a backend ([`rad_gather_new`], [`rad_gather_run`]) and carries `y`
-//! to the corners of the full-detail mesh ([`rad_scene_corner_indirect`]).
+//! to the corners of the full-detail mesh ([`rad_scene_corner_indirect`]); a moving object
+//! takes its light from the scene's probes ([`rad_scene_probes_frame`],
+//! [`rad_probe_irradiance`]).
 //!
 //! # Rules
 //!
@@ -29,11 +31,16 @@
 
 mod error;
 mod gather;
+mod probes;
 mod scene;
 
 pub use error::rad_last_error;
 pub use gather::{
     RadGather, rad_gather_backend, rad_gather_free, rad_gather_name, rad_gather_new, rad_gather_run,
+};
+pub use probes::{
+    RadProbeVisible, rad_probe_irradiance, rad_scene_probe_count, rad_scene_probe_positions,
+    rad_scene_probes_frame,
 };
 pub use scene::{
     RadScene, rad_first_exitance, rad_scene_corner_indirect, rad_scene_free, rad_scene_from_bytes,
@@ -67,6 +74,9 @@ pub const RAD_ERR_UNAVAILABLE: i32 = 8;
 pub const RAD_ERR_GATHER: i32 = 9;
 /// An internal error (a caught panic); the message says where.
 pub const RAD_ERR_PANIC: i32 = 10;
+/// The scene has no light probes (baked with `--probes none`), or none of them is in sight of
+/// the point asked about.
+pub const RAD_ERR_NO_PROBES: i32 = 11;
 
 /// A linear RGB triple of floats: exitance and irradiance in W/m², reflectance unitless.
 /// The layout of the core's `Rgb`.

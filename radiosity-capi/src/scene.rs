@@ -16,6 +16,8 @@ use std::path::PathBuf;
 pub struct RadScene {
     pub(crate) file: RadFile<'static>,
     names: Vec<CString>,
+    /// The file's probes decoded for the frame (`None` without probes).
+    pub(crate) probes: Option<radiosity_core::DecodedProbes>,
 }
 
 impl RadScene {
@@ -29,7 +31,12 @@ impl RadScene {
             .iter()
             .map(|n| CString::new(n.replace('\0', " ")).unwrap_or_default())
             .collect();
-        Ok(Self { file, names })
+        let probes = file.probes.as_ref().map(radiosity_core::DecodedProbes::new);
+        Ok(Self {
+            file,
+            names,
+            probes,
+        })
     }
 
     /// The mesh with at least one triangle, or the reason there is none.
@@ -57,7 +64,7 @@ impl RadScene {
 /// # Safety
 ///
 /// A non-NULL `scene` comes from rad_scene_open or rad_scene_from_bytes and is not freed.
-unsafe fn scene_ref<'a>(scene: *const RadScene) -> Result<&'a RadScene, Failure> {
+pub(crate) unsafe fn scene_ref<'a>(scene: *const RadScene) -> Result<&'a RadScene, Failure> {
     check_ptr(scene, "scene")?;
     // SAFETY: non-NULL and aligned (checked); the caller promises a live scene, which no
     // function mutates after it is made.
@@ -287,7 +294,7 @@ pub unsafe extern "C" fn rad_scene_vertices(scene: *const RadScene) -> *const f3
     })
 }
 
-fn check_n(scene: &RadScene, n: usize, what: &str) -> Result<(), Failure> {
+pub(crate) fn check_n(scene: &RadScene, n: usize, what: &str) -> Result<(), Failure> {
     if n != scene.file.n() {
         return Err(Failure::new(
             RAD_ERR_LENGTH,

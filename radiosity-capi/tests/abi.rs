@@ -233,3 +233,265 @@ fn bad_input_is_refused_with_a_message() {
         rad_scene_free(scene);
     }
 }
+
+/// A visibility callback for `rad_probe_irradiance`: `user` points at a probe position that
+/// is out of sight; every other probe is in sight. Counts its calls in the position's
+/// fourth float.
+unsafe extern "C" fn hides_one(
+    user: *mut std::ffi::c_void,
+    from: *const f32,
+    to: *const f32,
+) -> bool {
+    // SAFETY: the tests pass a live `[f32; 4]` as `user`; `from` and `to` are 3 floats each
+    // (the library's promise).
+    unsafe {
+        let hidden = &mut *user.cast::<[f32; 4]>();
+        hidden[3] += 1.0;
+        let (_from, to) = (
+            std::slice::from_raw_parts(from, 3),
+            std::slice::from_raw_parts(to, 3),
+        );
+        to != &hidden[..3]
+    }
+}
+
+#[test]
+fn probes_through_the_abi_equal_the_core() {
+    use radiosity_core::{DecodedProbes, SH_COEFFICIENTS, sh_irradiance};
+    let file = sample_file(70, 3, Format::Bc1, 32);
+    let probes = file.probes.as_ref().unwrap();
+    let m = probes.len();
+    let scene = scene_of(&file);
+    let h: Vec<Rgb> = (0..70)
+        .map(|i| Rgb::new(1.0 + i as f32, 2.0, 0.5 * i as f32))
+        .collect();
+    // SAFETY (this and every call below): `scene` is live until rad_scene_free; every array
+    // passed has the length given.
+    unsafe {
+        assert_eq!(rad_scene_probe_count(scene), m);
+        let positions = std::slice::from_raw_parts(rad_scene_probe_positions(scene), 3 * m);
+        assert_eq!(positions, probes.positions.as_flattened());
+
+        let mut sh = vec![Rgb::ZERO; SH_COEFFICIENTS * m];
+        let code = rad_scene_probes_frame(
+            scene,
+            as_rad(&h).as_ptr(),
+            70,
+            as_rad_mut(&mut sh).as_mut_ptr(),
+            sh.len(),
+        );
+        assert_eq!(code, RAD_OK, "{}", last_error());
+        // The frame is the core's P·(ρ∘H), bit for bit: the same decoded weights, the same
+        // order of sums.
+        let reflected: Vec<Rgb> = h
+            .iter()
+            .zip(file.patches.iter())
+            .map(|(h, p)| p.reflectance * *h)
+            .collect();
+        let decoded = DecodedProbes::new(probes);
+        for p in 0..m {
+            assert_eq!(
+                sh[SH_COEFFICIENTS * p..SH_COEFFICIENTS * (p + 1)],
+                decoded.gather_probe(p, &reflected)
+            );
+        }
+        assert_ne!(sh[0], Rgb::ZERO, "the first probe weighs two patches");
+
+        // Between the two probes, both in sight, then the second hidden by the host's callback.
+        let point = [0.4f32, 0.6, 0.5];
+        let normal = [0.0f32, 0.0, 1.0];
+        let irradiance_of = |visible: &dyn Fn(usize) -> bool| {
+            let mut w = Vec::new();
+            assert!(probes.interpolation_weights(point, Some(normal), visible, &mut w));
+            w.iter().fold(Rgb::ZERO, |e, &(i, w)| {
+                let c = sh[SH_COEFFICIENTS * i..SH_COEFFICIENTS * (i + 1)]
+                    .try_into()
+                    .unwrap();
+                e + sh_irradiance(c, normal) * w
+            })
+        };
+        let mut out = RadRgb {
+            r: 0.0,
+            g: 0.0,
+            b: 0.0,
+        };
+        let ask = |visible: RadProbeVisible, user: *mut std::ffi::c_void, out: &mut RadRgb| {
+            rad_probe_irradiance(
+                scene,
+                as_rad(&sh).as_ptr(),
+                sh.len(),
+                point.as_ptr(),
+                normal.as_ptr(),
+                visible,
+                user,
+                out,
+            )
+        };
+        assert_eq!(ask(None, null_mut(), &mut out), RAD_OK, "{}", last_error());
+        assert_eq!(bytemuck::cast::<RadRgb, Rgb>(out), irradiance_of(&|_| true));
+
+        let mut hidden = [
+            probes.positions[1][0],
+            probes.positions[1][1],
+            probes.positions[1][2],
+            0.0,
+        ];
+        let user = (&mut hidden as *mut [f32; 4]).cast();
+        assert_eq!(
+            ask(Some(hides_one), user, &mut out),
+            RAD_OK,
+            "{}",
+            last_error()
+        );
+        assert_eq!(
+            hidden[3], 2.0,
+            "the callback asked once a probe of the cell"
+        );
+        let alone = irradiance_of(&|i| i != 1);
+        assert_eq!(bytemuck::cast::<RadRgb, Rgb>(out), alone);
+        assert_ne!(
+            alone,
+            irradiance_of(&|_| true),
+            "hiding a probe changes the answer"
+        );
+
+        // Both hidden: the point is answered with what it is, not a number.
+        unsafe extern "C" fn none_in_sight(
+            _: *mut std::ffi::c_void,
+            _: *const f32,
+            _: *const f32,
+        ) -> bool {
+            false
+        }
+        out = RadRgb {
+            r: -1.0,
+            g: -1.0,
+            b: -1.0,
+        };
+        assert_eq!(
+            ask(Some(none_in_sight), null_mut(), &mut out),
+            RAD_ERR_NO_PROBES
+        );
+        assert!(
+            last_error().contains("no probe around the point is in sight"),
+            "{}",
+            last_error()
+        );
+        assert_eq!(out.r, -1.0, "nothing written by a refused call");
+        rad_scene_free(scene);
+    }
+}
+
+#[test]
+fn bad_probe_calls_are_refused_with_a_message() {
+    use radiosity_core::SH_COEFFICIENTS;
+    let file = sample_file(40, 1, Format::Bc4, 16);
+    let scene = scene_of(&file);
+    let mut bare = sample_file(40, 1, Format::Bc4, 16);
+    bare.probes = None;
+    let bare = scene_of(&bare);
+    let h = vec![Rgb::ONE; 40];
+    let mut sh = vec![Rgb::ZERO; SH_COEFFICIENTS * 2];
+    let (hp, shp) = (as_rad(&h).as_ptr(), as_rad_mut(&mut sh).as_mut_ptr());
+    let mut nan = h.clone();
+    nan[7].g = f32::NAN;
+    let point = [0.5f32, 0.5, 0.5];
+    let up = [0.0f32, 0.0, 1.0];
+    let zero = [0.0f32; 3];
+    let far = [f32::INFINITY, 0.0, 0.0];
+    let mut out = RadRgb {
+        r: 0.0,
+        g: 0.0,
+        b: 0.0,
+    };
+    // SAFETY (this and every call below): the scenes are live until freed at the end; every
+    // array passed is at least as long as given, except where the call is meant to be refused
+    // for its length before reading.
+    unsafe {
+        assert_eq!(rad_scene_probe_count(bare), 0);
+        assert!(rad_scene_probe_positions(bare).is_null());
+        let irr = |s, p: &[f32; 3], n: &[f32; 3], len, out: &mut RadRgb| {
+            rad_probe_irradiance(s, shp, len, p.as_ptr(), n.as_ptr(), None, null_mut(), out)
+        };
+        // Each call's code and the start of its message, checked before the next call
+        // replaces the thread's last error.
+        let check = |case: &str, got: i32, want: i32, says: &str| {
+            assert_eq!(got, want, "{case}: {}", last_error());
+            assert!(last_error().contains(says), "{case}: {}", last_error());
+        };
+        check(
+            "no probes, frame",
+            rad_scene_probes_frame(bare, hp, 40, shp, 18),
+            RAD_ERR_NO_PROBES,
+            "no light probes",
+        );
+        check(
+            "no probes, point",
+            irr(bare, &point, &up, 18, &mut out),
+            RAD_ERR_NO_PROBES,
+            "no light probes",
+        );
+        check(
+            "short n",
+            rad_scene_probes_frame(scene, hp, 39, shp, 18),
+            RAD_ERR_LENGTH,
+            "39",
+        );
+        check(
+            "short sh",
+            rad_scene_probes_frame(scene, hp, 40, shp, 17),
+            RAD_ERR_LENGTH,
+            "sh_len = 17",
+        );
+        check(
+            "NULL irradiance",
+            rad_scene_probes_frame(scene, null(), 40, shp, 18),
+            RAD_ERR_POINTER,
+            "irradiance",
+        );
+        check(
+            "NaN irradiance",
+            rad_scene_probes_frame(scene, as_rad(&nan).as_ptr(), 40, shp, 18),
+            RAD_ERR_VALUE,
+            "patch 7",
+        );
+        check(
+            "zero normal",
+            irr(scene, &point, &zero, 18, &mut out),
+            RAD_ERR_VALUE,
+            "normal has length 0",
+        );
+        check(
+            "infinite point",
+            irr(scene, &far, &up, 18, &mut out),
+            RAD_ERR_VALUE,
+            "point is not finite",
+        );
+        check(
+            "short sh, point",
+            irr(scene, &point, &up, 9, &mut out),
+            RAD_ERR_LENGTH,
+            "sh_len = 9",
+        );
+        check(
+            "NULL out",
+            rad_probe_irradiance(
+                scene,
+                shp,
+                18,
+                point.as_ptr(),
+                up.as_ptr(),
+                None,
+                null_mut(),
+                null_mut(),
+            ),
+            RAD_ERR_POINTER,
+            "out",
+        );
+        assert_eq!(sh, vec![Rgb::ZERO; 18], "nothing written by refused calls");
+        assert_eq!(rad_scene_probe_count(null()), 0);
+        assert!(last_error().contains("NULL"), "{}", last_error());
+        rad_scene_free(bare);
+        rad_scene_free(scene);
+    }
+}

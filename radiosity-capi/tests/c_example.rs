@@ -213,6 +213,54 @@ fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
     }
 }
 
+/// The example's `probes` line against the core: the reflected irradiance facing +z at the
+/// first probe, from `P·(ρ∘y)` with `y` the reference gather of the file's own emitters.
+fn check_probes(stdout: &str, file: &RadFile<'_>) {
+    let line = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("probes\t"))
+        .unwrap_or_else(|| panic!("no probes line:\n{stdout}"));
+    let f: Vec<f64> = line.split('\t').map(|v| v.parse().unwrap()).collect();
+    let Some(probes) = file.probes.as_ref().filter(|p| !p.is_empty()) else {
+        assert_eq!(f, [0.0], "{stdout}");
+        return;
+    };
+    assert_eq!(f[0] as usize, probes.len());
+    let n = file.n();
+    let mut x = vec![Rgb::ZERO; n];
+    first_exitance(&file.patches, &vec![Rgb::ZERO; n], &mut x);
+    let mut y = vec![Rgb::ZERO; n];
+    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
+        .gather(&x, &mut y)
+        .unwrap();
+    let reflected: Vec<Rgb> = file
+        .patches
+        .iter()
+        .zip(&y)
+        .map(|(p, y)| p.reflectance * *y)
+        .collect();
+    let up = [0.0, 0.0, 1.0];
+    let mut weights = Vec::new();
+    assert!(probes.interpolation_weights(probes.positions[0], Some(up), |_| true, &mut weights));
+    let decoded = radiosity_core::DecodedProbes::new(probes);
+    let e = weights.iter().fold(Rgb::ZERO, |e, &(i, w)| {
+        e + radiosity_core::sh_irradiance(&decoded.gather_probe(i, &reflected), up) * w
+    });
+    assert!(
+        e.channel(0) != 0.0,
+        "a probe that sees nothing tests nothing"
+    );
+    for k in 0..3 {
+        // %.9g prints f32 exactly enough; the sums are the same code in the same order.
+        let want = f64::from(e.channel(k));
+        assert!(
+            close(f[1 + k], want, want.abs()),
+            "probe channel {k}: example {} here {want}",
+            f[1 + k]
+        );
+    }
+}
+
 #[test]
 fn c_example_on_a_baked_cornell_box() {
     let dir = tempfile::tempdir().unwrap();
@@ -232,6 +280,7 @@ fn c_example_on_a_baked_cornell_box() {
         stdout.lines().any(|l| l.starts_with("corners\t")),
         "{stdout}"
     );
+    check_probes(&stdout, &out.file);
     compare_with_solve(&dir.path().join("cornell.rad"), &printed_power(&stdout));
 }
 
@@ -242,6 +291,7 @@ fn c_example_on_sample_files_with_and_without_a_mesh() {
     let with_mesh = sample_file(70, 3, Format::Bc1, 32);
     let stdout = run_example(&exe, dir.path(), "sample.rad", &with_mesh);
     assert!(stdout.contains("scene\t70\t2\t2\n"), "{stdout}");
+    check_probes(&stdout, &with_mesh);
     let mut grey = sample_file(40, 1, Format::Bc4, 16);
     grey.mesh = None;
     let stdout = run_example(&exe, dir.path(), "grey.rad", &grey);
