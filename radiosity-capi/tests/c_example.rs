@@ -89,9 +89,9 @@ fn compile_example(out: &Path) -> PathBuf {
     exe
 }
 
-/// Power per object (W) lit by the file's own emitters, as `solve` computes it: radiosity
-/// `B = E + ρ·y` with `y` from the reference gather, `Σ area·B` over the object's patches.
-fn power_per_object(file: &RadFile<'_>) -> Vec<[f64; 3]> {
+/// The reference gather's `y = M·x` for the file's own emitters (`x = E`), as the example
+/// computes it.
+fn reference_y(file: &RadFile<'_>) -> Vec<Rgb> {
     let n = file.n();
     let mut x = vec![Rgb::ZERO; n];
     first_exitance(&file.patches, &vec![Rgb::ZERO; n], &mut x);
@@ -99,6 +99,13 @@ fn power_per_object(file: &RadFile<'_>) -> Vec<[f64; 3]> {
     ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
         .gather(&x, &mut y)
         .unwrap();
+    y
+}
+
+/// Power per object (W) lit by the file's own emitters, as `solve` computes it: radiosity
+/// `B = E + ρ·y` with `y` from the reference gather, `Σ area·B` over the object's patches.
+fn power_per_object(file: &RadFile<'_>) -> Vec<[f64; 3]> {
+    let y = reference_y(file);
     let mut power = vec![[0f64; 3]; file.objects.len()];
     for (p, y) in file.patches.iter().zip(&y) {
         let b = p.emission + p.reflectance * *y;
@@ -226,13 +233,7 @@ fn check_probes(stdout: &str, file: &RadFile<'_>) {
         return;
     };
     assert_eq!(f[0] as usize, probes.len());
-    let n = file.n();
-    let mut x = vec![Rgb::ZERO; n];
-    first_exitance(&file.patches, &vec![Rgb::ZERO; n], &mut x);
-    let mut y = vec![Rgb::ZERO; n];
-    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
-        .gather(&x, &mut y)
-        .unwrap();
+    let y = reference_y(file);
     let reflected: Vec<Rgb> = file
         .patches
         .iter()
