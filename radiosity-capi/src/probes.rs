@@ -23,6 +23,20 @@ fn probes(scene: &RadScene) -> Result<&radiosity_core::DecodedProbes, Failure> {
     })
 }
 
+/// `sh_len` must be nine coefficients for each of the scene's `probes`.
+fn check_sh_len(sh_len: usize, probes: usize) -> Result<(), Failure> {
+    if sh_len == SH_COEFFICIENTS * probes {
+        return Ok(());
+    }
+    Err(Failure::new(
+        RAD_ERR_LENGTH,
+        format!(
+            "sh_len = {sh_len}, the scene's {probes} probes take {}",
+            SH_COEFFICIENTS * probes
+        ),
+    ))
+}
+
 /// Light probes in the scene (0 without, or for a NULL scene, which sets the last error).
 ///
 /// # Safety
@@ -80,16 +94,7 @@ pub unsafe extern "C" fn rad_scene_probes_frame(
         let scene = unsafe { scene_ref(scene) }?;
         let probes = probes(scene)?;
         check_n(scene, n, "irradiance")?;
-        if sh_len != SH_COEFFICIENTS * probes.len() {
-            return Err(Failure::new(
-                RAD_ERR_LENGTH,
-                format!(
-                    "sh_len = {sh_len}, the scene's {} probes take {}",
-                    probes.len(),
-                    SH_COEFFICIENTS * probes.len()
-                ),
-            ));
-        }
+        check_sh_len(sh_len, probes.len())?;
         // SAFETY: the caller promises `n` readable values at `irradiance`; an overlap with
         // `sh` is copied away.
         let h = unsafe { read_input(irradiance, n, sh.cast_const(), sh_len, "irradiance") }?;
@@ -148,16 +153,7 @@ pub unsafe extern "C" fn rad_probe_irradiance(
             Some(p) => p,
             None => return probes(scene).map(|_| ()),
         };
-        if sh_len != SH_COEFFICIENTS * file_probes.len() {
-            return Err(Failure::new(
-                RAD_ERR_LENGTH,
-                format!(
-                    "sh_len = {sh_len}, the scene's {} probes take {}",
-                    file_probes.len(),
-                    SH_COEFFICIENTS * file_probes.len()
-                ),
-            ));
-        }
+        check_sh_len(sh_len, file_probes.len())?;
         // SAFETY: the caller promises `sh_len` readable values at `sh`, 3 at `point` and
         // `normal` (each checked for NULL and alignment).
         let (sh, p, n) = unsafe {
