@@ -76,8 +76,8 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
-        /// Light probes for moving objects and points off the surfaces: `auto` (a grid of about
-        /// 64 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
+        /// Light probes for moving objects and points off the surfaces: `auto` (a lattice of about
+        /// 125 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
         /// {"probes": [[x,y,z], ...]}; probes inside solid objects are dropped.
         #[arg(long, default_value = "auto", allow_negative_numbers = true)]
         probes: String,

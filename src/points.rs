@@ -3,16 +3,20 @@
 //!
 //! At a point facing `normal`: the direct light of the analytic lights (shadow rays, as at a
 //! patch), the direct light of the emitting surfaces ([`EMITTER_SAMPLES`] shadow rays to points
-//! on them, stratified over a pick in proportion to their power), and the light the surfaces
-//! reflect, gathered over the hemisphere by [`RAYS`] cosine-weighted rays, stratified. Each
-//! ray's first surface shows its reflected radiosity as `render` shades a pixel: `ρ∘(H_d + y)`,
-//! with `H_d` from shadow rays at the hit and `y` (the frame's gathered irradiance)
-//! interpolated from the patches around the hit. With cosine-weighted rays that irradiance is
-//! the mean of those radiosities. A small bright emitter met by the gather's rays instead
-//! would be a few dozen of them, a noise of several per cent. This is a final
-//! gather at the point, exact up to the frame's patch resolution and the rays' noise; it
-//! costs [`RAYS`] rays (and a shadow ray per light at each hit) a point, so it answers queries
-//! rather than lighting moving objects every frame.
+//! on them, stratified over a pick in proportion to their power and across each triangle), and
+//! the light the surfaces reflect, gathered over the hemisphere by [`RAYS`] cosine-weighted
+//! rays, stratified. Each ray's first surface shows its reflected radiosity:
+//! `ρ∘(H_d + H_e + y − y_e)`, with `H_d` from shadow rays to the analytic lights at the hit,
+//! `H_e` from [`HIT_EMITTER_SAMPLES`] shadow rays to the emitting surfaces there, and `y − y_e`
+//! (the frame's gathered irradiance less each patch's own direct light from the emitters)
+//! interpolated from the patches around the hit. The emitters' direct light peaks under a small
+//! light and falls off along the walls beside it, faster than a patch's size; what the patches
+//! pass on beyond it is smooth (`docs/decisions/final-gather-emitters.md`). With
+//! cosine-weighted rays the irradiance is the mean of those radiosities. A small bright
+//! emitter met by the gather's rays instead would be a few dozen of them, a noise of several
+//! per cent. This is a final gather at the point, exact up to the frame's patch resolution and
+//! the rays' noise; it costs [`RAYS`] rays and shadow rays at each hit a point, so it answers
+//! queries rather than lighting moving objects every frame.
 //!
 //! A point whose rays mostly meet the backs of faces is inside an object, and one outside the
 //! bounding box of the scene's mesh is outside it: both are answered as such, without a figure.
@@ -32,6 +36,12 @@ pub(crate) const RAYS: usize = 64 * 64;
 
 /// Shadow rays a point to the emitting surfaces.
 pub(crate) const EMITTER_SAMPLES: usize = 1024;
+
+/// Shadow rays to the emitting surfaces at each surface a gather ray meets.
+pub(crate) const HIT_EMITTER_SAMPLES: usize = 16;
+
+/// Shadow rays to the emitting surfaces a patch, spread over its direct-light points.
+const PATCH_EMITTER_SAMPLES: usize = 256;
 
 /// Share of rays meeting back faces above which a point is inside an object.
 const INSIDE_SHARE: f64 = 0.5;
@@ -119,6 +129,11 @@ fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * z).normalize()
 }
 
+/// The base-2 radical inverse of `i` (van der Corput), in [0, 1).
+fn radical_inverse(i: u32) -> f64 {
+    f64::from(i.reverse_bits()) / 4_294_967_296.0
+}
+
 /// The mesh's emitting triangles with the cumulative sums of `area × mean exitance` (the pick).
 struct Emitters {
     triangles: Vec<u32>,
@@ -141,13 +156,15 @@ impl Emitters {
     }
 
     /// Direct irradiance at `p` facing unit `n` from every emitting surface's front, with
-    /// shadow rays: `Σ L_e·cosθ_p·cosθ_e / r² / pdf` over stratified samples, `L_e = E/π`.
+    /// `samples` shadow rays: `Σ L_e·cosθ_p·cosθ_e / r² / pdf` over stratified samples,
+    /// `L_e = E/π`.
     fn irradiance_at(
         &self,
         rt: &Runtime,
         mesh: &radiosity_core::Mesh<'_>,
         p: DVec3,
         n: DVec3,
+        samples: usize,
         rng: &mut SplitMix64,
     ) -> Rgb {
         let Some(&total) = self.cdf.last() else {
@@ -155,8 +172,9 @@ impl Emitters {
         };
         let occ = rt.occluders().expect("a mesh has a BVH");
         let mut sum = [0f64; 3];
-        for s in 0..EMITTER_SAMPLES {
-            let u = (s as f64 + rng.next_f64()) / EMITTER_SAMPLES as f64 * total;
+        let shift = rng.next_f64();
+        for s in 0..samples {
+            let u = (s as f64 + rng.next_f64()) / samples as f64 * total;
             let k = self
                 .cdf
                 .partition_point(|&c| c <= u)
@@ -164,7 +182,14 @@ impl Emitters {
             let t = self.triangles[k] as usize;
             let tri = &mesh.triangles[t];
             let [a, b, c] = mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
-            let (r1, r2) = (rng.next_f64().sqrt(), rng.next_f64());
+            // Stratified over the triangle too: the pick's own coordinate across it and the
+            // radical inverse of the sample's index (rotated) along it, so that a point in a
+            // penumbra sees the light's visible part sampled evenly (a tenth of the noise of
+            // random points on the light at 1024 samples).
+            let below = if k == 0 { 0.0 } else { self.cdf[k - 1] };
+            let across = ((u - below) / (self.cdf[k] - below)).clamp(0.0, 1.0);
+            let along = (radical_inverse(s as u32) + shift).fract();
+            let (r1, r2) = (across.sqrt(), along);
             let y = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
             let normal = (b - a).cross(c - a).normalize_or_zero();
             let d = y - p;
@@ -185,12 +210,39 @@ impl Emitters {
                 *acc += f64::from(tri.emission.channel(ch)) * g;
             }
         }
-        let m = EMITTER_SAMPLES as f64;
+        let m = samples as f64;
         Rgb::new(
             (sum[0] / m) as f32,
             (sum[1] / m) as f32,
             (sum[2] / m) as f32,
         )
+    }
+
+    /// Each patch's direct irradiance from the emitting surfaces, the area-weighted mean over
+    /// its direct-light points: the first-bounce share of its gathered irradiance, which the
+    /// final gather replaces by the figure at the point its ray meets.
+    fn per_patch(&self, rt: &Runtime, mesh: &radiosity_core::Mesh<'_>, n: usize) -> Vec<Rgb> {
+        if self.triangles.is_empty() {
+            return vec![Rgb::ZERO; n];
+        }
+        (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let samples = mesh.samples_of(p);
+                let each = PATCH_EMITTER_SAMPLES.div_ceil(samples.len().max(1)).max(16);
+                let mut rng = SplitMix64(0xd1ec7 ^ p as u64);
+                let (mut acc, mut area) = (Rgb::ZERO, 0f32);
+                for s in samples {
+                    let (at, normal) = (
+                        Vec3::from(s.position).as_dvec3(),
+                        Vec3::from(s.normal).as_dvec3(),
+                    );
+                    acc += self.irradiance_at(rt, mesh, at, normal, each, &mut rng) * s.area;
+                    area += s.area;
+                }
+                if area > 0.0 { acc * (1.0 / area) } else { acc }
+            })
+            .collect()
     }
 }
 
@@ -214,6 +266,11 @@ pub(crate) fn answer(
     let slack = 1e-9 * (hi - lo).max_element().max(1e-300);
     let grid = PatchGrid::new(&rt.file.patches);
     let emitters = Emitters::new(mesh);
+    // What the patches gathered beyond the emitters' direct light: that part is smooth across
+    // a patch, the direct light is not (it peaks under a small light), so each gather ray
+    // takes the second from the patches around its hit and the first from shadow rays there.
+    let first = emitters.per_patch(rt, mesh, gathered.len());
+    let indirect: Vec<Rgb> = gathered.iter().zip(&first).map(|(&y, &d)| y - d).collect();
     let side = (RAYS as f64).sqrt() as usize;
     Ok(points
         .par_iter()
@@ -243,9 +300,10 @@ pub(crate) fn answer(
                 weights.clear();
                 let uv = (hit.u, hit.v);
                 grid.weights_at_hit(&rt.file.patches, mesh, t, uv, at, normal, &mut weights);
-                let mut y = Rgb::ZERO;
+                let mut y =
+                    emitters.irradiance_at(rt, mesh, at, normal, HIT_EMITTER_SAMPLES, &mut rng);
                 for &(i, w) in &weights {
-                    y += gathered[i as usize] * w;
+                    y += indirect[i as usize] * w;
                 }
                 let tri = &mesh.triangles[t];
                 let direct = rt.direct_at(lights, at, normal);
@@ -255,8 +313,8 @@ pub(crate) fn answer(
             if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
                 return Answer::Inside;
             }
-            let direct =
-                rt.direct_at(lights, p, n) + emitters.irradiance_at(rt, mesh, p, n, &mut rng);
+            let direct = rt.direct_at(lights, p, n)
+                + emitters.irradiance_at(rt, mesh, p, n, EMITTER_SAMPLES, &mut rng);
             let total = sum * (1.0 / (side * side) as f32) + direct;
             let probes = rt
                 .file

@@ -274,7 +274,7 @@ fn per_object(
             let shift = own
                 .iter()
                 .find(|d| d.0 == o)
-                .map_or(Rgb::ZERO, |d| d.1 + direct[i] * -1.0);
+                .map_or(Rgb::ZERO, |d| d.1 - direct[i]);
             let (h, b) = (h[i] + shift, b[i] + p.reflectance * shift);
             let a = &mut acc[o as usize];
             a.0 += w;

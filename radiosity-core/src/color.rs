@@ -1,7 +1,7 @@
 //! Linear RGB triples of `f32`: exitance, irradiance, reflectance.
 
 use bytemuck::{Pod, Zeroable};
-use core::ops::{Add, AddAssign, Mul};
+use core::ops::{Add, AddAssign, Mul, Sub};
 
 /// A linear RGB triple (W/m² for exitance and irradiance, unitless for reflectance).
 ///
@@ -89,6 +89,14 @@ impl Add for Rgb {
     #[inline]
     fn add(self, o: Rgb) -> Rgb {
         Rgb::new(self.r + o.r, self.g + o.g, self.b + o.b)
+    }
+}
+
+impl Sub for Rgb {
+    type Output = Rgb;
+    #[inline]
+    fn sub(self, o: Rgb) -> Rgb {
+        Rgb::new(self.r - o.r, self.g - o.g, self.b - o.b)
     }
 }
 

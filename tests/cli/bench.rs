@@ -136,7 +136,7 @@ fn bench_json_has_every_method_with_sane_values() {
     if std::env::var("CI").is_ok_and(|v| v == "true") {
         assert!(!frames.is_empty(), "no host-device frame under CI");
     }
-    // The box's probes at `--probes auto` (about 64 cells, those inside the blocks dropped),
+    // The box's probes at `--probes auto` (about 125 cells, those inside the blocks dropped),
     // timed on the CPU and, in each host-device frame, by the probe pass.
     let probes = &v["probes"];
     let count = probes["count"].as_u64().unwrap();
