@@ -387,7 +387,7 @@ pub(crate) fn buried_by_object(
         for k in points {
             let [u, v] = crate::rng::sobol2(scramble, k);
             let (piece, x, n) = patch_point_on(pieces, total, u, v);
-            if occ.buried(x, n) {
+            if occ.covered(piece.triangle, x) || occ.buried(x, n) {
                 match counts.iter_mut().find(|c| c.0 == piece.object) {
                     Some(c) => c.1 += 1,
                     None => counts.push((piece.object, 1)),

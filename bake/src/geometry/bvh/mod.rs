@@ -10,6 +10,7 @@
 use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::cwbvh::CwBvh;
@@ -42,6 +43,12 @@ pub struct Occluders {
     scale: f64,
     /// Diagonal of the scene bounds: the length scale of every tolerance here.
     extent: f64,
+    /// Whether each triangle (by its index in the list given) emits, for [`Self::reaches`]'s
+    /// ties: empty when built from bare corners (nothing emits).
+    emits: Vec<bool>,
+    /// The emitting triangles drawn in the plane of each non-emitting one they overlap, facing
+    /// the same way (a light on the ceiling): they cover it ([`Self::covered`]).
+    covers: std::collections::HashMap<u32, Vec<u32>>,
 }
 
 /// The extent of every scene in the BVH's f32 coordinates. obvhs's CWBVH skips every node
@@ -173,7 +180,58 @@ impl Occluders {
         let corners: Vec<[DVec3; 3]> = (0..scene.triangles.len())
             .map(|t| scene.corners(t))
             .collect();
-        Self::from_triangles(&corners)
+        let mut occ = Self::from_triangles(&corners);
+        occ.emits = scene
+            .triangles
+            .iter()
+            .map(|t| scene.materials[t.material as usize].emission.mean() > 0.0)
+            .collect();
+        occ.covers = occ.find_covers();
+        occ
+    }
+
+    /// For [`Self::covers`]: each emitting triangle against the triangles near its box, kept
+    /// where the other does not emit, faces the same way and its plane holds the emitter's
+    /// corners (within 1e-9 of the extent).
+    fn find_covers(&self) -> std::collections::HashMap<u32, Vec<u32>> {
+        let mut covers: std::collections::HashMap<u32, Vec<u32>> = Default::default();
+        let tol = 1e-9 * self.extent;
+        for e in (0..self.emits.len()).filter(|&e| self.emits[e]) {
+            let c = *self.given(e as u32);
+            let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+            let pad = Vec3A::splat((1e-6 * LOCAL_EXTENT) as f32);
+            let bx = Aabb::new(self.local(lo) - pad, self.local(hi) + pad);
+            let front = self.front(e as u32);
+            self.bvh.aabb_traverse(bx, |bvh, node_index| {
+                let node = &bvh.nodes[node_index as usize];
+                for k in node.first_index..node.first_index + node.prim_count {
+                    let t = bvh.primitive_indices[k as usize];
+                    if self.emits(t) || self.front(t).dot(front) <= 0.0 {
+                        continue;
+                    }
+                    if c.iter().all(|p| self.plane_distance(t, *p) <= tol) {
+                        covers.entry(t).or_default().push(e as u32);
+                    }
+                }
+                true
+            });
+        }
+        covers
+    }
+
+    /// Whether the point `x` of triangle `own` (its index in the list given) lies under an
+    /// emitter drawn in its plane ([`Self::covers`]): that part of the surface is hidden
+    /// behind the light, as a surface under a block is buried.
+    pub fn covered(&self, own: u32, x: DVec3) -> bool {
+        self.covers.get(&own).is_some_and(|list| {
+            list.iter()
+                .any(|&e| inside_by(self.given(e), x, 1e-9 * self.extent))
+        })
+    }
+
+    /// Whether triangle `t` (its index in the list given) emits.
+    fn emits(&self, t: u32) -> bool {
+        self.emits.get(t as usize).copied().unwrap_or(false)
     }
 
     /// Builds the BVH over triangles given by their corners.
@@ -230,6 +288,8 @@ impl Occluders {
             origin,
             scale,
             extent,
+            emits: Vec::new(),
+            covers: Default::default(),
         }
     }
 
@@ -472,7 +532,7 @@ impl Occluders {
         };
         let met = self.cw.primitive_indices[id];
         if met == target {
-            return true;
+            return !self.covered(target, to);
         }
         if f64::from(t) < len * (1.0 - SHEET_GAP) {
             return false;
@@ -481,6 +541,12 @@ impl Occluders {
         // of its edge), the back of a two-sided panel, or a coincident copy of the target
         // (a surface modelled twice). Only the copy stands in front of it, so that the two
         // together count once: a triangle that faces the ray, with `to` well inside the target.
+        // An emitter drawn in the plane of a surface it overlaps (a light on the ceiling, as
+        // the Cornell page gives it) stands in front of that surface: the tie is the
+        // emitter's whichever of the two the BVH returns first.
+        if self.emits(target) && !self.emits(met) {
+            return true;
+        }
         let c = self.given(met);
         if (c[1] - c[0]).cross(c[2] - c[0]).dot(to - from) >= 0.0 {
             return true;
