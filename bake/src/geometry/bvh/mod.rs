@@ -499,9 +499,10 @@ impl Occluders {
     }
 
     /// Whether a ray from `from`, a point on a surface, toward `to`, a point of triangle
-    /// `target`, reaches it: the first triangle it meets is `target`, or there is none before
-    /// `to`, or the one met at `to` (within 1e-4 of the distance) is not a copy of the target
-    /// in front of it (see the body). Triangles whose planes hold `from` are passed through
+    /// `target`, reaches it: the first triangle it meets is `target` (and `to` is not
+    /// [`Self::covered`]), or there is none before `to`, or the one met at `to` (within 1e-4
+    /// of the distance) is not a copy of the target in front of it (see the body; an emitting
+    /// target wins that tie over a face that does not emit). Triangles whose planes hold `from` are passed through
     /// (as in [`Self::closest_hit_from_surface`]), so the ray starts on the surface itself.
     /// The closest-hit question of a hemisphere ray, asked of one point: unlike
     /// [`Self::segment_visible`] it needs no margin at either end, so a surface just in front
