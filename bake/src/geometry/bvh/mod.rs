@@ -508,7 +508,7 @@ impl Occluders {
     /// [`Self::segment_visible`] it needs no margin at either end, so a surface just in front
     /// of the target (a second layer of a modelled panel) hides it, and one a hair in front of
     /// the start (two parts in contact, modelled 5e-4 apart in a room 3300 across) is met, not
-    /// stepped over (ARCHITECTURE.md, "First hit, not a lifted segment").
+    /// stepped over (`docs/decisions/rays-from-the-surface.md`).
     pub fn reaches(&self, from: DVec3, to: DVec3, target: u32) -> bool {
         let d = (to - from) * self.scale;
         let len = d.length();
