@@ -223,10 +223,12 @@ impl Occluders {
     /// emitter drawn in its plane ([`Self::covers`]): that part of the surface is hidden
     /// behind the light, as a surface under a block is buried.
     pub fn covered(&self, own: u32, x: DVec3) -> bool {
-        self.covers.get(&own).is_some_and(|list| {
-            list.iter()
-                .any(|&e| inside_by(self.given(e), x, 1e-9 * self.extent))
-        })
+        // Every ray of F that reaches its target asks: most scenes have no such pair.
+        !self.covers.is_empty()
+            && self.covers.get(&own).is_some_and(|list| {
+                list.iter()
+                    .any(|&e| inside_by(self.given(e), x, 1e-9 * self.extent))
+            })
     }
 
     /// Whether triangle `t` (its index in the list given) emits.
