@@ -232,6 +232,7 @@ pub(crate) fn bake_scene(
 pub(crate) fn attach_probes(
     out: BakeOutput,
     spec: &crate::probes::ProbeSpec,
+    rank: crate::probes::ProbeRank,
 ) -> anyhow::Result<(BakeOutput, Option<crate::probes::ProbeReport>)> {
     if *spec == crate::probes::ProbeSpec::None {
         return Ok((out, None));
@@ -242,7 +243,7 @@ pub(crate) fn attach_probes(
         patch_source,
     } = out;
     let rt = crate::runtime::Runtime::new(file);
-    let baked = crate::probes::bake(&rt, spec)?;
+    let baked = crate::probes::bake(&rt, spec, rank)?;
     let mut file = rt.file;
     let probe_report = baked.map(|(probes, r)| {
         file.probes = Some(probes);
@@ -264,16 +265,18 @@ pub(crate) fn run(
     output: &Path,
     args: &BakeArgs,
     probes: &str,
+    probe_rank: &str,
     json_out: bool,
 ) -> anyhow::Result<()> {
     let params = params(args)?;
     let load = load_options(args)?;
     let probe_spec = crate::probes::parse_spec(probes)?;
+    let probe_rank = crate::probes::parse_rank(probe_rank)?;
     // Refuse an unwritable destination before spending minutes on the bake.
     crate::output::check_file(output)?;
     let (mut out, load_ms) = bake_scene(scene, None, &load, &params, json_out)?;
     out.report.timings_ms.insert("load", load_ms);
-    let (out, probe_report) = attach_probes(out, &probe_spec)?;
+    let (out, probe_report) = attach_probes(out, &probe_spec, probe_rank)?;
     let bytes = out
         .file
         .to_bytes()
@@ -285,11 +288,14 @@ pub(crate) fn run(
         outln!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         if let Some(r) = &probe_report {
+            let stored = match r.rank {
+                Some(k) => format!("{} weights factored to rank {k}", r.weights),
+                None => format!("{} weights", r.weights),
+            };
             outln!(
-                "  probes: {} placed ({} inside objects dropped), {} weights, {:.2} MB, {:.1} s",
+                "  probes: {} placed ({} inside objects dropped), {stored}, {:.2} MB, {:.1} s",
                 r.placed,
                 r.dropped_inside,
-                r.weights,
                 r.bytes as f64 / 1e6,
                 r.seconds
             );

@@ -197,8 +197,12 @@ fn bench_probes(
         probes: None,
     };
     let rt = crate::runtime::Runtime::new(file);
-    let (probes, report) =
-        crate::probes::bake(&rt, &crate::probes::ProbeSpec::Auto)?.context("probes at auto")?;
+    let (probes, report) = crate::probes::bake(
+        &rt,
+        &crate::probes::ProbeSpec::Auto,
+        crate::probes::ProbeRank::Auto,
+    )?
+    .context("probes at auto")?;
     let reflected: Vec<Rgb> = (0..patches.len())
         .map(|i| Rgb::splat(1.0 + (i % 7) as f32))
         .collect();

@@ -45,7 +45,11 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     let t = Instant::now();
     let (baked, _) =
         crate::bake::bake_scene(&obj, Some("embedded"), &Default::default(), &params, false)?;
-    let (baked, probe_report) = crate::bake::attach_probes(baked, &crate::probes::ProbeSpec::Auto)?;
+    let (baked, probe_report) = crate::bake::attach_probes(
+        baked,
+        &crate::probes::ProbeSpec::Auto,
+        crate::probes::ProbeRank::Auto,
+    )?;
     let probe_report = probe_report.context("the demo's probes")?;
     let bake_s = t.elapsed().as_secs_f64();
     let bytes = baked.file.to_bytes()?;

@@ -77,10 +77,15 @@ enum Command {
         #[command(flatten)]
         bake: BakeArgs,
         /// Light probes for moving objects and points off the surfaces: `auto` (a lattice of about
-        /// 125 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
+        /// 512 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
         /// {"probes": [[x,y,z], ...]}; probes inside solid objects are dropped.
         #[arg(long, default_value = "auto", allow_negative_numbers = true)]
         probes: String,
+        /// What the probes store: `auto` (their weights factored to a rank of a sixteenth of the
+        /// patches, 128 to 512, where that makes the frame cheaper), `full` (every weight the
+        /// rays found), or a rank.
+        #[arg(long, default_value = "auto", allow_negative_numbers = true)]
+        probe_rank: String,
         /// Print the bake report as JSON.
         #[arg(long)]
         json: bool,
@@ -297,8 +302,9 @@ fn main() -> ExitCode {
             output,
             bake,
             probes,
+            probe_rank,
             json,
-        } => bake::run(&scene, &output, &bake, &probes, json),
+        } => bake::run(&scene, &output, &bake, &probes, &probe_rank, json),
         Command::Solve {
             input,
             bake,

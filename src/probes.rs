@@ -24,7 +24,8 @@ use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
 use radiosity_bake::rng::SplitMix64;
 use radiosity_core::{
-    DecodedProbes, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS, probes::sh_basis, sh_irradiance,
+    DecodedProbes, ProbeFactors, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS, probes::sh_basis,
+    sh_irradiance,
 };
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -34,8 +35,9 @@ use std::path::Path;
 /// Rays a probe: 64 × 64 strata over the sphere.
 pub(crate) const RAYS: usize = 64 * 64;
 /// Probes `auto` aims at over the scene's bounding box, before those inside solids are
-/// dropped: five a side of a cube (docs/decisions/probe-interpolation.md weighs 64 to 323).
-pub(crate) const AUTO_PROBES: f64 = 125.0;
+/// dropped: eight a side of a cube (docs/decisions/probe-interpolation.md weighs 64 to 913,
+/// docs/decisions/probe-factors.md what factoring makes affordable).
+pub(crate) const AUTO_PROBES: f64 = 512.0;
 /// Where probes go.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum ProbeSpec {
@@ -82,7 +84,10 @@ pub(crate) fn parse_spec(s: &str) -> anyhow::Result<ProbeSpec> {
 pub(crate) struct ProbeReport {
     pub(crate) placed: usize,
     pub(crate) dropped_inside: usize,
+    /// Weights the rays found (patch and probe pairs), before any factoring.
     pub(crate) weights: usize,
+    /// The rank of the stored factors, `None` for rows of weights.
+    pub(crate) rank: Option<usize>,
     pub(crate) bytes: usize,
     pub(crate) spacing: f64,
     pub(crate) seconds: f64,
@@ -173,6 +178,7 @@ fn weigh(rt: &Runtime, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<Pro
 pub(crate) fn bake(
     rt: &Runtime,
     spec: &ProbeSpec,
+    rank: ProbeRank,
 ) -> anyhow::Result<Option<(Probes<'static>, ProbeReport)>> {
     let t = std::time::Instant::now();
     let (candidates, spacing) = match spec {
@@ -197,18 +203,39 @@ pub(crate) fn bake(
         .enumerate()
         .map(|(i, &p)| weigh(rt, &patch_grid, p, 0x9e37_79b9 ^ i as u64))
         .collect();
-    let (mut positions, mut starts, mut weights) = (Vec::new(), vec![0u32], Vec::new());
-    let mut dropped = 0;
+    let mut positions = Vec::new();
+    let mut kept = Vec::new();
     for (p, row) in candidates.iter().zip(rows) {
-        match row {
-            Some(r) => {
-                positions.push(p.as_vec3().to_array());
-                weights.extend(r);
-                starts.push(weights.len() as u32);
-            }
-            None => dropped += 1,
+        if let Some(r) = row {
+            positions.push(p.as_vec3().to_array());
+            kept.push(r);
         }
     }
+    let dropped = candidates.len() - kept.len();
+    let found: usize = kept.iter().map(Vec::len).sum();
+    let n = rt.file.patches.len();
+    let factors = match rank {
+        ProbeRank::Full => None,
+        // Factors where their frame is cheaper than the rows'.
+        ProbeRank::Auto
+            if auto_rank(n) * (n + SH_COEFFICIENTS * kept.len()) >= SH_COEFFICIENTS * found =>
+        {
+            None
+        }
+        ProbeRank::Auto => factor(&kept, n, auto_rank(n)),
+        ProbeRank::Rank(k) => factor(&kept, n, k),
+    };
+    let (starts, weights) = if factors.is_some() {
+        (vec![0u32; kept.len() + 1], Vec::new())
+    } else {
+        let mut starts = vec![0u32];
+        let mut weights = Vec::with_capacity(found);
+        for r in kept {
+            weights.extend(r);
+            starts.push(weights.len() as u32);
+        }
+        (starts, weights)
+    };
     let spacing = spacing.unwrap_or_else(|| {
         let pos: Vec<DVec3> = positions
             .iter()
@@ -222,11 +249,13 @@ pub(crate) fn bake(
         positions: Cow::Owned(positions),
         rows: Cow::Owned(starts),
         weights: Cow::Owned(weights),
+        factors,
     };
     let report = ProbeReport {
         placed: probes.len(),
         dropped_inside: dropped,
-        weights: probes.weights.len(),
+        weights: found,
+        rank: probes.factors.as_ref().map(|f| f.rank as usize),
         bytes: probes.to_bytes().len(),
         spacing,
         seconds: t.elapsed().as_secs_f64(),
@@ -250,9 +279,10 @@ pub(crate) fn frame_sh(rt: &Runtime, h: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
 
 /// Every probe's SH from the patches' reflected radiosity, the probes spread over the threads.
 pub(crate) fn gather_all(probes: &DecodedProbes, reflected: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
+    let modes = probes.modes(reflected);
     (0..probes.len())
         .into_par_iter()
-        .map(|p| probes.gather_probe(p, reflected))
+        .map(|p| probes.gather_probe_with(p, reflected, &modes))
         .collect()
 }
 
@@ -325,4 +355,249 @@ fn median_spacing(pos: &[DVec3], alone: f64) -> f64 {
         .get(nearest.len() / 2)
         .copied()
         .unwrap_or(alone.max(1e-9))
+}
+
+/// What `bake --probe-rank` keeps of the probes' weights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ProbeRank {
+    /// [`auto_rank`], or rows of weights where those cost no more a frame.
+    Auto,
+    /// Rows of weights, every one the rays found.
+    Full,
+    /// Factors of this rank (at most the smaller side of `P`).
+    Rank(usize),
+}
+
+/// The rank `auto` factors the probes' weights to over `patches` patches: a sixteenth of them,
+/// from 128 to 512 (468 probes in the Cornell box meet the bounds at rank 128 over
+/// 1008 patches and at 256 over 4098, not at 128: docs/decisions/probe-factors.md).
+pub(crate) fn auto_rank(patches: usize) -> usize {
+    (patches / 16).clamp(128, 512)
+}
+
+/// Columns the randomized factoring samples beyond the rank (docs/decisions/probe-factors.md).
+const OVERSAMPLE: usize = 64;
+
+/// Parses `--probe-rank`: `auto`, `full` or a positive integer.
+pub(crate) fn parse_rank(s: &str) -> anyhow::Result<ProbeRank> {
+    match s {
+        "auto" => Ok(ProbeRank::Auto),
+        "full" => Ok(ProbeRank::Full),
+        _ => match s.parse::<usize>() {
+            Ok(k) if k > 0 => Ok(ProbeRank::Rank(k)),
+            _ => bail!("--probe-rank must be auto, full or a positive integer, not {s}"),
+        },
+    }
+}
+
+/// The irradiance weight of each SH band (`sh_irradiance`'s `Â_l`): the factors minimise the
+/// error of what a normal receives, not of the radiance's coefficients.
+const BAND: [f64; SH_COEFFICIENTS] = [
+    std::f64::consts::PI,
+    2.0 * std::f64::consts::PI / 3.0,
+    2.0 * std::f64::consts::PI / 3.0,
+    2.0 * std::f64::consts::PI / 3.0,
+    std::f64::consts::PI / 4.0,
+    std::f64::consts::PI / 4.0,
+    std::f64::consts::PI / 4.0,
+    std::f64::consts::PI / 4.0,
+    std::f64::consts::PI / 4.0,
+];
+
+/// `A` = the probes' weights, one row per probe and SH coefficient (scaled by [`BAND`]), as
+/// sparse rows of `(patch, value)`. Its products take and give row-major `l`-column
+/// matrices, so each weight's inner loop runs over contiguous columns.
+struct Weights<'a> {
+    rows: &'a [Vec<ProbeWeight>],
+    patches: usize,
+}
+
+impl Weights<'_> {
+    fn height(&self) -> usize {
+        SH_COEFFICIENTS * self.rows.len()
+    }
+
+    /// The band-scaled coefficients of a weight.
+    fn scaled(w: &ProbeWeight) -> [f64; SH_COEFFICIENTS] {
+        let sh = w.sh();
+        std::array::from_fn(|c| BAND[c] * f64::from(sh[c]))
+    }
+
+    /// `A·X` for `X` of `patches` rows of `l`.
+    fn times(&self, x: &[f64], l: usize) -> Vec<f64> {
+        let mut out = vec![0.0; self.height() * l];
+        out.par_chunks_mut(SH_COEFFICIENTS * l)
+            .zip(self.rows)
+            .for_each(|(out, row)| {
+                for w in row {
+                    let sh = Self::scaled(w);
+                    let xr = &x[w.patch as usize * l..][..l];
+                    for (c, o) in out.chunks_exact_mut(l).enumerate() {
+                        for (o, x) in o.iter_mut().zip(xr) {
+                            *o += sh[c] * x;
+                        }
+                    }
+                }
+            });
+        out
+    }
+
+    /// `Aᵀ·Y` for `Y` of `height` rows of `l`: each thread's share of the probes into its own
+    /// matrix, then the sum.
+    fn transposed_times(&self, y: &[f64], l: usize) -> Vec<f64> {
+        let n = self.patches;
+        let per = self
+            .rows
+            .len()
+            .div_ceil(rayon::current_num_threads())
+            .max(1);
+        let parts: Vec<Vec<f64>> = self
+            .rows
+            .par_chunks(per)
+            .enumerate()
+            .map(|(chunk, rows)| {
+                let mut out = vec![0.0; n * l];
+                for (i, row) in rows.iter().enumerate() {
+                    let p = chunk * per + i;
+                    let yp = &y[SH_COEFFICIENTS * p * l..][..SH_COEFFICIENTS * l];
+                    for w in row {
+                        let sh = Self::scaled(w);
+                        let o = &mut out[w.patch as usize * l..][..l];
+                        for (c, yc) in yp.chunks_exact(l).enumerate() {
+                            for (o, y) in o.iter_mut().zip(yc) {
+                                *o += sh[c] * y;
+                            }
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut parts = parts.into_iter();
+        let mut sum = parts.next().unwrap_or_else(|| vec![0.0; n * l]);
+        for part in parts {
+            for (a, b) in sum.iter_mut().zip(&part) {
+                *a += b;
+            }
+        }
+        sum
+    }
+}
+
+/// A row-major `rows × l` matrix as faer's.
+fn to_mat(v: &[f64], rows: usize, l: usize) -> faer::Mat<f64> {
+    faer::Mat::from_fn(rows, l, |r, c| v[r * l + c])
+}
+
+/// A faer matrix as a row-major one.
+fn from_mat(m: faer::MatRef<'_, f64>) -> Vec<f64> {
+    let (rows, l) = (m.nrows(), m.ncols());
+    let mut out = vec![0.0; rows * l];
+    for c in 0..l {
+        for r in 0..rows {
+            out[r * l + c] = m[(r, c)];
+        }
+    }
+    out
+}
+
+/// An orthonormal basis of `y`'s columns (thin QR, faer).
+fn orthonormal(y: &[f64], rows: usize, l: usize) -> Vec<f64> {
+    from_mat(to_mat(y, rows, l).qr().compute_thin_Q().as_ref())
+}
+
+/// The probes' weights `rows` over `patches` as factors of rank `k`: randomized subspace
+/// iteration (Halko, Martinsson & Tropp 2011, "Finding structure with randomness",
+/// algorithm 4.4: `k + 64` columns, two power iterations), then the SVD of the small
+/// projected matrix (faer). `None` when `k` reaches the smaller side of `P` (nothing to gain)
+/// or the SVD does not converge.
+fn factor(rows: &[Vec<ProbeWeight>], patches: usize, k: usize) -> Option<ProbeFactors<'static>> {
+    let a = Weights { rows, patches };
+    let height = a.height();
+    if k >= height.min(patches) {
+        return None;
+    }
+    let l = (k + OVERSAMPLE).min(height).min(patches);
+    let mut rng = SplitMix64(0x5eed_f00d);
+    let omega: Vec<f64> = (0..patches * l)
+        .map(|_| {
+            // Box–Muller: a standard normal.
+            let (u1, u2) = (1.0 - rng.next_f64(), rng.next_f64());
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        })
+        .collect();
+    let mut q = orthonormal(&a.times(&omega, l), height, l);
+    for _ in 0..2 {
+        let z = orthonormal(&a.transposed_times(&q, l), patches, l);
+        q = orthonormal(&a.times(&z, l), height, l);
+    }
+    // B = Qᵀ·A, as its transpose Aᵀ·Q (patches × l); Bᵀ = V·Σ·Ũᵀ.
+    let bt = to_mat(&a.transposed_times(&q, l), patches, l);
+    let svd = bt.thin_svd().ok()?;
+    let (v, sigma, u) = (svd.U(), svd.S().column_vector(), svd.V());
+    let q = to_mat(&q, height, l);
+    // C = Q·Ũ_k·Σ_k, unscaled by the bands; V_k ᵀ as the basis.
+    let mut coefficients = vec![0u16; height * k];
+    let qu = &q * u.subcols(0, k);
+    for r in 0..height {
+        for col in 0..k {
+            let c = qu[(r, col)] * sigma[col] / BAND[r % SH_COEFFICIENTS];
+            coefficients[r * k + col] = radiosity_core::half::f32_to_f16(c as f32);
+        }
+    }
+    let mut basis = vec![0u16; k * patches];
+    for col in 0..k {
+        for j in 0..patches {
+            basis[col * patches + j] = radiosity_core::half::f32_to_f16(v[(j, col)] as f32);
+        }
+    }
+    Some(ProbeFactors {
+        rank: k as u32,
+        basis: Cow::Owned(basis),
+        coefficients: Cow::Owned(coefficients),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn factors_of_a_rank_three_matrix_give_it_back() {
+        // 20 probes over 50 patches whose weights are a sum of three products.
+        let (m, n) = (20usize, 50usize);
+        let a = |p: usize, c: usize, q: usize| ((p * 7 + c * 3 + q * 5) % 11) as f32 / 11.0 - 0.4;
+        let b = |q: usize, j: usize| ((j * 13 + q * 17) % 19) as f32 / 19.0;
+        let exact = |p: usize, j: usize| -> [f32; SH_COEFFICIENTS] {
+            std::array::from_fn(|c| (0..3).map(|q| a(p, c, q) * b(q, j)).sum())
+        };
+        let rows: Vec<Vec<ProbeWeight>> = (0..m)
+            .map(|p| {
+                (0..n)
+                    .map(|j| ProbeWeight::new(j as u32, exact(p, j)))
+                    .collect()
+            })
+            .collect();
+        let factors = factor(&rows, n, 3).expect("rank 3 of a 180 × 50 matrix");
+        let probes = Probes {
+            spacing: 1.0,
+            positions: Cow::Owned(vec![[0.0; 3]; m]),
+            rows: Cow::Owned(vec![0; m + 1]),
+            weights: Cow::Owned(Vec::new()),
+            factors: Some(factors),
+        };
+        probes.validate(n).unwrap();
+        let back = probes.to_rows();
+        for p in 0..m {
+            for (w, want) in back.weights_of(p).iter().zip(&rows[p]) {
+                for (x, y) in w.sh().iter().zip(want.sh()) {
+                    // The weights reach 1.8 in size; binary16 factors of rank 3 round each of
+                    // three products to a relative 2⁻¹¹, and the result once more.
+                    assert!((x - y).abs() <= 4.0 * 1.8 * 2f32.powi(-11), "{x} {y}");
+                }
+            }
+        }
+        // Nothing to gain at the matrix's smaller side.
+        assert!(factor(&rows, n, 50).is_none());
+    }
 }

@@ -11,6 +11,7 @@ use radiosity_core::{Patch, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS};
 use wgpu::util::DeviceExt;
 
 const PROBES: &str = include_str!("shaders/probes.wgsl");
+const FACTORS: &str = include_str!("shaders/probe_factors.wgsl");
 
 /// The kernel's uniform (`struct ProbeCfg` in `probes.wgsl`).
 #[repr(C)]
@@ -22,6 +23,20 @@ struct ProbeUniform {
 }
 
 const _: () = assert!(size_of::<ProbeUniform>() == 16);
+
+/// The factored kernels' uniform (`struct FactorCfg` in `probe_factors.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct FactorUniform {
+    count: u32,
+    row: u32,
+    rank: u32,
+    patches: u32,
+    mode_row: u32,
+    _pad: [u32; 3],
+}
+
+const _: () = assert!(size_of::<FactorUniform>() == 32);
 const _: () = assert!(size_of::<ProbeWeight>() == 24);
 
 /// Bytes of one probe's output: nine RGB f32 coefficients.
@@ -44,19 +59,29 @@ pub struct ProbeBuffers<'a> {
 }
 
 /// The GPU twin of [`Probes::gather`] on the reflected radiosity `B − E = x − E + ρ∘y`: one
-/// dispatch of one workgroup per probe. It reads the frame's `x` and `y`, so it is recorded
+/// dispatch of one workgroup per probe (factored probes: one workgroup per mode first,
+/// `probe_factors.wgsl`). It reads the frame's `x` and `y`, so it is recorded
 /// after [`crate::HostGather::record`] into the same encoder (or a later one). The values
 /// equal the core's up to f32 summation order (each workgroup adds its 64 partial sums by a
 /// tree).
 #[derive(Debug)]
 pub struct ProbePass {
     pipeline: wgpu::ComputePipeline,
+    /// For factored probes, the `modes` kernel and its grid, dispatched before `pipeline`.
+    modes: Option<(wgpu::ComputePipeline, (u32, u32))>,
     bind_group: wgpu::BindGroup,
     table: wgpu::Buffer,
     reflectance: Vec<Rgb>,
     grid: (u32, u32),
     probes: usize,
     device_bytes: u64,
+}
+
+/// binary16 bits as the bytes of whole words (a zero half after an odd count).
+fn halves_as_words(h: &[u16]) -> Vec<u8> {
+    let mut bytes = bytemuck::cast_slice::<u16, u8>(h).to_vec();
+    bytes.resize(4 * h.len().div_ceil(2), 0);
+    bytes
 }
 
 /// Per patch: emission, then reflectance (`probes.wgsl`'s `table`).
@@ -83,7 +108,9 @@ impl ProbePass {
         if let Err(e) = probes.validate(patches.len()) {
             return unsupported(format!("the probes do not fit the patches: {e}"));
         }
-        check_pass_limits(device, "the probe pass", 6)?;
+
+        let storage_buffers = if probes.factors.is_some() { 7 } else { 6 };
+        check_pass_limits(device, "the probe pass", storage_buffers)?;
         let dl = device.limits();
         let patch_bytes = 12 * patches.len() as u64;
         let out_bytes = PROBE_OUT_BYTES * probes.len() as u64;
@@ -101,13 +128,22 @@ impl ProbePass {
             )?;
         }
         let most = storage_binding_limit(&dl);
-        let rows_bytes = 4 * probes.rows.len() as u64;
-        let weight_bytes = 24 * probes.weights.len() as u64;
+        let (rows_bytes, weight_bytes) = match &probes.factors {
+            // The basis and the coefficients, in words.
+            Some(f) => (
+                4 * f.basis.len().div_ceil(2) as u64,
+                4 * f.coefficients.len().div_ceil(2) as u64,
+            ),
+            None => (
+                4 * probes.rows.len() as u64,
+                24 * probes.weights.len() as u64,
+            ),
+        };
         let table_bytes = 2 * patch_bytes;
         for (what, bytes) in [
             ("probe output", out_bytes),
             ("probe weights", weight_bytes),
-            ("probe rows", rows_bytes),
+            ("probe rows or basis", rows_bytes),
             ("per-patch emission and reflectance", table_bytes),
         ] {
             if bytes > most {
@@ -117,13 +153,19 @@ impl ProbePass {
             }
         }
         let grid = workgroup_grid(&dl, probes.len(), || format!("{} probes", probes.len()))?;
+        let mode_grid = match &probes.factors {
+            Some(f) => Some(workgroup_grid(&dl, f.rank as usize, || {
+                format!("{} probe modes", f.rank)
+            })?),
+            None => None,
+        };
         let built = in_error_scopes(device, || {
             Self::build(
                 device,
                 probes,
                 patches,
                 buffers,
-                grid,
+                (grid, mode_grid),
                 patch_bytes,
                 out_bytes,
             )
@@ -139,40 +181,88 @@ impl ProbePass {
         probes: &Probes<'_>,
         patches: &[Patch],
         buffers: ProbeBuffers<'_>,
-        grid: (u32, u32),
+        (grid, mode_grid): ((u32, u32), Option<(u32, u32)>),
         patch_bytes: u64,
         out_bytes: u64,
     ) -> Self {
+        let factors = probes.factors.as_ref();
         let mut entries = vec![layout_entry(0, buffer_ty(UNIFORM))];
         entries.extend((1..=5).map(|b| layout_entry(b, buffer_ty(READ))));
         entries.push(layout_entry(6, buffer_ty(WRITE)));
+        if factors.is_some() {
+            entries.push(layout_entry(7, buffer_ty(WRITE)));
+        }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("probes"),
             entries: &entries,
         });
-        let pipeline = pipeline(device, "probes", PROBES, "probes", &layout);
-        let uniform = ProbeUniform {
-            count: probes.len() as u32,
-            row: grid.0,
-            _pad: [0; 2],
+        let (pipeline, modes, uniform, rows, weights) = match factors {
+            None => (
+                pipeline(device, "probes", PROBES, "probes", &layout),
+                None,
+                bytemuck::bytes_of(&ProbeUniform {
+                    count: probes.len() as u32,
+                    row: grid.0,
+                    _pad: [0; 2],
+                })
+                .to_vec(),
+                storage(
+                    device,
+                    "probe rows",
+                    bytemuck::cast_slice(&probes.rows),
+                    wgpu::BufferUsages::empty(),
+                ),
+                storage(
+                    device,
+                    "probe weights",
+                    bytemuck::cast_slice(&probes.weights),
+                    wgpu::BufferUsages::empty(),
+                ),
+            ),
+            Some(f) => {
+                let mode_grid = mode_grid.expect("a grid for the modes of factored probes");
+                let modes_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("probe modes"),
+                    size: 12 * u64::from(f.rank),
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                });
+                (
+                    pipeline(device, "probe factors", FACTORS, "probes", &layout),
+                    Some((
+                        pipeline(device, "probe modes", FACTORS, "modes", &layout),
+                        mode_grid,
+                        modes_buffer,
+                    )),
+                    bytemuck::bytes_of(&FactorUniform {
+                        count: probes.len() as u32,
+                        row: grid.0,
+                        rank: f.rank,
+                        patches: patches.len() as u32,
+                        mode_row: mode_grid.0,
+                        _pad: [0; 3],
+                    })
+                    .to_vec(),
+                    storage(
+                        device,
+                        "probe basis",
+                        &halves_as_words(&f.basis),
+                        wgpu::BufferUsages::empty(),
+                    ),
+                    storage(
+                        device,
+                        "probe coefficients",
+                        &halves_as_words(&f.coefficients),
+                        wgpu::BufferUsages::empty(),
+                    ),
+                )
+            }
         };
         let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("probes"),
-            contents: bytemuck::bytes_of(&uniform),
+            contents: &uniform,
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let rows = storage(
-            device,
-            "probe rows",
-            bytemuck::cast_slice(&probes.rows),
-            wgpu::BufferUsages::empty(),
-        );
-        let weights = storage(
-            device,
-            "probe weights",
-            bytemuck::cast_slice(&probes.weights),
-            wgpu::BufferUsages::empty(),
-        );
         let reflectance: Vec<Rgb> = patches.iter().map(|p| p.reflectance).collect();
         let table = storage(
             device,
@@ -180,21 +270,26 @@ impl ProbePass {
             bytemuck::cast_slice(&table_of(patches.iter().map(|p| p.emission), &reflectance)),
             wgpu::BufferUsages::COPY_DST,
         );
+        let mut bindings = vec![
+            entire(0, &ubuf),
+            entire(1, &rows),
+            entire(2, &weights),
+            sized(3, buffers.x, patch_bytes),
+            sized(4, buffers.y, patch_bytes),
+            entire(5, &table),
+            sized(6, buffers.out, out_bytes),
+        ];
+        if let Some((_, _, m)) = &modes {
+            bindings.push(entire(7, m));
+        }
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("probes"),
             layout: &layout,
-            entries: &[
-                entire(0, &ubuf),
-                entire(1, &rows),
-                entire(2, &weights),
-                sized(3, buffers.x, patch_bytes),
-                sized(4, buffers.y, patch_bytes),
-                entire(5, &table),
-                sized(6, buffers.out, out_bytes),
-            ],
+            entries: &bindings,
         });
         ProbePass {
             pipeline,
+            modes: modes.map(|(p, g, _)| (p, g)),
             bind_group,
             table,
             reflectance,
@@ -225,8 +320,8 @@ impl ProbePass {
         Ok(())
     }
 
-    /// Records the pass into `encoder`: one compute pass of one dispatch. Nothing is
-    /// recorded for a file of no probes.
+    /// Records the pass into `encoder`: one compute pass of one dispatch (two for factored
+    /// probes: the modes, then the probes). Nothing is recorded for a file of no probes.
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
         self.record_timed(encoder, None);
     }
@@ -239,6 +334,20 @@ impl ProbePass {
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         if self.probes == 0 {
+            return;
+        }
+        if let Some((modes, mode_grid)) = &self.modes {
+            // One pass of two dispatches: the second reads what the first wrote (WebGPU
+            // orders storage writes between dispatches).
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("probes"),
+                timestamp_writes: timestamps,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_pipeline(modes);
+            pass.dispatch_workgroups(mode_grid.0, mode_grid.1, 1);
+            pass.set_pipeline(&self.pipeline);
+            pass.dispatch_workgroups(self.grid.0, self.grid.1, 1);
             return;
         }
         record_dispatch(
@@ -256,7 +365,8 @@ impl ProbePass {
         self.probes
     }
 
-    /// Bytes the pass holds on the device (rows, weights and the per-patch table).
+    /// Bytes the pass holds on the device (rows and weights, or basis and coefficients, and
+    /// the per-patch table).
     pub fn device_bytes(&self) -> u64 {
         self.device_bytes
     }

@@ -113,8 +113,9 @@ pub unsafe extern "C" fn rad_scene_probes_frame(
         // longer borrows them if they overlapped.
         let out = unsafe { slice_mut(sh, sh_len, "sh") }?;
         let out: &mut [Rgb] = bytemuck::cast_slice_mut(out);
+        let modes = probes.modes(&reflected);
         for (p, o) in out.chunks_exact_mut(SH_COEFFICIENTS).enumerate() {
-            o.copy_from_slice(&probes.gather_probe(p, &reflected));
+            o.copy_from_slice(&probes.gather_probe_with(p, &reflected, &modes));
         }
         Ok(())
     })

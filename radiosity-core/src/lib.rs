@@ -108,7 +108,9 @@ pub use layout::{DEFAULT_MAX_TILE, Format, LayoutError, MatrixLayout, Tile};
 pub use light::{Light, LightError, ShadowRay, finish_frame, first_exitance};
 pub use mesh::{CornerLengthError, CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
 pub use patch::Patch;
-pub use probes::{DecodedProbes, ProbeWeight, Probes, SH_COEFFICIENTS, sh_irradiance};
+pub use probes::{
+    DecodedProbes, ProbeFactors, ProbeModes, ProbeWeight, Probes, SH_COEFFICIENTS, sh_irradiance,
+};
 pub use quantise::{DEFAULT_SHIFT, LogScale};
 pub use sparse::SparseRows;
 pub use transfer::{BlockDecoder, BlockValues, TransferMatrix};

@@ -20,6 +20,14 @@
 //! | 4·(m+1) | weight row starts, one row per probe |
 //! | 24·w | [`ProbeWeight`]s: patch index, nine binary16 coefficients, two zero bytes |
 //!
+//! Factored probes ([`ProbeFactors`]) store `w = 0`, rows of zeros, and after them:
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | rank `k`, patches `n` (`u32` each) |
+//! | 2·k·n, padded to 4 | the basis `V`: `k` rows over the patches, binary16 |
+//! | 2·9·m·k, padded to 4 | the coefficients `C`: per probe and SH coefficient, `k` binary16 |
+//!
 //! The weights are stored as binary16, as the matrix's `f16` format stores its entries: the
 //! weights are signed (the matrix's log codes are not) and a probe's row holds only the
 //! patches it sees, so block codes do not apply; half precision (a relative step of 2⁻¹¹)
@@ -69,6 +77,36 @@ impl ProbeWeight {
     }
 }
 
+/// The probes' weights as a product of two thin matrices, `P ≈ C·V` (`P` the 9·m × n matrix
+/// of [`ProbeWeight`]s, probe-major, one row per probe and SH coefficient): a frame takes
+/// `t = V·(B − E)` once (`k` values a channel), then each probe `C_p·t`, `k·(n + 9m)`
+/// multiply-adds in place of `9·w` (`docs/decisions/probe-factors.md` measures the rank).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeFactors<'a> {
+    /// The rank `k` (at least 1).
+    pub rank: u32,
+    /// `V`, `k` rows of one weight a patch, row-major, binary16 bits.
+    pub basis: Cow<'a, [u16]>,
+    /// `C`, per probe and SH coefficient (probe-major) `k` weights, binary16 bits.
+    pub coefficients: Cow<'a, [u16]>,
+}
+
+impl ProbeFactors<'_> {
+    /// The patches the basis spans.
+    pub fn patches(&self) -> usize {
+        self.basis.len() / (self.rank.max(1) as usize)
+    }
+
+    /// Copies every borrowed part.
+    pub fn into_owned(self) -> ProbeFactors<'static> {
+        ProbeFactors {
+            rank: self.rank,
+            basis: Cow::Owned(self.basis.into_owned()),
+            coefficients: Cow::Owned(self.coefficients.into_owned()),
+        }
+    }
+}
+
 /// The probes, borrowing from the file where aligned.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Probes<'a> {
@@ -79,8 +117,11 @@ pub struct Probes<'a> {
     pub positions: Cow<'a, [[f32; 3]]>,
     /// Weight row starts (`probes + 1`).
     pub rows: Cow<'a, [u32]>,
-    /// Weights, each probe's patches in increasing order.
+    /// Weights, each probe's patches in increasing order (empty, the rows all 0, when
+    /// `factors` holds them).
     pub weights: Cow<'a, [ProbeWeight]>,
+    /// The weights as factors, in place of `weights`.
+    pub factors: Option<ProbeFactors<'a>>,
 }
 
 fn invalid(index: usize, reason: &'static str) -> RadError {
@@ -163,20 +204,66 @@ fn sum_row(
     core::array::from_fn(|k| Rgb::new(acc[0][k], acc[1][k], acc[2][k]))
 }
 
+/// `Σ a_i·b_i` in eight lanes (so the loop vectorises), the lanes then added in order.
+#[inline]
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f32 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    acc.iter().sum::<f32>() + tail
+}
+
+/// The patches' reflected radiosity as three channel arrays.
+fn channels(reflected: &[Rgb]) -> [Vec<f32>; 3] {
+    [
+        reflected.iter().map(|c| c.r).collect(),
+        reflected.iter().map(|c| c.g).collect(),
+        reflected.iter().map(|c| c.b).collect(),
+    ]
+}
+
+/// A frame's modes `t = V·(B − E)` ([`DecodedProbes::modes`]): `k` values a channel.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ProbeModes([Vec<f32>; 3]);
+
 /// [`Probes`] with their weights decoded to f32 once, for a runtime that gathers them every
 /// frame on the CPU: decoding binary16 costs as much as the sums, so this holds 40 bytes a
-/// weight to halve the frame. The results equal [`Probes::gather_probe`]'s bit for bit.
+/// weight (4 a factor) to halve the frame. A row's results equal [`Probes::gather_probe`]'s
+/// bit for bit.
 #[derive(Clone, Debug, Default)]
 pub struct DecodedProbes {
+    count: usize,
     rows: Vec<u32>,
     patches: Vec<u32>,
     sh: Vec<[f32; SH_COEFFICIENTS]>,
+    rank: usize,
+    basis: Vec<f32>,
+    coefficients: Vec<f32>,
 }
 
 impl DecodedProbes {
     /// Decodes `probes` (validated, as a parsed file's are).
     pub fn new(probes: &Probes<'_>) -> Self {
+        let (rank, basis, coefficients) = match &probes.factors {
+            Some(f) => (
+                f.rank as usize,
+                f.basis.iter().map(|&h| f16_to_f32(h)).collect(),
+                f.coefficients.iter().map(|&h| f16_to_f32(h)).collect(),
+            ),
+            None => (0, Vec::new(), Vec::new()),
+        };
         DecodedProbes {
+            count: probes.len(),
             rows: probes.rows.to_vec(),
             patches: probes.weights.iter().map(|w| w.patch).collect(),
             sh: probes
@@ -184,12 +271,15 @@ impl DecodedProbes {
                 .iter()
                 .map(|w| finite_f16s_to_f32(&w.sh_bits))
                 .collect(),
+            rank,
+            basis,
+            coefficients,
         }
     }
 
     /// Probes held.
     pub fn len(&self) -> usize {
-        self.rows.len().saturating_sub(1)
+        self.count
     }
 
     /// Whether there are none.
@@ -197,17 +287,73 @@ impl DecodedProbes {
         self.len() == 0
     }
 
+    /// The rank of factored probes ([`ProbeFactors`]), 0 for rows of weights.
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+
+    /// The frame's modes `t = V·(B − E)` for factored probes (empty for rows), once a frame
+    /// before [`DecodedProbes::gather_probe_with`]: `k·n` multiply-adds a channel.
+    pub fn modes(&self, reflected: &[Rgb]) -> ProbeModes {
+        if self.rank == 0 {
+            return ProbeModes::default();
+        }
+        let n = self.basis.len() / self.rank;
+        let ch = channels(&reflected[..n]);
+        ProbeModes(core::array::from_fn(|c| {
+            self.basis
+                .chunks_exact(n)
+                .map(|row| dot(row, &ch[c]))
+                .collect()
+        }))
+    }
+
+    /// Probe `p`'s radiance SH from the patches' reflected radiosity and the frame's
+    /// [`DecodedProbes::modes`] (which rows of weights do not read).
+    pub fn gather_probe_with(
+        &self,
+        p: usize,
+        reflected: &[Rgb],
+        modes: &ProbeModes,
+    ) -> [Rgb; SH_COEFFICIENTS] {
+        if self.rank == 0 {
+            let range = self.rows[p] as usize..self.rows[p + 1] as usize;
+            let row = self.patches[range.clone()].iter().copied();
+            return sum_row(row.zip(self.sh[range].iter().copied()), reflected);
+        }
+        let k = self.rank;
+        core::array::from_fn(|c| {
+            let row = &self.coefficients[(p * SH_COEFFICIENTS + c) * k..][..k];
+            Rgb::new(
+                dot(row, &modes.0[0]),
+                dot(row, &modes.0[1]),
+                dot(row, &modes.0[2]),
+            )
+        })
+    }
+
     /// Probe `p`'s radiance SH from the patches' reflected radiosity (as
-    /// [`Probes::gather_probe`]).
+    /// [`Probes::gather_probe`]). Factored probes take the frame's modes first, a
+    /// probe's cost many times over: a frame of every probe calls
+    /// [`DecodedProbes::gather`].
     pub fn gather_probe(&self, p: usize, reflected: &[Rgb]) -> [Rgb; SH_COEFFICIENTS] {
-        let range = self.rows[p] as usize..self.rows[p + 1] as usize;
-        let row = self.patches[range.clone()].iter().copied();
-        sum_row(row.zip(self.sh[range].iter().copied()), reflected)
+        self.gather_probe_with(p, reflected, &self.modes(reflected))
+    }
+
+    /// Every probe's radiance SH: `out[p] = P_p·reflected`, the modes taken once. Panics if
+    /// `out` has the wrong length (a programming error).
+    pub fn gather(&self, reflected: &[Rgb], out: &mut [[Rgb; SH_COEFFICIENTS]]) {
+        assert_eq!(out.len(), self.len(), "one entry per probe");
+        let modes = self.modes(reflected);
+        for (p, o) in out.iter_mut().enumerate() {
+            *o = self.gather_probe_with(p, reflected, &modes);
+        }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        4 * (self.rows.len() + self.patches.len()) + 4 * SH_COEFFICIENTS * self.sh.len()
+        4 * (self.rows.len() + self.patches.len() + self.basis.len() + self.coefficients.len())
+            + 4 * SH_COEFFICIENTS * self.sh.len()
     }
 }
 
@@ -231,6 +377,9 @@ impl<'a> Probes<'a> {
     /// one entry per matrix patch): `out[p] = Σ_j w_pj·reflected_j`. Panics if `reflected`
     /// or `out` has the wrong length (a programming error).
     pub fn gather(&self, reflected: &[Rgb], out: &mut [[Rgb; SH_COEFFICIENTS]]) {
+        if self.factors.is_some() {
+            return DecodedProbes::new(self).gather(reflected, out);
+        }
         assert_eq!(out.len(), self.len(), "one entry per probe");
         for (p, o) in out.iter_mut().enumerate() {
             *o = self.gather_probe(p, reflected);
@@ -242,6 +391,35 @@ impl<'a> Probes<'a> {
     /// and channel. Panics if a weight names a patch past `reflected` (a programming error:
     /// validated probes do not).
     pub fn gather_probe(&self, p: usize, reflected: &[Rgb]) -> [Rgb; SH_COEFFICIENTS] {
+        if let Some(f) = &self.factors {
+            // The modes from the binary16 basis, then the probe's coefficients: as
+            // `DecodedProbes` does, without decoding every probe's.
+            let k = f.rank as usize;
+            let n = f.patches();
+            let ch = channels(&reflected[..n]);
+            let modes: [Vec<f32>; 3] = core::array::from_fn(|c| {
+                f.basis
+                    .chunks_exact(n)
+                    .map(|row| {
+                        dot(
+                            &row.iter().map(|&h| f16_to_f32(h)).collect::<Vec<_>>(),
+                            &ch[c],
+                        )
+                    })
+                    .collect()
+            });
+            return core::array::from_fn(|c| {
+                let row: Vec<f32> = f.coefficients[(p * SH_COEFFICIENTS + c) * k..][..k]
+                    .iter()
+                    .map(|&h| f16_to_f32(h))
+                    .collect();
+                Rgb::new(
+                    dot(&row, &modes[0]),
+                    dot(&row, &modes[1]),
+                    dot(&row, &modes[2]),
+                )
+            });
+        }
         let row = self.weights_of(p);
         sum_row(
             row.iter()
@@ -337,6 +515,35 @@ impl<'a> Probes<'a> {
         if self.rows[m] as usize != self.weights.len() {
             return Err(invalid(m, "probe rows do not end at the weight count"));
         }
+        if let Some(f) = &self.factors {
+            if !self.weights.is_empty() {
+                return Err(invalid(0, "factored probes hold rows of weights too"));
+            }
+            let k = f.rank as usize;
+            if k == 0 {
+                return Err(invalid(0, "probe factors of rank 0"));
+            }
+            if f.basis.len() != k * patches {
+                return Err(RadError::Count {
+                    section: SectionKind::Probes,
+                    expected: (k * patches) as u64,
+                    found: f.basis.len() as u64,
+                });
+            }
+            if f.coefficients.len() != SH_COEFFICIENTS * m * k {
+                return Err(RadError::Count {
+                    section: SectionKind::Probes,
+                    expected: (SH_COEFFICIENTS * m * k) as u64,
+                    found: f.coefficients.len() as u64,
+                });
+            }
+            if let Some(i) = f.basis.iter().position(|&h| !f16_is_finite(h)) {
+                return Err(invalid(i, "probe basis weight is NaN or infinite"));
+            }
+            if let Some(i) = f.coefficients.iter().position(|&h| !f16_is_finite(h)) {
+                return Err(invalid(i, "probe coefficient is NaN or infinite"));
+            }
+        }
         for p in 0..m {
             let row = self.weights_of(p);
             for (i, w) in row.iter().enumerate() {
@@ -367,6 +574,16 @@ impl<'a> Probes<'a> {
         out.extend_from_slice(bytemuck::cast_slice(&self.positions));
         out.extend_from_slice(bytemuck::cast_slice(&self.rows));
         out.extend_from_slice(bytemuck::cast_slice(&self.weights));
+        if let Some(f) = &self.factors {
+            out.extend_from_slice(&f.rank.to_le_bytes());
+            out.extend_from_slice(&(f.patches() as u32).to_le_bytes());
+            for part in [&f.basis, &f.coefficients] {
+                out.extend_from_slice(bytemuck::cast_slice(part));
+                if part.len() % 2 == 1 {
+                    out.extend_from_slice(&[0, 0]);
+                }
+            }
+        }
         out
     }
 
@@ -385,7 +602,21 @@ impl<'a> Probes<'a> {
         let (m, w) = (u64::from(word(0)), u64::from(word(4)));
         let spacing = f32::from_bits(word(8));
         let sizes = [12 * m, 4 * (m + 1), 24 * w];
-        let expected = 12 + sizes.iter().sum::<u64>();
+        let rows_end = 12 + sizes.iter().sum::<u64>();
+        let mut factor_sizes = None;
+        let expected = if bytes.len() as u64 > rows_end && rows_end + 8 <= bytes.len() as u64 {
+            let at = rows_end as usize;
+            let (k, n) = (u64::from(word(at)), u64::from(word(at + 4)));
+            let basis = k.saturating_mul(n);
+            let coefficients = (SH_COEFFICIENTS as u64).saturating_mul(m).saturating_mul(k);
+            factor_sizes = Some((k as u32, basis, coefficients));
+            let padded = |halves: u64| halves.saturating_add(halves % 2).saturating_mul(2);
+            (rows_end + 8)
+                .saturating_add(padded(basis))
+                .saturating_add(padded(coefficients))
+        } else {
+            rows_end
+        };
         if bytes.len() as u64 != expected {
             return Err(short(expected));
         }
@@ -395,11 +626,26 @@ impl<'a> Probes<'a> {
             at += len as usize;
             s
         };
+        let positions = crate::container::cast(next(sizes[0]));
+        let rows = crate::container::cast(next(sizes[1]));
+        let weights = crate::container::cast(next(sizes[2]));
+        let factors = factor_sizes.map(|(rank, basis, coefficients)| {
+            next(8);
+            let b = next(2 * basis);
+            next(2 * (basis % 2));
+            let c = next(2 * coefficients);
+            ProbeFactors {
+                rank,
+                basis: crate::container::cast(b),
+                coefficients: crate::container::cast(c),
+            }
+        });
         Ok(Probes {
             spacing,
-            positions: crate::container::cast(next(sizes[0])),
-            rows: crate::container::cast(next(sizes[1])),
-            weights: crate::container::cast(next(sizes[2])),
+            positions,
+            rows,
+            weights,
+            factors,
         })
     }
 
@@ -410,6 +656,46 @@ impl<'a> Probes<'a> {
             positions: Cow::Owned(self.positions.into_owned()),
             rows: Cow::Owned(self.rows.into_owned()),
             weights: Cow::Owned(self.weights.into_owned()),
+            factors: self.factors.map(ProbeFactors::into_owned),
+        }
+    }
+
+    /// The probes as rows of weights, every patch in every row for factored ones (their
+    /// product `C·V`, rounded to binary16), for a consumer that reads rows only.
+    pub fn to_rows(&self) -> Probes<'static> {
+        let Some(f) = &self.factors else {
+            return self.clone().into_owned();
+        };
+        let (k, n, m) = (f.rank as usize, f.patches(), self.len());
+        let basis: Vec<f32> = f.basis.iter().map(|&h| f16_to_f32(h)).collect();
+        let mut weights = Vec::with_capacity(m * n);
+        let mut rows = alloc::vec![0u32];
+        for p in 0..m {
+            let coefficients: Vec<[f32; SH_COEFFICIENTS]> = (0..k)
+                .map(|q| {
+                    core::array::from_fn(|c| {
+                        f16_to_f32(f.coefficients[(p * SH_COEFFICIENTS + c) * k + q])
+                    })
+                })
+                .collect();
+            for j in 0..n {
+                let mut sh = [0.0f32; SH_COEFFICIENTS];
+                for (q, cq) in coefficients.iter().enumerate() {
+                    let v = basis[q * n + j];
+                    for c in 0..SH_COEFFICIENTS {
+                        sh[c] += cq[c] * v;
+                    }
+                }
+                weights.push(ProbeWeight::new(j as u32, sh));
+            }
+            rows.push(weights.len() as u32);
+        }
+        Probes {
+            spacing: self.spacing,
+            positions: Cow::Owned(self.positions.to_vec()),
+            rows: Cow::Owned(rows),
+            weights: Cow::Owned(weights),
+            factors: None,
         }
     }
 }
@@ -429,6 +715,7 @@ mod tests {
                 ProbeWeight::new(2, [0.25; SH_COEFFICIENTS]),
                 ProbeWeight::new(1, [1.0; SH_COEFFICIENTS]),
             ]),
+            factors: None,
         }
     }
 
@@ -470,6 +757,90 @@ mod tests {
         let mut q = two();
         q.spacing = 0.0;
         assert_eq!(reason(q), "probe spacing is not positive and finite");
+    }
+
+    /// Two probes over three patches as factors of rank 2.
+    fn factored() -> Probes<'static> {
+        let h = |v: &[f32]| v.iter().map(|&x| f32_to_f16(x)).collect::<Vec<_>>();
+        let coefficients: Vec<f32> = (0..2 * SH_COEFFICIENTS * 2)
+            .map(|i| 0.25 * (i % 7) as f32 - 0.5)
+            .collect();
+        Probes {
+            spacing: 1.0,
+            positions: Cow::Owned(vec![[0.0; 3], [1.0, 0.0, 0.0]]),
+            rows: Cow::Owned(vec![0; 3]),
+            weights: Cow::Owned(vec![]),
+            factors: Some(ProbeFactors {
+                rank: 2,
+                basis: Cow::Owned(h(&[0.5, -0.25, 1.0, 0.125, 0.75, -1.0])),
+                coefficients: Cow::Owned(h(&coefficients)),
+            }),
+        }
+    }
+
+    #[test]
+    fn factored_bytes_round_trip_and_bad_factors_are_named() {
+        let p = factored();
+        p.validate(3).unwrap();
+        let bytes = p.to_bytes();
+        assert_eq!(Probes::from_bytes(&bytes).unwrap(), p);
+        assert!(matches!(
+            Probes::from_bytes(&bytes[..bytes.len() - 4]),
+            Err(RadError::SectionLength { .. })
+        ));
+        // A basis over three patches does not fit a file of four.
+        assert!(matches!(p.validate(4), Err(RadError::Count { .. })));
+        let reason = |q: Probes<'_>| match q.validate(3) {
+            Err(RadError::Invalid { reason, .. }) => reason,
+            other => panic!("{other:?}"),
+        };
+        let mut q = factored();
+        q.factors.as_mut().unwrap().coefficients.to_mut()[5] = f32_to_f16(f32::INFINITY);
+        assert_eq!(reason(q), "probe coefficient is NaN or infinite");
+        let mut q = factored();
+        q.factors.as_mut().unwrap().basis.to_mut()[1] = f32_to_f16(f32::NAN);
+        assert_eq!(reason(q), "probe basis weight is NaN or infinite");
+        let mut q = factored();
+        q.weights = Cow::Owned(vec![ProbeWeight::new(0, [1.0; SH_COEFFICIENTS])]);
+        q.rows = Cow::Owned(vec![0, 1, 1]);
+        assert_eq!(reason(q), "factored probes hold rows of weights too");
+    }
+
+    #[test]
+    fn factored_probes_gather_their_product() {
+        let p = factored();
+        let b = [
+            Rgb::new(2.0, 0.5, 1.0),
+            Rgb::splat(4.0),
+            Rgb::new(8.0, 3.0, 0.25),
+        ];
+        let d = DecodedProbes::new(&p);
+        assert_eq!(d.rank(), 2);
+        let rows = p.to_rows();
+        rows.validate(3).unwrap();
+        let mut all = [[Rgb::ZERO; SH_COEFFICIENTS]; 2];
+        d.gather(&b, &mut all);
+        for i in 0..2 {
+            let want = rows.gather_probe(i, &b);
+            for (got, slow, want) in zip3(all[i], p.gather_probe(i, &b), want) {
+                for (g, w) in [(got, want), (slow, want)] {
+                    // The rows round each product to binary16: half its relative step
+                    // (2⁻¹¹) of each of three terms, each at most 1.25·1·8 = 10.
+                    let tol = 3.0 * 10.0 * 2f32.powi(-11) + 1e-6;
+                    for (x, y) in [(g.r, w.r), (g.g, w.g), (g.b, w.b)] {
+                        assert!((x - y).abs() <= tol, "{g:?} {w:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    fn zip3(
+        a: [Rgb; SH_COEFFICIENTS],
+        b: [Rgb; SH_COEFFICIENTS],
+        c: [Rgb; SH_COEFFICIENTS],
+    ) -> impl Iterator<Item = (Rgb, Rgb, Rgb)> {
+        (0..SH_COEFFICIENTS).map(move |k| (a[k], b[k], c[k]))
     }
 
     #[test]
@@ -525,6 +896,7 @@ mod tests {
             positions: Cow::Owned(positions),
             rows: Cow::Owned(vec![0; 9]),
             weights: Cow::Owned(vec![]),
+            factors: None,
         };
         let mut w = Vec::new();
         assert!(p.interpolation_weights([0.25, 0.5, 0.5], None, |_| true, &mut w));

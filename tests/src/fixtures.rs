@@ -105,6 +105,7 @@ pub fn sample_probes(n: usize) -> radiosity_core::Probes<'static> {
         positions: Cow::Owned(vec![[0.5, 0.5, 0.5], [0.25, 0.75, 0.5]]),
         rows: Cow::Owned(vec![0, weights.len() as u32, weights.len() as u32]),
         weights: Cow::Owned(weights),
+        factors: None,
     }
 }
 

@@ -28,8 +28,8 @@ use radiosity_backend_wgpu::{
     HostGatherBuffers, PROBE_OUT_BYTES, ProbeBuffers, ProbePass, WgpuGather,
 };
 use radiosity_core::{
-    CornerWeight, Gather, Mesh, MeshTriangle, Patch, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS,
-    TransferMatrix,
+    CornerWeight, DecodedProbes, Gather, Mesh, MeshTriangle, Patch, ProbeFactors, ProbeWeight,
+    Probes, Rgb, SH_COEFFICIENTS, TransferMatrix,
 };
 use radiosity_tests::fixtures::{FORMAT_CASES, SplitMix64, exitance, sample_file};
 use std::borrow::Cow;
@@ -461,6 +461,7 @@ fn random_probes(n: usize, count: usize, seed: u64) -> Probes<'static> {
         positions: Cow::Owned(positions),
         rows: Cow::Owned(rows),
         weights: Cow::Owned(weights),
+        factors: None,
     }
 }
 
@@ -572,6 +573,132 @@ fn gather_then_probe_pass_in_one_encoder() {
             let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
             assert_probes_match(&probes, &patches, &x, &y, &got);
             assert!(pass.set_emission(&queue, &emission[1..]).is_err());
+        }
+    }
+}
+
+/// `count` probes over `n` patches as random factors of rank `k`, no factor under 10⁻³ in
+/// size (so no shader flushes a binary16 subnormal).
+fn random_factored_probes(n: usize, count: usize, k: usize, seed: u64) -> Probes<'static> {
+    let mut rng = SplitMix64(seed);
+    let mut half = || {
+        let v = (rng.next_f64() - 0.4) as f32;
+        radiosity_core::half::f32_to_f16(if v.abs() < 1e-3 { 1e-3 } else { v })
+    };
+    let basis: Vec<u16> = (0..k * n).map(|_| half()).collect();
+    let coefficients: Vec<u16> = (0..SH_COEFFICIENTS * count * k).map(|_| half()).collect();
+    Probes {
+        spacing: 1.0,
+        positions: Cow::Owned((0..count).map(|p| [p as f32, 0.5, 0.5]).collect()),
+        rows: Cow::Owned(vec![0; count + 1]),
+        weights: Cow::Owned(Vec::new()),
+        factors: Some(ProbeFactors {
+            rank: k as u32,
+            basis: Cow::Owned(basis),
+            coefficients: Cow::Owned(coefficients),
+        }),
+    }
+}
+
+/// Factored probes: the pass's two dispatches (modes, then probes) against the core's
+/// `DecodedProbes::gather` on the same frame.
+#[test]
+fn factored_probes_pass_equals_the_cores_product() {
+    use wgpu::BufferUsages as U;
+    let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    for adapter in gpu_adapters() {
+        let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
+        // Ranks under and over a workgroup's 64 invocations, an odd count of halves.
+        for (n, count, k) in [(70, 3, 5), (301, 200, 100)] {
+            let file = sample_file(n, 3, radiosity_core::Format::Bc1, 32);
+            let mut patches = file.patches.to_vec();
+            for (j, p) in patches.iter_mut().enumerate() {
+                if j % 5 == 0 {
+                    p.emission = Rgb::new(1.0, 2.0, 3.0);
+                }
+            }
+            let probes = random_factored_probes(n, count, k, n as u64);
+            probes.validate(n).unwrap();
+            let xb = buffer(
+                &device,
+                12 * n as u64,
+                U::COPY_DST | U::COPY_SRC | U::STORAGE,
+            );
+            let yb = buffer(&device, 12 * n as u64, U::STORAGE | U::COPY_SRC);
+            let out = buffer(
+                &device,
+                PROBE_OUT_BYTES * count as u64,
+                U::STORAGE | U::COPY_SRC,
+            );
+            let buffers = HostGatherBuffers { x: &xb, y: &yb };
+            let gather = HostGather::new(
+                &device,
+                &queue,
+                &file.matrix,
+                &GpuOptions::default(),
+                buffers,
+            )
+            .unwrap();
+            let pass_buffers = ProbeBuffers {
+                x: &xb,
+                y: &yb,
+                out: &out,
+            };
+            let pass = ProbePass::new(&device, &probes, &patches, pass_buffers)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let x = exitance(n, 9);
+            queue.write_buffer(&xb, 0, bytemuck::cast_slice(&x));
+            let mut e = encoder(&device);
+            gather.record(&mut e);
+            pass.record(&mut e);
+            let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
+            let y = submit_and_read(&device, &queue, encoder(&device), &yb, n);
+            assert!(got.iter().any(|v| v.r != 0.0));
+            let reflected: Vec<Rgb> = (0..n)
+                .map(|j| x[j] + patches[j].emission * -1.0 + patches[j].reflectance * y[j])
+                .collect();
+            let decoded = DecodedProbes::new(&probes);
+            let mut want = vec![[Rgb::ZERO; SH_COEFFICIENTS]; count];
+            decoded.gather(&reflected, &mut want);
+            // Both sum the same f32 products in different orders: each mode's n terms, then
+            // each coefficient's k. The bound: (γ_n + γ_k + γ_3)·Σ_q |C_q|·Σ_j |V_qj|·|r_j|
+            // (|r_j| of each of its three terms), twice for the two orders.
+            let gamma = |m: usize| m as f32 * f32::EPSILON / (1.0 - m as f32 * f32::EPSILON);
+            let f = probes.factors.as_ref().unwrap();
+            let h = radiosity_core::half::f16_to_f32;
+            for ch in 0..3 {
+                let mode_abs: Vec<f32> = (0..k)
+                    .map(|q| {
+                        (0..n)
+                            .map(|j| {
+                                let r = x[j].channel(ch).abs()
+                                    + patches[j].emission.channel(ch).abs()
+                                    + (patches[j].reflectance * y[j]).channel(ch).abs();
+                                h(f.basis[q * n + j]).abs() * r
+                            })
+                            .sum()
+                    })
+                    .collect();
+                for p in 0..count {
+                    for c in 0..SH_COEFFICIENTS {
+                        let row = &f.coefficients[(p * SH_COEFFICIENTS + c) * k..][..k];
+                        let abs: f32 = row
+                            .iter()
+                            .zip(&mode_abs)
+                            .map(|(&w, m)| h(w).abs() * m)
+                            .sum();
+                        let tol = 2.0 * (gamma(n) + gamma(k) + gamma(3)) * abs + 1e-30;
+                        let (g, w) = (
+                            got[SH_COEFFICIENTS * p + c].channel(ch),
+                            want[p][c].channel(ch),
+                        );
+                        assert!(
+                            (g - w).abs() <= tol,
+                            "probe {p} coefficient {c} channel {ch}: gpu {g} core {w} tolerance {tol:e}"
+                        );
+                    }
+                }
+            }
         }
     }
 }
