@@ -439,7 +439,7 @@ impl<'a> Probes<'a> {
     /// the probe). Where no probe of the cell is in sight, a cell twice as wide. A probe behind
     /// a wall is out of sight, so light does not come through the wall from the next room.
     /// `docs/decisions/probe-interpolation.md` measures the choice. The probes are scanned
-    /// linearly (about 125 of them by default).
+    /// linearly (about 500 of them by default).
     pub fn interpolation_weights(
         &self,
         p: [f32; 3],
