@@ -59,8 +59,8 @@ pub struct ProbeBuffers<'a> {
 }
 
 /// The GPU twin of [`Probes::gather`] on the reflected radiosity `B − E = x − E + ρ∘y`: one
-/// dispatch of one workgroup per probe (factored probes: one workgroup per mode first,
-/// `probe_factors.wgsl`). It reads the frame's `x` and `y`, so it is recorded
+/// dispatch of one workgroup per probe (factored probes: one workgroup per mode, then one
+/// invocation per probe and SH coefficient, `probe_factors.wgsl`). It reads the frame's `x` and `y`, so it is recorded
 /// after [`crate::HostGather::record`] into the same encoder (or a later one). The values
 /// equal the core's up to f32 summation order (each workgroup adds its 64 partial sums by a
 /// tree).
@@ -152,7 +152,12 @@ impl ProbePass {
                 ));
             }
         }
-        let grid = workgroup_grid(&dl, probes.len(), || format!("{} probes", probes.len()))?;
+        // Factored probes: one invocation per probe and SH coefficient, 64 a workgroup.
+        let workgroups = match &probes.factors {
+            Some(_) => (SH_COEFFICIENTS * probes.len()).div_ceil(64),
+            None => probes.len(),
+        };
+        let grid = workgroup_grid(&dl, workgroups, || format!("{} probes", probes.len()))?;
         let mode_grid = match &probes.factors {
             Some(f) => Some(workgroup_grid(&dl, f.rank as usize, || {
                 format!("{} probe modes", f.rank)
@@ -196,6 +201,8 @@ impl ProbePass {
             label: Some("probes"),
             entries: &entries,
         });
+        let read_only =
+            |label: &str, bytes: &[u8]| storage(device, label, bytes, wgpu::BufferUsages::empty());
         let (pipeline, modes, uniform, rows, weights) = match factors {
             None => (
                 pipeline(device, "probes", PROBES, "probes", &layout),
@@ -206,18 +213,8 @@ impl ProbePass {
                     _pad: [0; 2],
                 })
                 .to_vec(),
-                storage(
-                    device,
-                    "probe rows",
-                    bytemuck::cast_slice(&probes.rows),
-                    wgpu::BufferUsages::empty(),
-                ),
-                storage(
-                    device,
-                    "probe weights",
-                    bytemuck::cast_slice(&probes.weights),
-                    wgpu::BufferUsages::empty(),
-                ),
+                read_only("probe rows", bytemuck::cast_slice(&probes.rows)),
+                read_only("probe weights", bytemuck::cast_slice(&probes.weights)),
             ),
             Some(f) => {
                 let mode_grid = mode_grid.expect("a grid for the modes of factored probes");
@@ -243,18 +240,8 @@ impl ProbePass {
                         _pad: [0; 3],
                     })
                     .to_vec(),
-                    storage(
-                        device,
-                        "probe basis",
-                        &halves_as_words(&f.basis),
-                        wgpu::BufferUsages::empty(),
-                    ),
-                    storage(
-                        device,
-                        "probe coefficients",
-                        &halves_as_words(&f.coefficients),
-                        wgpu::BufferUsages::empty(),
-                    ),
+                    read_only("probe basis", &halves_as_words(&f.basis)),
+                    read_only("probe coefficients", &halves_as_words(&f.coefficients)),
                 )
             }
         };

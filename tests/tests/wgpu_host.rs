@@ -512,11 +512,65 @@ fn assert_probes_match(probes: &Probes<'_>, patches: &[Patch], x: &[Rgb], y: &[R
     }
 }
 
+/// A host gather and a probe pass between fresh host buffers, as an engine sets them up.
+struct ProbeFrame {
+    xb: wgpu::Buffer,
+    yb: wgpu::Buffer,
+    out: wgpu::Buffer,
+    gather: HostGather,
+    pass: ProbePass,
+}
+
+impl ProbeFrame {
+    /// One frame from first exitance `x`: the gather, then the probe pass, in one encoder;
+    /// the probes' SH and the gather's `y`. The SH are not all zero.
+    fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, x: &[Rgb]) -> (Vec<Rgb>, Vec<Rgb>) {
+        queue.write_buffer(&self.xb, 0, bytemuck::cast_slice(x));
+        let mut e = encoder(device);
+        self.gather.record(&mut e);
+        self.pass.record(&mut e);
+        let count = SH_COEFFICIENTS * self.pass.probes();
+        let got = submit_and_read(device, queue, e, &self.out, count);
+        let y = submit_and_read(device, queue, encoder(device), &self.yb, x.len());
+        assert!(got.iter().any(|v| v.r != 0.0));
+        (got, y)
+    }
+}
+
+fn probe_frame(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    matrix: &TransferMatrix<'_>,
+    probes: &Probes<'_>,
+    patches: &[Patch],
+) -> ProbeFrame {
+    use wgpu::BufferUsages as U;
+    let (n, count) = (patches.len() as u64, probes.len() as u64);
+    let xb = buffer(device, 12 * n, U::COPY_DST | U::COPY_SRC | U::STORAGE);
+    let yb = buffer(device, 12 * n, U::STORAGE | U::COPY_SRC);
+    let out = buffer(device, PROBE_OUT_BYTES * count, U::STORAGE | U::COPY_SRC);
+    let buffers = HostGatherBuffers { x: &xb, y: &yb };
+    let gather = HostGather::new(device, queue, matrix, &GpuOptions::default(), buffers).unwrap();
+    let pass_buffers = ProbeBuffers {
+        x: &xb,
+        y: &yb,
+        out: &out,
+    };
+    let pass =
+        ProbePass::new(device, probes, patches, pass_buffers).unwrap_or_else(|e| panic!("{e}"));
+    ProbeFrame {
+        xb,
+        yb,
+        out,
+        gather,
+        pass,
+    }
+}
+
 /// The whole frame with probes, as an engine records it: the gather, then the probe pass
 /// reading that frame's `x` and `y`, in one encoder; then the emission changed at run time.
 #[test]
 fn gather_then_probe_pass_in_one_encoder() {
-    use wgpu::BufferUsages as U;
     let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
     for adapter in gpu_adapters() {
         let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
@@ -531,36 +585,11 @@ fn gather_then_probe_pass_in_one_encoder() {
                 }
             }
             let probes = random_probes(n, count, n as u64);
-            let xb = buffer(
-                &device,
-                12 * n as u64,
-                U::COPY_DST | U::COPY_SRC | U::STORAGE,
-            );
-            let yb = buffer(&device, 12 * n as u64, U::STORAGE | U::COPY_SRC);
-            let out = buffer(
-                &device,
-                PROBE_OUT_BYTES * count as u64,
-                U::STORAGE | U::COPY_SRC,
-            );
-            let options = GpuOptions::default();
-            let buffers = HostGatherBuffers { x: &xb, y: &yb };
-            let gather = HostGather::new(&device, &queue, &file.matrix, &options, buffers).unwrap();
-            let pass_buffers = ProbeBuffers {
-                x: &xb,
-                y: &yb,
-                out: &out,
-            };
-            let pass = ProbePass::new(&device, &probes, &patches, pass_buffers)
-                .unwrap_or_else(|e| panic!("{e}"));
+            let frame = probe_frame(&device, &queue, &file.matrix, &probes, &patches);
+            let (out, pass) = (&frame.out, &frame.pass);
             assert_eq!(pass.probes(), count);
             let x = exitance(n, 5);
-            queue.write_buffer(&xb, 0, bytemuck::cast_slice(&x));
-            let mut e = encoder(&device);
-            gather.record(&mut e);
-            pass.record(&mut e);
-            let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
-            let y = submit_and_read(&device, &queue, encoder(&device), &yb, n);
-            assert!(got.iter().any(|v| v.r != 0.0));
+            let (got, y) = frame.run(&device, &queue, &x);
             assert_probes_match(&probes, &patches, &x, &y, &got);
             // The emitters turned off: the pass now subtracts nothing.
             for p in &mut patches {
@@ -570,7 +599,7 @@ fn gather_then_probe_pass_in_one_encoder() {
             pass.set_emission(&queue, &emission).unwrap();
             let mut e = encoder(&device);
             pass.record(&mut e);
-            let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
+            let got = submit_and_read(&device, &queue, e, out, SH_COEFFICIENTS * count);
             assert_probes_match(&probes, &patches, &x, &y, &got);
             assert!(pass.set_emission(&queue, &emission[1..]).is_err());
         }
@@ -604,7 +633,6 @@ fn random_factored_probes(n: usize, count: usize, k: usize, seed: u64) -> Probes
 /// `DecodedProbes::gather` on the same frame.
 #[test]
 fn factored_probes_pass_equals_the_cores_product() {
-    use wgpu::BufferUsages as U;
     let _one = DEVICES.lock().unwrap_or_else(|e| e.into_inner());
     for adapter in gpu_adapters() {
         let (device, queue) = host_device(&adapter, adapter.wgpu_adapter().limits());
@@ -619,41 +647,9 @@ fn factored_probes_pass_equals_the_cores_product() {
             }
             let probes = random_factored_probes(n, count, k, n as u64);
             probes.validate(n).unwrap();
-            let xb = buffer(
-                &device,
-                12 * n as u64,
-                U::COPY_DST | U::COPY_SRC | U::STORAGE,
-            );
-            let yb = buffer(&device, 12 * n as u64, U::STORAGE | U::COPY_SRC);
-            let out = buffer(
-                &device,
-                PROBE_OUT_BYTES * count as u64,
-                U::STORAGE | U::COPY_SRC,
-            );
-            let buffers = HostGatherBuffers { x: &xb, y: &yb };
-            let gather = HostGather::new(
-                &device,
-                &queue,
-                &file.matrix,
-                &GpuOptions::default(),
-                buffers,
-            )
-            .unwrap();
-            let pass_buffers = ProbeBuffers {
-                x: &xb,
-                y: &yb,
-                out: &out,
-            };
-            let pass = ProbePass::new(&device, &probes, &patches, pass_buffers)
-                .unwrap_or_else(|e| panic!("{e}"));
+            let frame = probe_frame(&device, &queue, &file.matrix, &probes, &patches);
             let x = exitance(n, 9);
-            queue.write_buffer(&xb, 0, bytemuck::cast_slice(&x));
-            let mut e = encoder(&device);
-            gather.record(&mut e);
-            pass.record(&mut e);
-            let got = submit_and_read(&device, &queue, e, &out, SH_COEFFICIENTS * count);
-            let y = submit_and_read(&device, &queue, encoder(&device), &yb, n);
-            assert!(got.iter().any(|v| v.r != 0.0));
+            let (got, y) = frame.run(&device, &queue, &x);
             let reflected: Vec<Rgb> = (0..n)
                 .map(|j| x[j] + patches[j].emission * -1.0 + patches[j].reflectance * y[j])
                 .collect();

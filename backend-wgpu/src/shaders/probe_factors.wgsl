@@ -1,12 +1,12 @@
 // Probe pass for factored probes (radiosity_core::ProbeFactors, P ≈ C·V), two dispatches:
 // `modes` takes t = V·(B − E) (one workgroup per mode: its 64 invocations sum every 64th
-// patch, then a tree reduction), `probes` each probe's C_p·t (one workgroup per probe: every
-// 64th mode, then a tree reduction). B − E = x − E + ρ∘y, as in probes.wgsl.
+// patch, then a tree reduction), `probes` each probe's C_p·t (one invocation per probe and SH
+// coefficient, the k products in order). B − E = x − E + ρ∘y, as in probes.wgsl.
 
 struct FactorCfg {
     // Probes.
     count: u32,
-    // Workgroups per row of the `probes` dispatch grid.
+    // Workgroups per row of the `probes` dispatch grid (64 coefficients each).
     row: u32,
     // Rank k.
     rank: u32,
@@ -36,7 +36,6 @@ struct FactorCfg {
 @group(0) @binding(7) var<storage, read_write> modes_out: array<f32>;
 
 var<workgroup> part: array<vec3<f32>, 64>;
-var<workgroup> part9: array<array<vec3<f32>, 9>, 64>;
 
 fn basis_at(i: u32) -> f32 {
     let h = unpack2x16float(basis[i >> 1u]);
@@ -88,37 +87,18 @@ fn probes(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(local_invocation_index) li: u32,
 ) {
-    let p = wg.y * cfg.row + wg.x;
-    if p >= cfg.count {
+    // One invocation per probe and SH coefficient: a dot product of k, no reduction.
+    let i = 64u * (wg.y * cfg.row + wg.x) + li;
+    if i >= 9u * cfg.count {
         return;
     }
-    var acc: array<vec3<f32>, 9>;
-    for (var c = 0u; c < 9u; c++) {
-        acc[c] = vec3<f32>(0.0);
-    }
-    let base = 9u * p * cfg.rank;
-    for (var q = li; q < cfg.rank; q += 64u) {
+    var acc = vec3<f32>(0.0);
+    let base = i * cfg.rank;
+    for (var q = 0u; q < cfg.rank; q++) {
         let t = vec3<f32>(modes_out[3u * q], modes_out[3u * q + 1u], modes_out[3u * q + 2u]);
-        for (var c = 0u; c < 9u; c++) {
-            acc[c] += t * coefficient_at(base + c * cfg.rank + q);
-        }
+        acc += t * coefficient_at(base + q);
     }
-    part9[li] = acc;
-    workgroupBarrier();
-    for (var s = 32u; s > 0u; s >>= 1u) {
-        if li < s {
-            for (var c = 0u; c < 9u; c++) {
-                part9[li][c] += part9[li + s][c];
-            }
-        }
-        workgroupBarrier();
-    }
-    if li == 0u {
-        for (var c = 0u; c < 9u; c++) {
-            let v = part9[0][c];
-            out[27u * p + 3u * c] = v.x;
-            out[27u * p + 3u * c + 1u] = v.y;
-            out[27u * p + 3u * c + 2u] = v.z;
-        }
-    }
+    out[3u * i] = acc.x;
+    out[3u * i + 1u] = acc.y;
+    out[3u * i + 2u] = acc.z;
 }
