@@ -388,37 +388,12 @@ impl<'a> Probes<'a> {
 
     /// Probe `p`'s radiance SH (one entry of [`Probes::gather`]), for a caller that spreads
     /// the probes over threads. The row is summed in stored order from zero, per coefficient
-    /// and channel. Panics if a weight names a patch past `reflected` (a programming error:
+    /// and channel; factored probes are decoded first ([`DecodedProbes`], which a runtime
+    /// keeps instead). Panics if a weight names a patch past `reflected` (a programming error:
     /// validated probes do not).
     pub fn gather_probe(&self, p: usize, reflected: &[Rgb]) -> [Rgb; SH_COEFFICIENTS] {
-        if let Some(f) = &self.factors {
-            // The modes from the binary16 basis, then the probe's coefficients: as
-            // `DecodedProbes` does, without decoding every probe's.
-            let k = f.rank as usize;
-            let n = f.patches();
-            let ch = channels(&reflected[..n]);
-            let modes: [Vec<f32>; 3] = core::array::from_fn(|c| {
-                f.basis
-                    .chunks_exact(n)
-                    .map(|row| {
-                        dot(
-                            &row.iter().map(|&h| f16_to_f32(h)).collect::<Vec<_>>(),
-                            &ch[c],
-                        )
-                    })
-                    .collect()
-            });
-            return core::array::from_fn(|c| {
-                let row: Vec<f32> = f.coefficients[(p * SH_COEFFICIENTS + c) * k..][..k]
-                    .iter()
-                    .map(|&h| f16_to_f32(h))
-                    .collect();
-                Rgb::new(
-                    dot(&row, &modes[0]),
-                    dot(&row, &modes[1]),
-                    dot(&row, &modes[2]),
-                )
-            });
+        if self.factors.is_some() {
+            return DecodedProbes::new(self).gather_probe(p, reflected);
         }
         let row = self.weights_of(p);
         sum_row(
@@ -604,7 +579,7 @@ impl<'a> Probes<'a> {
         let sizes = [12 * m, 4 * (m + 1), 24 * w];
         let rows_end = 12 + sizes.iter().sum::<u64>();
         let mut factor_sizes = None;
-        let expected = if bytes.len() as u64 > rows_end && rows_end + 8 <= bytes.len() as u64 {
+        let expected = if rows_end + 8 <= bytes.len() as u64 {
             let at = rows_end as usize;
             let (k, n) = (u64::from(word(at)), u64::from(word(at + 4)));
             let basis = k.saturating_mul(n);

@@ -469,6 +469,23 @@ fn abs(v: Rgb) -> Rgb {
     Rgb::from_array(v.to_array().map(f32::abs))
 }
 
+/// The pass's coefficient `c` of probe `p`, channel `ch`, within `tol` of the core's.
+fn assert_coefficient(
+    got: &[Rgb],
+    want: &[[Rgb; SH_COEFFICIENTS]],
+    (p, c, ch): (usize, usize, usize),
+    tol: f32,
+) {
+    let (g, w) = (
+        got[SH_COEFFICIENTS * p + c].channel(ch),
+        want[p][c].channel(ch),
+    );
+    assert!(
+        (g - w).abs() <= tol,
+        "probe {p} coefficient {c} channel {ch}: gpu {g} core {w} tolerance {tol:e}"
+    );
+}
+
 /// The core's probe SH from `x` and `y` (`Probes::gather` on `x − E + ρ∘y`) against the
 /// pass's `got`, within the bound of the module docs.
 fn assert_probes_match(probes: &Probes<'_>, patches: &[Patch], x: &[Rgb], y: &[Rgb], got: &[Rgb]) {
@@ -499,14 +516,7 @@ fn assert_probes_match(probes: &Probes<'_>, patches: &[Patch], x: &[Rgb], y: &[R
                 let tol = 2.0 * (gamma(row.len()) + gamma(3)) * abs
                     + flushed
                     + row.len() as f32 * f32::MIN_POSITIVE;
-                let (g, w) = (
-                    got[SH_COEFFICIENTS * p + c].channel(ch),
-                    want[p][c].channel(ch),
-                );
-                assert!(
-                    (g - w).abs() <= tol,
-                    "probe {p} coefficient {c} channel {ch}: gpu {g} core {w} tolerance {tol:e}"
-                );
+                assert_coefficient(got, &want, (p, c, ch), tol);
             }
         }
     }
@@ -684,14 +694,7 @@ fn factored_probes_pass_equals_the_cores_product() {
                             .map(|(&w, m)| h(w).abs() * m)
                             .sum();
                         let tol = 2.0 * (gamma(n) + gamma(k) + gamma(3)) * abs + 1e-30;
-                        let (g, w) = (
-                            got[SH_COEFFICIENTS * p + c].channel(ch),
-                            want[p][c].channel(ch),
-                        );
-                        assert!(
-                            (g - w).abs() <= tol,
-                            "probe {p} coefficient {c} channel {ch}: gpu {g} core {w} tolerance {tol:e}"
-                        );
+                        assert_coefficient(&got, &want, (p, c, ch), tol);
                     }
                 }
             }
