@@ -14,9 +14,12 @@
 //! pass on beyond it is smooth (`docs/decisions/final-gather-emitters.md`). With
 //! cosine-weighted rays the irradiance is the mean of those radiosities. A small bright
 //! emitter met by the gather's rays instead would be a few dozen of them, a noise of several
-//! per cent. This is a final gather at the point, exact up to the frame's patch resolution and
-//! the rays' noise; it costs [`RAYS`] rays and shadow rays at each hit a point, so it answers
-//! queries rather than lighting moving objects every frame.
+//! per cent. A hit closer to the point than [`NEAR_SIDES`] sides of the patches around it,
+//! where the point sees more detail than the patches hold, takes `y − y_e` from a second
+//! gather of [`SECOND_RAYS`] rays instead (`docs/decisions/secondary-gather.md`). This is a
+//! final gather at the point, exact up to the frame's patch resolution one bounce away and the
+//! rays' noise; it costs [`RAYS`] rays, and shadow rays and near hits' second gathers at each
+//! hit, a point, so it answers queries rather than lighting moving objects every frame.
 //!
 //! A point whose rays mostly meet the backs of faces is inside an object, and one outside the
 //! bounding box of the scene's mesh is outside it: both are answered as such, without a figure.
@@ -25,6 +28,7 @@ use crate::render::{PatchGrid, triangle_normal};
 use crate::runtime::Runtime;
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
+use radiosity_bake::geometry::{Hit, Occluders};
 use radiosity_bake::rng::SplitMix64;
 use radiosity_core::{Light, Rgb};
 use rayon::prelude::*;
@@ -39,6 +43,15 @@ pub(crate) const EMITTER_SAMPLES: usize = 1024;
 
 /// Shadow rays to the emitting surfaces at each surface a gather ray meets.
 pub(crate) const HIT_EMITTER_SAMPLES: usize = 16;
+
+/// Hits closer to the point than this many sides (`√area`) of the patches around them gather
+/// their reflected light again instead of interpolating it from those patches: the point sees
+/// such a hit's surroundings in more detail than the patches hold
+/// (`docs/decisions/secondary-gather.md`).
+pub(crate) const NEAR_SIDES: f64 = 4.0;
+
+/// Cosine-weighted rays of that second gather at a near hit: 4 × 4 strata.
+pub(crate) const SECOND_RAYS: usize = 4 * 4;
 
 /// Shadow rays to the emitting surfaces a patch, spread over its direct-light points.
 const PATCH_EMITTER_SAMPLES: usize = 256;
@@ -246,6 +259,104 @@ impl Emitters {
     }
 }
 
+/// What a gather ray's hit shows of the frame: the mesh, its analytic lights and emitting
+/// surfaces, and what the patches gathered beyond the emitters' direct light (`y − y_e`, file
+/// numbering): that part is smooth across a patch, the direct light is not (it peaks under a
+/// small light), so each hit takes the second from the patches around it and the first from
+/// shadow rays of its own.
+struct Surfaces<'a> {
+    rt: &'a Runtime,
+    mesh: &'a radiosity_core::Mesh<'static>,
+    occ: &'a Occluders,
+    lights: &'a [Light],
+    grid: PatchGrid,
+    emitters: Emitters,
+    indirect: Vec<Rgb>,
+}
+
+impl<'a> Surfaces<'a> {
+    fn new(rt: &'a Runtime, lights: &'a [Light], gathered: &[Rgb]) -> anyhow::Result<Self> {
+        let mesh = rt.mesh("--points")?;
+        let grid = PatchGrid::new(&rt.file.patches);
+        let emitters = Emitters::new(mesh);
+        let first = emitters.per_patch(rt, mesh, gathered.len());
+        let indirect = gathered.iter().zip(&first).map(|(&y, &d)| y - d).collect();
+        Ok(Self {
+            rt,
+            mesh,
+            occ: rt.occluders().expect("a mesh has a BVH"),
+            lights,
+            grid,
+            emitters,
+            indirect,
+        })
+    }
+
+    /// The reflected radiosity `ρ∘(H_d + H_e + y − y_e)` at a front-face `hit`: `H_d` by shadow
+    /// rays to the analytic lights, `H_e` by `emitter_samples` shadow rays to the emitting
+    /// surfaces, and `y − y_e` interpolated from the patches around the hit, or, for a hit of
+    /// a ray from the point that gathers (`from_point`) closer than [`NEAR_SIDES`] sides of
+    /// those patches, gathered again by [`SECOND_RAYS`] rays. `weights` is scratch.
+    fn reflected(
+        &self,
+        hit: &Hit,
+        emitter_samples: usize,
+        from_point: bool,
+        rng: &mut SplitMix64,
+        weights: &mut Vec<(u32, f32)>,
+    ) -> Rgb {
+        let t = hit.triangle as usize;
+        let normal = triangle_normal(self.mesh, t);
+        // On the triangle's plane to f64 rounding, so that a ray from it passes its own plane.
+        let [a, b, c] = self.mesh.corners(t).map(|v| Vec3::from(v).as_dvec3());
+        let (u, v) = (f64::from(hit.u), f64::from(hit.v));
+        let at = a * (1.0 - u - v) + b * u + c * v;
+        let patches = &self.rt.file.patches;
+        weights.clear();
+        (self.grid).weights_at_hit(patches, self.mesh, t, (hit.u, hit.v), at, normal, weights);
+        // The side of the patches the kernel takes: their weighted mean area, rooted.
+        let area: f64 = weights
+            .iter()
+            .map(|&(i, w)| f64::from(w) * f64::from(patches[i as usize].area))
+            .sum();
+        let indirect = if from_point && hit.distance < NEAR_SIDES * area.sqrt() {
+            self.gathered_again(at, normal, rng, weights)
+        } else {
+            weights
+                .iter()
+                .fold(Rgb::ZERO, |y, &(i, w)| y + self.indirect[i as usize] * w)
+        };
+        let emitted =
+            (self.emitters).irradiance_at(self.rt, self.mesh, at, normal, emitter_samples, rng);
+        // Emitted light is the emitters' own shadow rays' at the point that gathers.
+        self.mesh.triangles[t].reflectance
+            * (self.rt.direct_at(self.lights, at, normal) + emitted + indirect)
+    }
+
+    /// `y − y_e` at `at` (on a surface with unit `normal`) by [`SECOND_RAYS`] cosine-weighted
+    /// rays, stratified, each hit's reflected radiosity with one shadow ray to the emitters
+    /// and the rest interpolated: the light the surfaces reflect onto `at`.
+    fn gathered_again(
+        &self,
+        at: DVec3,
+        normal: DVec3,
+        rng: &mut SplitMix64,
+        weights: &mut Vec<(u32, f32)>,
+    ) -> Rgb {
+        let side = SECOND_RAYS.isqrt();
+        let mut sum = Rgb::ZERO;
+        for s in 0..side * side {
+            let u1 = ((s % side) as f64 + rng.next_f64()) / side as f64;
+            let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
+            let dir = cosine_direction(normal, u1, u2);
+            if let Some((hit, true)) = self.occ.first_surface_from_surface(at, dir, f64::INFINITY) {
+                sum += self.reflected(&hit, 1, false, rng, weights);
+            }
+        }
+        sum * (1.0 / (side * side) as f32)
+    }
+}
+
 /// The answer at every point for a frame whose gathered irradiance is `gathered` and total
 /// irradiance `irradiance` (file numbering) under `lights`. The file needs its mesh.
 pub(crate) fn answer(
@@ -256,22 +367,14 @@ pub(crate) fn answer(
     points: &[Point],
 ) -> anyhow::Result<Vec<Answer>> {
     let probe_sh = crate::probes::frame_sh(rt, irradiance);
-    let mesh = rt.mesh("--points")?;
-    let occ = rt.occluders().expect("a mesh has a BVH");
+    let surfaces = Surfaces::new(rt, lights, gathered)?;
     // A mesh without vertices holds every point outside it.
     let (lo, hi) = rt
         .mesh_bounds()
         .unwrap_or((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)));
     // A point on the box's faces (a floor at y = 0) is inside it.
     let slack = 1e-9 * (hi - lo).max_element().max(1e-300);
-    let grid = PatchGrid::new(&rt.file.patches);
-    let emitters = Emitters::new(mesh);
-    // What the patches gathered beyond the emitters' direct light: that part is smooth across
-    // a patch, the direct light is not (it peaks under a small light), so each gather ray
-    // takes the second from the patches around its hit and the first from shadow rays there.
-    let first = emitters.per_patch(rt, mesh, gathered.len());
-    let indirect: Vec<Rgb> = gathered.iter().zip(&first).map(|(&y, &d)| y - d).collect();
-    let side = (RAYS as f64).sqrt() as usize;
+    let side = RAYS.isqrt();
     Ok(points
         .par_iter()
         .enumerate()
@@ -287,34 +390,27 @@ pub(crate) fn answer(
                 let u1 = ((s % side) as f64 + rng.next_f64()) / side as f64;
                 let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
                 let dir = cosine_direction(n, u1, u2);
-                let Some((hit, front)) = occ.first_surface(p, dir, 0.0, f64::INFINITY) else {
-                    continue; // the sky sends nothing
-                };
-                if !front {
-                    backs += 1;
-                    continue; // the back of a one-sided surface sends nothing
+                match surfaces.occ.first_surface(p, dir, 0.0, f64::INFINITY) {
+                    None => {}                      // the sky sends nothing
+                    Some((_, false)) => backs += 1, // the back of a one-sided surface: nothing
+                    Some((hit, true)) => {
+                        let samples = HIT_EMITTER_SAMPLES;
+                        sum += surfaces.reflected(&hit, samples, true, &mut rng, &mut weights);
+                    }
                 }
-                let t = hit.triangle as usize;
-                let normal = triangle_normal(mesh, t);
-                let at = p + dir * hit.distance;
-                weights.clear();
-                let uv = (hit.u, hit.v);
-                grid.weights_at_hit(&rt.file.patches, mesh, t, uv, at, normal, &mut weights);
-                let mut y =
-                    emitters.irradiance_at(rt, mesh, at, normal, HIT_EMITTER_SAMPLES, &mut rng);
-                for &(i, w) in &weights {
-                    y += indirect[i as usize] * w;
-                }
-                let tri = &mesh.triangles[t];
-                let direct = rt.direct_at(lights, at, normal);
-                // Emitted light is the emitters' own shadow rays' below.
-                sum += tri.reflectance * (direct + y);
             }
             if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
                 return Answer::Inside;
             }
             let direct = rt.direct_at(lights, p, n)
-                + emitters.irradiance_at(rt, mesh, p, n, EMITTER_SAMPLES, &mut rng);
+                + (surfaces.emitters).irradiance_at(
+                    rt,
+                    surfaces.mesh,
+                    p,
+                    n,
+                    EMITTER_SAMPLES,
+                    &mut rng,
+                );
             let total = sum * (1.0 / (side * side) as f32) + direct;
             let probes = rt
                 .file

@@ -125,10 +125,9 @@ fn point_irradiance_matches_the_path_tracer() {
         probe_mean <= 0.03 && probe_worst <= 0.05,
         "probes: mean {probe_mean:.4}, worst {probe_worst:.4}"
     );
-    // The bounds: each within 5%, the mean within 3% (measured 4.6% and 0.95% at 1024
-    // patches, 3.9% and 0.75% at 4096; the path tracer's standard error is under 1.4%. The
-    // worst point faces the open front, lit by the walls' edges beside it, and is about as far
-    // off at every patch count: docs/decisions/final-gather-emitters.md).
+    // The bounds: each within 5%, the mean within 3% (measured 3.3% and 0.65% at 1024
+    // patches; the path tracer's standard error is under 1.4% at this count, and against 4× its
+    // samples the same gather is within 0.96% and 0.36%: docs/decisions/secondary-gather.md).
     assert!(
         worst <= 0.05 && mean <= 0.03,
         "worst {worst:.4}, mean {mean:.4}"
@@ -141,6 +140,66 @@ fn point_irradiance_matches_the_path_tracer() {
     assert!(outside["irradiance"].is_null());
     // The normal comes back as given.
     assert_eq!(ours[0]["normal"], json!(POINTS[0].1));
+}
+
+/// Points 1 to 13 cm from the floor, the back wall and the blocks, with their normals, from
+/// `docs/examples/points-anywhere.json` (its points 16, 13, 20, 12, 138, 122 and 31): each sees
+/// a piece of surface smaller than a patch, in a corner or against a block.
+const NEAR_SURFACES: [([f64; 3], [f64; 3]); 7] = [
+    ([-0.835, 0.0525, -0.9907], [0.263, -0.3279, -0.9073]),
+    ([-0.1563, 0.1294, 0.7111], [0.2271, -0.9738, 0.0153]),
+    ([-0.9586, 0.0547, -0.7283], [0.4831, -0.7501, 0.4517]),
+    ([0.8949, 0.031, 0.5393], [0.9791, 0.0592, 0.1943]),
+    ([-0.2251, 0.4018, 0.2245], [0.7505, -0.3576, 0.5557]),
+    ([0.7648, 0.3557, 0.259], [-0.0476, -0.6022, 0.7969]),
+    ([0.291, 0.0972, -0.9988], [-0.105, -0.3907, -0.9145]),
+];
+
+#[test]
+fn points_near_surfaces_match_the_path_tracer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let rad = d.join("cb.rad");
+    let bake = ["bake", &s(&cornell()), "-o", &s(&rad), "--patches", "1024"];
+    radiosity_ok(&[&bake[..], &["--probes", "none"]].concat());
+    let file = d.join("points.json");
+    write_points(&file, &NEAR_SURFACES);
+    let ours = json_of(&["solve", &s(&rad), "--points", &s(&file), "--json"]);
+    let pt = json_of(&[
+        "pathtrace",
+        &s(&cornell()),
+        "--points",
+        &s(&file),
+        "--samples",
+        "1048576",
+        "--json",
+    ]);
+    let errors: Vec<f64> = ours["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(pt["points"].as_array().unwrap())
+        .map(|(a, b)| {
+            let q = sum(&b["irradiance"]);
+            (sum(&a["irradiance"]) - q).abs() / q
+        })
+        .collect();
+    assert_eq!(errors.len(), NEAR_SURFACES.len());
+    let (mean, worst) = mean_and_worst(&errors);
+    eprintln!(
+        "points near surfaces against the path tracer: mean {:.2}%, worst {:.2}%",
+        100.0 * mean,
+        100.0 * worst
+    );
+    // Measured 1.0% mean, 3.9% worst (the point 1 cm from the back wall by the corner), where
+    // interpolating the patches at every hit gave 4.5% and 9.2%: hits this near gather again
+    // (docs/decisions/secondary-gather.md). The path tracer itself spreads by about 1.5% at
+    // that corner point from one seed's stream to another's (0.1876, 0.1889 and 0.1910 from
+    // three), more than its standard error says, so the worst is held to the 5%.
+    assert!(
+        worst <= 0.05 && mean <= 0.02,
+        "mean {mean:.4}, worst {worst:.4}"
+    );
 }
 
 #[test]
