@@ -2,8 +2,10 @@
 //! point: `{"points":[{"position":[x,y,z],"normal":[x,y,z]}]}`.
 //!
 //! At a point facing `normal`: the direct light of the analytic lights (shadow rays, as at a
-//! patch), the direct light of the emitting surfaces ([`EMITTER_SAMPLES`] shadow rays to points
-//! on them, stratified over a pick in proportion to their power and across each triangle), and
+//! patch), the direct light of the emitting surfaces (each triangle's exact unoccluded
+//! irradiance times the share in view of [`EMITTER_SAMPLES`] shadow rays to points on them,
+//! stratified over a pick in proportion to their power and across each triangle:
+//! [`Emitters::irradiance_at`], `docs/decisions/exact-emitter-light.md`), and
 //! the light the surfaces reflect, gathered over the hemisphere by [`RAYS`] cosine-weighted
 //! rays, stratified. Each ray's first surface shows its reflected radiosity:
 //! `ρ∘(H_d + H_e + y − y_e)`, with `H_d` from shadow rays to the analytic lights at the hit,
@@ -28,6 +30,8 @@ use crate::render::{PatchGrid, triangle_normal};
 use crate::runtime::Runtime;
 use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
+use radiosity_bake::geometry::point_polygon::point_to_polygon;
+use radiosity_bake::geometry::polygon::Polygon;
 use radiosity_bake::geometry::{Hit, Occluders};
 use radiosity_bake::rng::SplitMix64;
 use radiosity_core::{Light, Rgb};
@@ -52,6 +56,10 @@ pub(crate) const NEAR_SIDES: f64 = 4.0;
 
 /// Cosine-weighted rays of that second gather at a near hit: 4 × 4 strata.
 pub(crate) const SECOND_RAYS: usize = 4 * 4;
+
+/// Emitting triangles up to which the emitters' direct light starts from each one's exact
+/// unoccluded irradiance ([`Emitters::irradiance_at`]); a scene of more samples them all.
+const ANALYTIC_EMITTERS: usize = 256;
 
 /// Shadow rays to the emitting surfaces a patch, spread over its direct-light points.
 const PATCH_EMITTER_SAMPLES: usize = 256;
@@ -151,6 +159,9 @@ fn radical_inverse(i: u32) -> f64 {
 struct Emitters {
     triangles: Vec<u32>,
     cdf: Vec<f64>,
+    /// Whether the direct light starts from each triangle's exact unoccluded irradiance
+    /// (at most [`ANALYTIC_EMITTERS`] emitting triangles).
+    analytic: bool,
 }
 
 impl Emitters {
@@ -165,11 +176,24 @@ impl Emitters {
                 cdf.push(total);
             }
         }
-        Self { triangles, cdf }
+        let analytic = triangles.len() <= ANALYTIC_EMITTERS;
+        Self {
+            triangles,
+            cdf,
+            analytic,
+        }
     }
 
     /// Direct irradiance at `p` facing unit `n` from every emitting surface's front, with
-    /// `samples` shadow rays: `Σ L_e·cosθ_p·cosθ_e / r² / pdf` over stratified samples,
+    /// `samples` shadow rays to stratified points on them.
+    ///
+    /// With at most [`ANALYTIC_EMITTERS`] emitting triangles: each one's exact unoccluded
+    /// irradiance `E_t·F(p → t)` (Lambert's contour integral, clipped to the front of `p`)
+    /// times the share of it the shadow rays find in view, `Σ V·g / Σ g` over its samples
+    /// (`g = cosθ_p·cosθ_e / r² / pdf`; all samples' share for a triangle none landed on). A
+    /// point in full view of a light gets it exactly however near it lies (1 mm under the
+    /// light, area samples alone find a sixteenth of it), one in full shadow gets nothing, and
+    /// only a penumbra is estimated. With more triangles: `Σ V·L_e·g` over the samples,
     /// `L_e = E/π`.
     fn irradiance_at(
         &self,
@@ -184,7 +208,14 @@ impl Emitters {
             return Rgb::ZERO;
         };
         let occ = rt.occluders().expect("a mesh has a BVH");
-        let mut sum = [0f64; 3];
+        // In view and in all, per triangle (analytic) or over all of them (index 0).
+        let shares = if self.analytic {
+            self.triangles.len()
+        } else {
+            1
+        };
+        let mut seen = vec![[0f64; 3]; shares];
+        let mut all = vec![0f64; shares];
         let shift = rng.next_f64();
         for s in 0..samples {
             let u = (s as f64 + rng.next_f64()) / samples as f64 * total;
@@ -212,23 +243,58 @@ impl Emitters {
             }
             let dir = d / dist2.sqrt();
             let (cos_p, cos_e) = (n.dot(dir), -normal.dot(dir));
-            if cos_p <= 0.0 || cos_e <= 0.0 || !occ.segment_visible(p, y) {
+            if cos_p <= 0.0 || cos_e <= 0.0 {
                 continue;
             }
             // pdf over area: mean(E_t) / total; L_e = E_t / π.
             let g = cos_p * cos_e / dist2 * total
                 / f64::from(tri.emission.mean())
                 / std::f64::consts::PI;
-            for (ch, acc) in sum.iter_mut().enumerate() {
-                *acc += f64::from(tri.emission.channel(ch)) * g;
+            let i = if self.analytic { k } else { 0 };
+            all[i] += g;
+            if occ.segment_visible(p, y) {
+                for (ch, acc) in seen[i].iter_mut().enumerate() {
+                    *acc += f64::from(tri.emission.channel(ch)) * g;
+                }
             }
         }
-        let m = samples as f64;
-        Rgb::new(
-            (sum[0] / m) as f32,
-            (sum[1] / m) as f32,
-            (sum[2] / m) as f32,
-        )
+        if !self.analytic {
+            let m = samples as f64;
+            return Rgb::new(
+                (seen[0][0] / m) as f32,
+                (seen[0][1] / m) as f32,
+                (seen[0][2] / m) as f32,
+            );
+        }
+        // Over every triangle, for one no sample landed on: Σ V·E·g / Σ E·g, channels summed.
+        let (mut seen_all, mut all_all) = (0.0, 0.0);
+        for (k, &t) in self.triangles.iter().enumerate() {
+            seen_all += seen[k].iter().sum::<f64>();
+            all_all += 3.0 * f64::from(mesh.triangles[t as usize].emission.mean()) * all[k];
+        }
+        let mut sum = [0f64; 3];
+        for (k, &t) in self.triangles.iter().enumerate() {
+            let [a, b, c] = mesh.corners(t as usize).map(|v| Vec3::from(v).as_dvec3());
+            let normal = (b - a).cross(c - a).normalize_or_zero();
+            let f = point_to_polygon(p, n, &Polygon::triangle(a, b, c), normal);
+            if f <= 0.0 {
+                continue;
+            }
+            let e = mesh.triangles[t as usize].emission;
+            for (ch, acc) in sum.iter_mut().enumerate() {
+                // The share in view, by the triangle's own samples' channel: Σ V·E·g / Σ E·g.
+                let emitted = f64::from(e.channel(ch));
+                let share = if all[k] > 0.0 && emitted > 0.0 {
+                    seen[k][ch] / (emitted * all[k])
+                } else if all_all > 0.0 {
+                    seen_all / all_all
+                } else {
+                    1.0
+                };
+                *acc += emitted * f * share.clamp(0.0, 1.0);
+            }
+        }
+        Rgb::new(sum[0] as f32, sum[1] as f32, sum[2] as f32)
     }
 
     /// Each patch's direct irradiance from the emitting surfaces, the area-weighted mean over

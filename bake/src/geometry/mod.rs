@@ -3,7 +3,7 @@
 //! kernel ([`point_polygon`]) and adaptive triangle quadrature ([`quadrature`]).
 
 pub mod bvh;
-pub(crate) mod point_polygon;
+pub mod point_polygon;
 pub mod polygon;
 pub mod quadrature;
 

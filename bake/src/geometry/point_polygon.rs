@@ -27,7 +27,7 @@ const PLANE_EPS: f64 = 1e-12;
 /// Unoccluded form factor from a differential area at `x` (unit normal `n`) to the convex
 /// planar polygon `poly` (counter-clockwise about `poly_normal`, a unit vector). Only the
 /// polygon's front side receives. Always finite, in `[0, 1]`.
-pub(crate) fn point_to_polygon(x: DVec3, n: DVec3, poly: &Polygon, poly_normal: DVec3) -> f64 {
+pub fn point_to_polygon(x: DVec3, n: DVec3, poly: &Polygon, poly_normal: DVec3) -> f64 {
     let v = poly.vertices();
     if v.len() < 3 {
         return 0.0;
