@@ -438,17 +438,26 @@ pub(crate) fn answer(
     let (lo, hi) = rt
         .mesh_bounds()
         .unwrap_or((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)));
-    // A point on the box's faces (a floor at y = 0) is inside it.
-    let slack = 1e-9 * (hi - lo).max_element().max(1e-300);
+    // A point on the box's faces (a floor at y = 0, a wall at z = −1.04 given in f64 where
+    // the mesh holds its f32 rounding) is inside it: a few f32 steps of the coordinates.
+    let slack = 1e-6
+        * (hi - lo)
+            .max_element()
+            .max(lo.abs().max(hi.abs()).max_element());
+    let slack = slack.max(1e-300);
     let side = RAYS.isqrt();
     Ok(points
         .par_iter()
         .enumerate()
         .map(|(k, q)| {
-            let (p, n) = (q.position, q.normal);
-            if p.cmplt(lo - slack).any() || p.cmpgt(hi + slack).any() {
+            let n = q.normal;
+            if q.position.cmplt(lo - slack).any() || q.position.cmpgt(hi + slack).any() {
                 return Answer::Outside;
             }
+            // Lifted off whatever surface it lies on, by the f32 rounding the mesh's own
+            // coordinates carry: an irradiance meter laid on the block's top at y = 0.6 lies
+            // 2.4e-8 inside the block as the mesh stores it, and facing up sees the room.
+            let p = q.position + n * slack;
             let mut rng = SplitMix64(0x5eed ^ k as u64);
             let (mut sum, mut backs) = (Rgb::ZERO, 0usize);
             let mut weights = Vec::new();
