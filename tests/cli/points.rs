@@ -47,10 +47,27 @@ fn sum(v: &Value) -> f64 {
         .sum()
 }
 
-/// The mean and the largest of `errors`.
-fn mean_and_worst(errors: &[f64]) -> (f64, f64) {
+/// The mean and the largest of `errors`, printed under `what`.
+fn mean_and_worst(what: &str, errors: &[f64]) -> (f64, f64) {
     let worst = errors.iter().copied().fold(0.0, f64::max);
-    (errors.iter().sum::<f64>() / errors.len() as f64, worst)
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    eprintln!(
+        "{what}: mean {:.2}%, worst {:.2}%",
+        100.0 * mean,
+        100.0 * worst
+    );
+    (mean, worst)
+}
+
+/// `|a[key] − b["irradiance"]| / b["irradiance"]` of each pair of points (channels summed).
+fn errors_against(ours: &[Value], reference: &[Value], key: &str) -> Vec<f64> {
+    ours.iter()
+        .zip(reference)
+        .map(|(a, b)| {
+            let q = sum(&b["irradiance"]);
+            (sum(&a[key]) - q).abs() / q
+        })
+        .collect()
 }
 
 fn write_points(path: &Path, points: &[([f64; 3], [f64; 3])]) {
@@ -88,35 +105,18 @@ fn point_irradiance_matches_the_path_tracer() {
         pt["points"].as_array().unwrap(),
     );
     assert_eq!(ours.len(), points.len());
-    let mut errors = Vec::new();
-    for (k, (a, b)) in ours.iter().zip(pt).take(POINTS.len()).enumerate() {
+    for (k, a) in ours.iter().take(POINTS.len()).enumerate() {
         assert_eq!(a["status"], "ok", "point {k}: {a}");
-        let (h, q) = (sum(&a["irradiance"]), sum(&b["irradiance"]));
-        // The path tracer's standard error here is 0.1–0.9% of each point's value.
-        errors.push((h - q).abs() / q);
     }
-    let (mean, worst) = mean_and_worst(&errors);
-    eprintln!(
-        "points against the path tracer: mean {:.2}%, worst {:.2}%",
-        100.0 * mean,
-        100.0 * worst
-    );
+    // The path tracer's standard error here is 0.1–0.9% of each point's value.
+    let (ours_here, pt_here) = (&ours[..POINTS.len()], &pt[..POINTS.len()]);
+    let errors = errors_against(ours_here, pt_here, "irradiance");
+    let what = "points against the path tracer";
+    let (mean, worst) = mean_and_worst(what, &errors);
     // The same points from the probes the bake placed by default (`--probes auto`).
-    let probe_errors: Vec<f64> = ours
-        .iter()
-        .zip(pt)
-        .take(POINTS.len())
-        .map(|(a, b)| {
-            let q = sum(&b["irradiance"]);
-            (sum(&a["probe_irradiance"]) - q).abs() / q
-        })
-        .collect();
-    let (probe_mean, probe_worst) = mean_and_worst(&probe_errors);
-    eprintln!(
-        "probes against the path tracer: mean {:.2}%, worst {:.2}%",
-        100.0 * probe_mean,
-        100.0 * probe_worst
-    );
+    let probe_errors = errors_against(ours_here, pt_here, "probe_irradiance");
+    let what = "probes against the path tracer";
+    let (probe_mean, probe_worst) = mean_and_worst(what, &probe_errors);
     // The bounds: each within 5%, the mean within 3%. Measured 1.1% and 3.9% (468
     // probes 0.25 m apart, their weights factored to rank 128: docs/decisions/probe-factors.md;
     // the worst under the ceiling, facing the floor). The path tracer's standard error is
@@ -194,36 +194,24 @@ fn points_near_surfaces_and_the_light_match_the_path_tracer() {
         "1048576",
         "--json",
     ]);
-    let errors: Vec<f64> = ours["points"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .zip(pt["points"].as_array().unwrap())
-        .map(|(a, b)| {
-            let q = sum(&b["irradiance"]);
-            (sum(&a["irradiance"]) - q).abs() / q
-        })
-        .collect();
+    let errors = errors_against(
+        ours["points"].as_array().unwrap(),
+        pt["points"].as_array().unwrap(),
+        "irradiance",
+    );
     assert_eq!(errors.len(), points.len());
     let (near, rest) = errors.split_at(NEAR_SURFACES.len());
     let (light, on) = rest.split_at(BY_THE_LIGHT.len());
     // On a surface a meter sees the room (measured within 0.6%; each was "inside an object"
     // or "outside the scene" before the point was lifted off the f32 surface).
-    let worst_on = on.iter().copied().fold(0.0, f64::max);
-    eprintln!("points on surfaces: worst {:.3}%", 100.0 * worst_on);
+    let (_, worst_on) = mean_and_worst("points on surfaces", on);
     assert!(worst_on <= 0.02, "on surfaces: {on:?}");
     // By the light the direct light is all but the whole figure, and it is exact where the
     // light is in full view (Lambert's contour integral; area samples alone read 30% high at
     // 1 cm and 94% low at 1 mm). The path tracer's standard error there is under 0.2%.
-    let worst_by_light = light.iter().copied().fold(0.0, f64::max);
-    eprintln!("points by the light: worst {:.3}%", 100.0 * worst_by_light);
+    let (_, worst_by_light) = mean_and_worst("points by the light", light);
     assert!(worst_by_light <= 0.01, "by the light: {light:?}");
-    let (mean, worst) = mean_and_worst(near);
-    eprintln!(
-        "points near surfaces against the path tracer: mean {:.2}%, worst {:.2}%",
-        100.0 * mean,
-        100.0 * worst
-    );
+    let (mean, worst) = mean_and_worst("points near surfaces against the path tracer", near);
     // Measured 1.0% mean, 3.9% worst (the point 1 cm from the back wall by the corner), where
     // interpolating the patches at every hit gave 4.5% and 9.2%: hits this near gather again
     // (docs/decisions/secondary-gather.md). The path tracer itself spreads by about 1.5% at
@@ -305,12 +293,7 @@ fn probes_are_baked_and_answer_points_off_the_surfaces() {
         let (gather, probe) = (sum(&p["irradiance"]), sum(&p["probe_irradiance"]));
         errors.push((probe - gather).abs() / gather);
     }
-    let (mean, worst) = mean_and_worst(&errors);
-    eprintln!(
-        "probes against the final gather: mean {:.2}%, worst {:.2}%",
-        100.0 * mean,
-        100.0 * worst
-    );
+    let (mean, worst) = mean_and_worst("probes against the final gather", &errors);
     // Measured 1.4% and 8.5% here (L2 alone costs up to 5%, the interpolation between probes
     // 0.40 m apart the rest: docs/decisions/probe-interpolation.md). A broken weight or SH
     // convention gives errors of 100% and more; the bounds leave the measured figures half
