@@ -78,6 +78,24 @@ fn write_points(path: &Path, points: &[([f64; 3], [f64; 3])]) {
     std::fs::write(path, json!({ "points": list }).to_string()).unwrap();
 }
 
+/// `solve RAD --points FILE --json` and `pathtrace` of the Cornell box at the same points with
+/// `samples` paths a point: their `points` arrays.
+fn solve_and_trace(rad: &Path, file: &Path, samples: &str) -> (Vec<Value>, Vec<Value>) {
+    let ours = json_of(&["solve", &s(rad), "--points", &s(file), "--json"]);
+    let (c, f) = (s(&cornell()), s(file));
+    let pt = json_of(&[
+        "pathtrace",
+        &c,
+        "--points",
+        &f,
+        "--samples",
+        samples,
+        "--json",
+    ]);
+    let list = |v: &Value| v["points"].as_array().unwrap().clone();
+    (list(&ours), list(&pt))
+}
+
 #[test]
 fn point_irradiance_matches_the_path_tracer() {
     let dir = tempfile::tempdir().unwrap();
@@ -90,20 +108,7 @@ fn point_irradiance_matches_the_path_tracer() {
     points.push(([5.0, 1.0, 0.0], [0.0, 1.0, 0.0]));
     let file = d.join("points.json");
     write_points(&file, &points);
-    let ours = json_of(&["solve", &s(&rad), "--points", &s(&file), "--json"]);
-    let pt = json_of(&[
-        "pathtrace",
-        &s(&cornell()),
-        "--points",
-        &s(&file),
-        "--samples",
-        "65536",
-        "--json",
-    ]);
-    let (ours, pt) = (
-        ours["points"].as_array().unwrap(),
-        pt["points"].as_array().unwrap(),
-    );
+    let (ours, pt) = solve_and_trace(&rad, &file, "65536");
     assert_eq!(ours.len(), points.len());
     for (k, a) in ours.iter().take(POINTS.len()).enumerate() {
         assert_eq!(a["status"], "ok", "point {k}: {a}");
@@ -184,21 +189,8 @@ fn points_near_surfaces_and_the_light_match_the_path_tracer() {
     let file = d.join("points.json");
     let points = [&NEAR_SURFACES[..], &BY_THE_LIGHT[..], &ON_SURFACES[..]].concat();
     write_points(&file, &points);
-    let ours = json_of(&["solve", &s(&rad), "--points", &s(&file), "--json"]);
-    let pt = json_of(&[
-        "pathtrace",
-        &s(&cornell()),
-        "--points",
-        &s(&file),
-        "--samples",
-        "1048576",
-        "--json",
-    ]);
-    let errors = errors_against(
-        ours["points"].as_array().unwrap(),
-        pt["points"].as_array().unwrap(),
-        "irradiance",
-    );
+    let (ours, pt) = solve_and_trace(&rad, &file, "1048576");
+    let errors = errors_against(&ours, &pt, "irradiance");
     assert_eq!(errors.len(), points.len());
     let (near, rest) = errors.split_at(NEAR_SURFACES.len());
     let (light, on) = rest.split_at(BY_THE_LIGHT.len());
