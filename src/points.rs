@@ -423,6 +423,32 @@ impl<'a> Surfaces<'a> {
     }
 }
 
+/// `p` moved off a surface it lies on (within a few `slack`, the f32 rounding the mesh's own
+/// coordinates carry) to `slack` from its plane, on the side unit `n` faces (the surface's
+/// front for `n` along it); `p` itself off every surface. An irradiance meter laid on the
+/// block's top at y = 0.6 lies 2.4e-8 inside the block as the mesh stores it: facing up or
+/// sideways it sees the room, facing down the block.
+fn off_the_surface(surfaces: &Surfaces<'_>, p: DVec3, n: DVec3, slack: f64) -> DVec3 {
+    let reach = 4.0 * slack;
+    // Short segments through `p` along the axes and the normal: the nearest plane they cross.
+    let nearest = [DVec3::X, DVec3::Y, DVec3::Z, n]
+        .into_iter()
+        .filter_map(|d| {
+            let hit = surfaces
+                .occ
+                .closest_hit(p - d * reach, d, 0.0, 2.0 * reach)?;
+            Some((hit.triangle, (hit.distance - reach).abs()))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let Some((t, _)) = nearest else {
+        return p;
+    };
+    let front = triangle_normal(surfaces.mesh, t as usize);
+    let corner = Vec3::from(surfaces.mesh.corners(t as usize)[0]).as_dvec3();
+    let side = if n.dot(front) < 0.0 { -1.0 } else { 1.0 };
+    p + front * (side * slack - front.dot(p - corner))
+}
+
 /// The answer at every point for a frame whose gathered irradiance is `gathered` and total
 /// irradiance `irradiance` (file numbering) under `lights`. The file needs its mesh.
 pub(crate) fn answer(
@@ -454,10 +480,7 @@ pub(crate) fn answer(
             if q.position.cmplt(lo - slack).any() || q.position.cmpgt(hi + slack).any() {
                 return Answer::Outside;
             }
-            // Lifted off whatever surface it lies on, by the f32 rounding the mesh's own
-            // coordinates carry: an irradiance meter laid on the block's top at y = 0.6 lies
-            // 2.4e-8 inside the block as the mesh stores it, and facing up sees the room.
-            let p = q.position + n * slack;
+            let p = off_the_surface(&surfaces, q.position, n, slack);
             let mut rng = SplitMix64(0x5eed ^ k as u64);
             let (mut sum, mut backs) = (Rgb::ZERO, 0usize);
             let mut weights = Vec::new();

@@ -195,7 +195,7 @@ fn points_near_surfaces_and_the_light_match_the_path_tracer() {
     let (near, rest) = errors.split_at(NEAR_SURFACES.len());
     let (light, on) = rest.split_at(BY_THE_LIGHT.len());
     // On a surface a meter sees the room (measured within 0.6%; each was "inside an object"
-    // or "outside the scene" before the point was lifted off the f32 surface).
+    // or "outside the scene" before the point was moved off the f32 surface).
     let (_, worst_on) = mean_and_worst("points on surfaces", on);
     assert!(worst_on <= 0.02, "on surfaces: {on:?}");
     // By the light the direct light is all but the whole figure, and it is exact where the
