@@ -187,7 +187,10 @@ impl Emitters {
     /// Direct irradiance at `p` facing unit `n` from every emitting surface's front, with
     /// `samples` shadow rays to stratified points on them.
     ///
-    /// With at most [`ANALYTIC_EMITTERS`] emitting triangles: each one's exact unoccluded
+    /// With at most [`ANALYTIC_EMITTERS`] emitting triangles and [`HIT_EMITTER_SAMPLES`] or
+    /// more samples (not the second gather's single ray: its error is a bounce away and
+    /// spread over thousands of hits, and it would pay the contour integral of every
+    /// triangle for one shadow ray): each one's exact unoccluded
     /// irradiance `E_t·F(p → t)` (Lambert's contour integral, clipped to the front of `p`)
     /// times the share of it the shadow rays find in view, `Σ V·g / Σ g` over its samples
     /// (`g = cosθ_p·cosθ_e / r² / pdf`; all samples' share for a triangle none landed on). A
@@ -208,12 +211,9 @@ impl Emitters {
             return Rgb::ZERO;
         };
         let occ = rt.occluders().expect("a mesh has a BVH");
+        let analytic = self.analytic && samples >= HIT_EMITTER_SAMPLES;
         // In view and in all, per triangle (analytic) or over all of them (index 0).
-        let shares = if self.analytic {
-            self.triangles.len()
-        } else {
-            1
-        };
+        let shares = if analytic { self.triangles.len() } else { 1 };
         let mut seen = vec![[0f64; 3]; shares];
         let mut all = vec![0f64; shares];
         let shift = rng.next_f64();
@@ -250,7 +250,7 @@ impl Emitters {
             let g = cos_p * cos_e / dist2 * total
                 / f64::from(tri.emission.mean())
                 / std::f64::consts::PI;
-            let i = if self.analytic { k } else { 0 };
+            let i = if analytic { k } else { 0 };
             all[i] += g;
             if occ.segment_visible(p, y) {
                 for (ch, acc) in seen[i].iter_mut().enumerate() {
@@ -258,7 +258,7 @@ impl Emitters {
                 }
             }
         }
-        if !self.analytic {
+        if !analytic {
             let m = samples as f64;
             return Rgb::new(
                 (seen[0][0] / m) as f32,
