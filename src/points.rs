@@ -425,7 +425,7 @@ impl<'a> Surfaces<'a> {
 
 /// `p` moved off a surface it lies on (within a few `slack`, the f32 rounding the mesh's own
 /// coordinates carry) to `slack` from its plane, on the side unit `n` faces (the surface's
-/// front for `n` along it); `p` itself off every surface. An irradiance meter laid on the
+/// front for `n` along it); `p` unchanged where no surface is that near. A meter laid on the
 /// block's top at y = 0.6 lies 2.4e-8 inside the block as the mesh stores it: facing up or
 /// sideways it sees the room, facing down the block.
 fn off_the_surface(surfaces: &Surfaces<'_>, p: DVec3, n: DVec3, slack: f64) -> DVec3 {
