@@ -1,9 +1,6 @@
 //! Flags shared by several subcommands.
 
-use anyhow::bail;
 use clap::Args;
-use radiosity_bake::bounce::BounceSpec;
-use radiosity_bake::form_factor::FormFactorParams;
 
 /// How to bake (`bake`, and `solve` on an OBJ).
 #[derive(Args, Clone, Debug)]
@@ -82,7 +79,7 @@ impl BakeArgs {
     }
 }
 
-/// `--patches N`: a whole number from 1 to [`crate::limits::MAX_PATCHES`] (a negative or
+/// `--patches N`: a whole number from 1 to [`radiosity_bake::limits::MAX_PATCHES`] (a negative or
 /// zero count gets this message, not clap's "unexpected argument").
 pub(crate) fn patch_count(s: &str) -> Result<usize, String> {
     let n: i128 = s
@@ -93,30 +90,8 @@ pub(crate) fn patch_count(s: &str) -> Result<usize, String> {
         return Err(format!("the patch count must be at least 1, not {n}"));
     }
     let n = usize::try_from(n).unwrap_or(usize::MAX);
-    match crate::limits::above_ceiling(n) {
+    match radiosity_bake::limits::above_ceiling(n) {
         Some(why) => Err(why),
         None => Ok(n),
     }
-}
-
-/// The form-factor settings named by `--form-factors` (`FormFactorParams`'s presets).
-pub(crate) fn form_factor_params(name: &str) -> anyhow::Result<FormFactorParams> {
-    Ok(match name {
-        "draft" => FormFactorParams::fast(),
-        "default" => FormFactorParams::default(),
-        "fine" => FormFactorParams::high_quality(),
-        other => bail!("unknown --form-factors {other:?} (draft, default, fine)"),
-    })
-}
-
-pub(crate) fn parse_bounces(s: &str) -> anyhow::Result<BounceSpec> {
-    Ok(match s {
-        "auto" => BounceSpec::default(),
-        "inf" | "infinite" => BounceSpec::Infinite,
-        k => match k.parse::<u32>() {
-            Ok(0) => bail!("--bounces must be at least 1"),
-            Ok(k) => BounceSpec::Fixed(k),
-            Err(_) => bail!("--bounces must be a number, `inf` or `auto`, not {k:?}"),
-        },
-    })
 }

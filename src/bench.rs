@@ -196,11 +196,12 @@ fn bench_probes(
         mesh: Some(mesh.clone()),
         probes: None,
     };
-    let rt = crate::runtime::Runtime::new(file);
-    let (probes, report) = crate::probes::bake(
+    let rt = radiosity_runtime::BakedScene::new(file);
+    let (probes, report) = radiosity_bake::probes::bake(
         &rt,
-        &crate::probes::ProbeSpec::Auto,
-        crate::probes::ProbeRank::Auto,
+        &radiosity_bake::probes::ProbeSpec::Auto,
+        radiosity_bake::probes::ProbeRank::Auto,
+        radiosity_bake::pipeline::Hooks::default(),
     )?
     .context("probes at auto")?;
     let reflected: Vec<Rgb> = (0..patches.len())
@@ -210,7 +211,7 @@ fn bench_probes(
     let mut times: Vec<f64> = (0..HOST_FRAMES)
         .map(|_| {
             let t = Instant::now();
-            std::hint::black_box(crate::probes::gather_all(&decoded, &reflected));
+            std::hint::black_box(radiosity_runtime::probes::gather_all(&decoded, &reflected));
             ms(t.elapsed())
         })
         .collect();
@@ -293,6 +294,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         Hooks {
             stage: Some(&stage),
             progress: Some(&progress),
+            cancel: None,
         },
     )
     .context("cannot discretise the Cornell box")?;

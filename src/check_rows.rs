@@ -47,15 +47,15 @@ pub(crate) struct CheckRowsArgs {
 }
 
 pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
-    let voxel =
-        crate::bake::voxel_params(args.patches, args.voxel)?.unwrap_or_else(VoxelParams::default);
+    let voxel = radiosity_bake::host::voxel_params(args.patches, args.voxel)?
+        .unwrap_or_else(VoxelParams::default);
     if args.rows == 0 {
         bail!("--rows must be at least 1");
     }
     if args.rays == 0 {
         bail!("--rays must be at least 1");
     }
-    let form_factors = crate::args::form_factor_params(&args.form_factors)?;
+    let form_factors = radiosity_bake::host::form_factor_params(&args.form_factors)?;
     // Geometry only: the check needs the patches, not valid reflectances.
     let scene = crate::bake::load_scene(&args.scene, &LoadOptions::geometry_only())?;
     for w in &scene.report.warnings {
@@ -68,7 +68,11 @@ pub(crate) fn run(args: &CheckRowsArgs) -> anyhow::Result<()> {
     };
     let bar = crate::progress::stage_bar(12, " rows ({eta})", args.json);
     bar.stage("form factors");
-    let (_, progress) = crate::progress::callbacks(&bar);
+    let (_, counted) = crate::progress::callbacks(&bar);
+    let progress = |done: usize, total: usize| {
+        counted(done, total);
+        true
+    };
     let out = check_scene(
         &scene,
         &voxel,

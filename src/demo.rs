@@ -7,10 +7,10 @@
 
 use crate::args::BakeArgs;
 use crate::picture::LinearImage;
-use crate::runtime::Runtime;
 use anyhow::Context;
 use glam::DVec3;
 use radiosity_core::{Light, Rgb};
+use radiosity_runtime::BakedScene;
 use std::path::Path;
 use std::time::Instant;
 
@@ -32,7 +32,10 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         direct_points: None,
         given: Vec::new(),
     };
-    let params = crate::bake::params(&args)?;
+    let params = radiosity_bake::pipeline::BakeParams {
+        probes: radiosity_bake::probes::ProbeSpec::Auto,
+        ..crate::bake::params(&args)?
+    };
     crate::output::create_dir(out)?;
     for name in ["demo.rad", "demo.png", "demo.gif"] {
         crate::output::check_file(&out.join(name))?;
@@ -45,12 +48,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     let t = Instant::now();
     let (baked, _) =
         crate::bake::bake_scene(&obj, Some("embedded"), &Default::default(), &params, false)?;
-    let (baked, probe_report) = crate::bake::attach_probes(
-        baked,
-        &crate::probes::ProbeSpec::Auto,
-        crate::probes::ProbeRank::Auto,
-    )?;
-    let probe_report = probe_report.context("the demo's probes")?;
+    let probe_report = baked.report.probes.clone().context("the demo's probes")?;
     let bake_s = t.elapsed().as_secs_f64();
     let bytes = baked.file.to_bytes()?;
     let rad = out.join("demo.rad");
@@ -83,17 +81,17 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         probe_report.bytes as f64 / 1e6
     );
 
-    let rt = Runtime::new(baked.file);
+    let rt = BakedScene::new(baked.file);
     let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
 
     // demo.png: the box by its own light.
-    let cam = crate::render::camera(&rt, None, 512, 512)?;
+    let cam = radiosity_runtime::render::auto_camera(&rt, 512, 512)?;
     let t = Instant::now();
     let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &[], 1.0)?;
-    let prim = crate::render::primary(&rt, &cam, 2)?;
-    let img = crate::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
+    let prim = radiosity_runtime::render::primary(&rt, &cam, 2)?;
+    let img = radiosity_runtime::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
     let png = out.join("demo.png");
-    img.save_png(&png, img.auto_exposure())?;
+    crate::picture::save_png(&img, &png, img.auto_exposure())?;
     outln!(
         "{}: 512×512, gather {:.2} ms, image {:.0} ms",
         png.display(),
@@ -107,8 +105,8 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         .mesh_bounds()
         .context("the demo's mesh has no vertices")?;
     let (centre, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
-    let cam = crate::render::camera(&rt, None, 256, 256)?;
-    let prim = crate::render::primary(&rt, &cam, 1)?;
+    let cam = radiosity_runtime::render::auto_camera(&rt, 256, 256)?;
+    let prim = radiosity_runtime::render::primary(&rt, &cam, 1)?;
     let mut gathers = Vec::with_capacity(FRAMES);
     let mut frames_ms = Vec::with_capacity(FRAMES);
     let mut probes_ms = Vec::with_capacity(FRAMES);
@@ -130,7 +128,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         frames_ms.push(t.elapsed().as_secs_f64() * 1e3);
         gathers.push(g);
         let t = Instant::now();
-        let sh = crate::probes::frame_sh(&rt, &frame.irradiance);
+        let sh = radiosity_runtime::probes::frame_sh(&rt, &frame.irradiance);
         probes_ms.push(t.elapsed().as_secs_f64() * 1e3);
         let b = -2.0 * a;
         let centre = DVec3::new(
@@ -138,14 +136,14 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
             lo.y + (1.05 + 0.25 * (2.0 * b).sin()) * half.y,
             centre.z + 0.5 * half.z + 0.35 * half.z * b.sin(),
         );
-        let sphere = crate::render::Sphere {
+        let sphere = radiosity_runtime::render::Sphere {
             centre,
             radius: 0.18 * half.y,
             reflectance: Rgb::splat(0.75),
-            sh: crate::probes::sh_at(&rt, &sh, centre)
+            sh: radiosity_runtime::probes::sh_at(&rt, &sh, centre)
                 .context("the demo's sphere left the probe grid")?,
         };
-        images.push(crate::render::shade(
+        images.push(radiosity_runtime::render::shade(
             &rt,
             &prim,
             &frame,
@@ -185,7 +183,8 @@ fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Resu
         let mut enc = GifEncoder::new_with_speed(w, 10);
         enc.set_repeat(Repeat::Infinite)?;
         for img in images {
-            let rgba = image::DynamicImage::ImageRgb8(img.to_srgb8(exposure)).to_rgba8();
+            let rgba =
+                image::DynamicImage::ImageRgb8(crate::picture::srgb8(&img, exposure)).to_rgba8();
             enc.encode_frame(Frame::from_parts(
                 rgba,
                 0,

@@ -15,24 +15,19 @@ mod args;
 mod backend;
 mod bake;
 mod bench;
-mod camera;
 mod check_rows;
 mod demo;
 mod embedded;
 mod export_dds;
+mod files;
 mod inspect;
-mod lights;
-mod limits;
-mod materials;
 mod output;
 mod pathtrace;
 mod picture;
-mod points;
-mod probes;
 mod progress;
 mod render;
 mod report;
-mod runtime;
+mod scene;
 mod solve;
 mod view_factors;
 
@@ -356,8 +351,12 @@ fn main() -> ExitCode {
             patches,
             runs,
             json,
-        } => limits::check_patches(patches, radiosity_bake::bounce::BounceSpec::Infinite)
-            .and_then(|()| bench::run(patches, json, runs)),
+        } => radiosity_bake::limits::check_patches(
+            patches,
+            radiosity_bake::bounce::BounceSpec::Infinite,
+        )
+        .map_err(anyhow::Error::from)
+        .and_then(|()| bench::run(patches, json, runs)),
         Command::Report { quick, output } => {
             report::output_dir(output).and_then(|dir| report::run(quick, &dir))
         }

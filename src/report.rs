@@ -20,7 +20,6 @@ mod plots;
 mod table;
 
 use crate::embedded;
-use crate::pathtrace::{ObjectEstimate, PathTracer};
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use markdown::{Notes, markdown};
@@ -33,6 +32,7 @@ use radiosity_bake::pipeline::{
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
 use radiosity_core::Format;
+use radiosity_pathtrace::{ObjectEstimate, PathTracer};
 use radiosity_perf::peers::LuSolve;
 use radiosity_perf::timing::ms;
 use std::path::{Path, PathBuf};
@@ -218,7 +218,9 @@ pub(crate) fn run(quick: bool, out: &Path) -> anyhow::Result<()> {
         plan.pt_samples
     ));
     let t = Instant::now();
-    let pt = PathTracer::new(&scene, &[]).context("cannot build the path tracer")?;
+    let pt = PathTracer::new(&scene, &[])
+        .map_err(anyhow::Error::msg)
+        .context("cannot build the path tracer")?;
     let reference = pt.object_irradiance(plan.pt_samples, 7);
     let pt_ms = ms(t.elapsed());
     let pt_noise = measure::pt_noise(&reference);

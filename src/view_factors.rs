@@ -20,7 +20,10 @@ pub(crate) fn run(scene_path: &Path, json_out: bool) -> anyhow::Result<()> {
         )
         .expect("static template"),
     );
-    let progress = |done: usize, _total: usize| bar.set_position(done as u64);
+    let progress = |done: usize, _total: usize| {
+        bar.set_position(done as u64);
+        true
+    };
     let vf = view_factors(&scene, &ViewFactorParams::default(), Some(&progress));
     bar.finish_and_clear();
     if json_out {

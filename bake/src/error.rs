@@ -14,6 +14,14 @@ pub enum BakeError {
         /// What the operating system said.
         source: std::io::Error,
     },
+    /// A scene file that should be text (an OBJ) holds binary data.
+    #[error("{}: {message}", path.display())]
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// What was found.
+        message: String,
+    },
     /// A statement in an OBJ or MTL file is malformed or out of range.
     #[error("{}:{line}: {message}", path.display())]
     Parse {
@@ -72,6 +80,13 @@ pub enum BakeError {
     /// hold, or no surface sees any other.
     #[error("{0}")]
     Unbakeable(String),
+    /// A bake flag (or host option) is refused: out of range, unknown, contradicting another,
+    /// or more than this machine can bake; the message names the flag.
+    #[error("{0}")]
+    Flag(String),
+    /// The host cancelled the bake from its progress callback; nothing was written.
+    #[error("the bake was cancelled")]
+    Cancelled,
     /// A parameter is out of its documented range.
     #[error("invalid parameter: {0}")]
     InvalidParams(String),

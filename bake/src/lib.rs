@@ -6,7 +6,7 @@
 //!    objects, reflectance, emission, textures, errors that name the file and line or item.
 //! 2. [`simplify`]: the paper's voxel simplification into patches ([`simplify::simplify`]),
 //!    with per-vertex interpolation weights and the runtime mesh.
-//! 3. [`geometry`]: the occlusion BVH over the full-detail triangles, polygons, the exact
+//! 3. [`geometry`] (the `radiosity-geometry` crate): the occlusion BVH over the full-detail triangles, polygons, the exact
 //!    point-to-polygon kernel and adaptive quadrature.
 //! 4. [`form_factor`]: the n × n form-factor matrix ([`form_factor::form_factors`]): exact,
 //!    clustered and flat-site pairs with ray-sampled visibility.
@@ -30,12 +30,18 @@ pub mod effects;
 pub mod encode;
 pub mod error;
 pub mod form_factor;
-pub mod geometry;
 pub(crate) mod hemisphere;
+pub mod host;
+pub mod limits;
 pub mod order;
 pub mod pipeline;
-pub mod rng;
+pub mod probes;
 pub mod scene;
 pub mod simplify;
 
 pub use error::BakeError;
+
+// The geometry stage and the random streams live in `radiosity-geometry`, which the runtime
+// shares without the bake's heavy dependencies; the bake's stages name them as before.
+pub use radiosity_geometry as geometry;
+pub use radiosity_geometry::rng;

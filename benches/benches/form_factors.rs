@@ -7,7 +7,6 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use radiosity_bake::check::view_factors::{ViewFactorParams, view_factors};
 use radiosity_bake::form_factor::{FormFactorParams, form_factors};
-use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{VoxelParams, simplify};
 use std::hint::black_box;
@@ -21,7 +20,7 @@ fn cornell() -> Scene {
 
 fn patch_matrix(c: &mut Criterion) {
     let scene = cornell();
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let mut g = c.benchmark_group("form_factors");
     g.sample_size(10);
     for n in [1024, 4096] {
@@ -71,7 +70,7 @@ fn flat_sites(c: &mut Criterion) {
     let mats = [Material::new("white", [0.99; 3], [0.0; 3])];
     let scene = Scene::load_obj(&write_scene(&dir, "room", &quads, &mats)).expect("room loads");
     let _ = std::fs::remove_dir_all(&dir);
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let patches = simplify(&scene, &VoxelParams::with_patches(96)).expect("simplify");
     let mut g = c.benchmark_group(format!("flat_sites_split_{split}"));
     g.sample_size(10);

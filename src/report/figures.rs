@@ -3,16 +3,16 @@
 
 use super::plots::{self, Chart, Series};
 use super::{Level, Plan, Sample, middle_samples, table};
-use crate::pathtrace::PathTracer;
 use crate::picture::LinearImage;
-use crate::runtime::Runtime;
 use anyhow::Context;
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
 use radiosity_bake::order::{self, OrderKind};
 use radiosity_bake::pipeline::BakeOutput;
 use radiosity_core::{DecodeMode, Format};
+use radiosity_pathtrace::PathTracer;
 use radiosity_perf::timing::ms;
+use radiosity_runtime::BakedScene;
 use std::path::Path;
 use std::time::Instant;
 
@@ -119,21 +119,21 @@ pub(super) fn renders(
     s: &Sample,
     plan: &Plan,
 ) -> anyhow::Result<Vec<(String, String)>> {
-    let rt = Runtime::new(baked.file);
+    let rt = BakedScene::new(baked.file);
     let side = plan.image_side;
-    let cam = crate::render::camera(&rt, None, side, side)?;
+    let cam = radiosity_runtime::render::auto_camera(&rt, side, side)?;
     let mut g = CpuGather::new(rt.file.matrix.clone());
     let (frame, _) = rt.frame(&mut g, &[], 1.0)?;
-    let prim = crate::render::primary(&rt, &cam, 2)?;
+    let prim = radiosity_runtime::render::primary(&rt, &cam, 2)?;
     let t = Instant::now();
-    let ours = crate::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
+    let ours = radiosity_runtime::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
     let ours_ms = ms(t.elapsed());
     let t = Instant::now();
     let reference: LinearImage = pt.render(&cam, plan.pt_spp, 11);
     let pt_ms = ms(t.elapsed());
     let exposure = reference.auto_exposure();
-    let a = ours.to_srgb8(exposure);
-    let b = reference.to_srgb8(exposure);
+    let a = crate::picture::srgb8(&ours, exposure);
+    let b = crate::picture::srgb8(&reference, exposure);
     crate::picture::save_png_atomic(&a, &out.join("render_baked.png"))?;
     crate::picture::save_png_atomic(&b, &out.join("render_pathtraced.png"))?;
     let p = out.join("fig7_render_vs_pathtracer.png");

@@ -4,12 +4,12 @@
 
 use super::{Gpu, Level, Plan, Sample};
 use crate::bench::relative_l2;
-use crate::pathtrace::ObjectEstimate;
 use anyhow::Context;
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, Hooks, ObjectShares, bake_discretised};
 use radiosity_core::{Format, Gather, Rgb};
+use radiosity_pathtrace::ObjectEstimate;
 use radiosity_perf::peers::{FaerDense, JacobiBounces};
 use radiosity_perf::timing::{interleaved_medians, median, ms, runs_for};
 use std::time::Instant;

@@ -185,14 +185,13 @@ pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
 pub fn cornell_form_factors(patches: usize) -> (Vec<Patch>, radiosity_bake::bounce::Dense) {
     use radiosity_bake::bounce::Dense;
     use radiosity_bake::form_factor::{FormFactorParams, form_factors};
-    use radiosity_bake::geometry::Occluders;
     use radiosity_bake::scene::Scene;
     use radiosity_bake::simplify::{VoxelParams, simplify};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes/cornell-box/CornellBox-Original.obj");
     let scene = Scene::load_obj(&path).expect("Cornell box loads");
     let simplified = simplify(&scene, &VoxelParams::with_patches(patches)).expect("simplifies");
-    let occluders = Occluders::new(&scene);
+    let occluders = scene.occluders();
     let ff = form_factors(
         &simplified,
         Some(&occluders),

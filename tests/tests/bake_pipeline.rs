@@ -2,7 +2,6 @@
 //! done, and compression quality on the Cornell box.
 
 use radiosity_bake::bounce::BounceSpec;
-use radiosity_bake::geometry::Occluders;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::check_dark;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
@@ -192,7 +191,7 @@ fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
     let (_d, rug) = cube_with(false, false, true);
     let scene = Scene::load_obj(&rug).unwrap();
     let patches = simplify(&scene, &VoxelParams::with_patches(150)).unwrap();
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let (rugs, floor) = (
         patches_of(&scene, &patches, "rug"),
         patches_of(&scene, &patches, "floor"),
@@ -231,7 +230,7 @@ fn the_dark_patch_check_tells_a_patch_that_sees_from_one_that_does_not() {
     let mats = [Material::new("wall", [0.5; 3], [0.0; 3])];
     let scene = Scene::load_obj(&write_scene(dir.path(), "mat", &quads, &mats)).unwrap();
     let patches = simplify(&scene, &VoxelParams::with_patches(150)).unwrap();
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let mat = patches_of(&scene, &patches, "mat");
     let covered = check_dark(&patches, &occ, &mat, 1);
     assert_eq!(

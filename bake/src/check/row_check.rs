@@ -213,7 +213,7 @@ pub fn check_scene(
             patches.len().saturating_sub(1)
         )));
     }
-    let occ = Occluders::new(scene);
+    let occ = scene.occluders();
     let mut ffp = *form_factors;
     if !crate::effects::plan_occlusion(scene).on {
         ffp.visibility = Visibility::Off;

@@ -226,7 +226,7 @@ pub fn view_factors(
 ) -> ViewFactors {
     let m = scene.objects.len();
     let nt = scene.triangles.len();
-    let occ = Occluders::new(scene);
+    let occ = scene.occluders();
     let ctx = Ctx { occ: &occ, params };
     let corners: Vec<[DVec3; 3]> = (0..nt).map(|t| scene.corners(t)).collect();
     let area: Vec<f64> = (0..nt).map(|t| scene.triangle_area(t)).collect();

@@ -29,7 +29,7 @@ use crate::rng::{SplitMix64, sobol2};
 use crate::simplify::Patches;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Seed of the ray streams (any fixed value: it only has to differ from the checks' seeds).
 const SEED: u64 = 0x5EED_CA57_F0F0_0001;
@@ -111,15 +111,21 @@ pub(super) fn cast(
     assert_eq!(matrix.len(), n * n);
     let owners = Owners::new(patches);
     let done = AtomicUsize::new(0);
+    let stopped = AtomicBool::new(false);
     // Counts first, each row written by its own patch (no shared output).
     matrix
         .par_chunks_mut(n.max(1))
         .enumerate()
         .for_each(|(i, row)| {
+            if stopped.load(Ordering::Relaxed) {
+                return;
+            }
             cast_row(patches, &owners, occ, i, rays, row);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if let Some(p) = progress {
-                p(d, n);
+            if let Some(p) = progress
+                && !p(d, n)
+            {
+                stopped.store(true, Ordering::Relaxed);
             }
         });
     // Then the pooled exchange of every pair, in place: `c_ij + c_ji` over the two sides' ray

@@ -79,7 +79,7 @@ use exact::Contribution;
 use flat::Sites;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// The computed matrix and its diagnostics.
 #[derive(Clone, Debug)]
@@ -115,8 +115,10 @@ impl FormFactors {
     }
 }
 
-/// Progress callback: `(rows done, rows in all)`, called from worker threads.
-pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+/// Progress callback: `(rows done, rows in all)`, called from worker threads; returns whether
+/// to go on. Once it returns `false` the rows not yet started are skipped (left zero), so the
+/// matrix is incomplete and the caller discards it (a cancelled bake).
+pub type Progress<'a> = &'a (dyn Fn(usize, usize) -> bool + Sync);
 
 /// Whether piece `t` can receive anything from piece `s` at all: some of `t` strictly in front
 /// of `s`'s plane and some of `s` strictly in front of `t`'s.
@@ -474,9 +476,13 @@ pub fn form_factor_rows(
     let setup = Setup::new(patches, occluders, params);
     let ctx = Pairs::new(patches, setup.occ, setup.cache.as_ref(), params, setup.tol);
     let done = AtomicUsize::new(0);
+    let stopped = AtomicBool::new(false);
     let out: Vec<(Vec<f64>, u64)> = rows
         .par_iter()
         .map_init(Scratch::default, |scratch, &i| {
+            if stopped.load(Ordering::Relaxed) {
+                return (vec![0.0; n], 0);
+            }
             let mut rays = 0u64;
             let ai = patches.patches[i].area;
             let row = (0..n)
@@ -485,8 +491,10 @@ pub fn form_factor_rows(
                 .map(|j| ctx.exchange(i.min(j), i.max(j), &mut rays, scratch) / ai)
                 .collect();
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if let Some(p) = progress {
-                p(d, rows.len());
+            if let Some(p) = progress
+                && !p(d, rows.len())
+            {
+                stopped.store(true, Ordering::Relaxed);
             }
             (row, rays)
         })
@@ -517,10 +525,14 @@ pub fn form_factors(
     // radius about its centre for the near/far test.
     let ctx = Pairs::new(patches, setup.occ, setup.cache.as_ref(), params, setup.tol);
     let done = AtomicUsize::new(0);
+    let stopped = AtomicBool::new(false);
     let clustered = std::sync::atomic::AtomicU64::new(0);
     let rows: Vec<(Vec<f64>, u64)> = (0..n)
         .into_par_iter()
         .map_init(Scratch::default, |scratch, i| {
+            if stopped.load(Ordering::Relaxed) {
+                return (vec![0.0; n - i], 0);
+            }
             let mut rays = 0u64;
             let before = scratch.clustered;
             let row: Vec<f64> = (i..n)
@@ -528,8 +540,10 @@ pub fn form_factors(
                 .collect();
             clustered.fetch_add(scratch.clustered - before, Ordering::Relaxed);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if let Some(p) = progress {
-                p(d, n);
+            if let Some(p) = progress
+                && !p(d, n)
+            {
+                stopped.store(true, Ordering::Relaxed);
             }
             (row, rays)
         })

@@ -13,7 +13,8 @@ mod report;
 pub use closure::Exposure;
 pub use dark::{DarkCheck, check_dark};
 pub use params::{BakeParams, FormatChoice, Hooks};
-pub use report::{BakeReport, Bytes, ClosureReport, ObjectShares, SharedPatch, store};
+pub use radiosity_runtime::{ObjectShares, SharedPatch};
+pub use report::{BakeReport, Bytes, ClosureReport, store};
 
 use report::{BakeSummary, Measured};
 
@@ -27,7 +28,6 @@ use crate::encode::{
 use crate::form_factor::{
     FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors,
 };
-use crate::geometry::Occluders;
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
 use crate::simplify::{Patches, simplify};
@@ -123,11 +123,6 @@ pub fn discretise(
             params.direct_points
         )));
     }
-    let stage = |s: &str| {
-        if let Some(f) = hooks.stage {
-            f(s)
-        }
-    };
     let mut timings = BTreeMap::new();
     let mut clock = Instant::now();
     let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
@@ -135,7 +130,7 @@ pub fn discretise(
         clock = Instant::now();
     };
 
-    stage("simplify");
+    hooks.start("simplify")?;
     let mut patches = simplify(scene, &params.voxel)?;
     lap("simplify", &mut timings);
 
@@ -148,13 +143,16 @@ pub fn discretise(
     if !occlusion.on {
         ffp.visibility = Visibility::Off;
     }
-    let occluders = occlusion.on.then(|| Occluders::new(scene));
+    let occluders = occlusion.on.then(|| scene.occluders());
     effects.insert("occlusion", occlusion);
     effects.insert("emission", effects::plan_emission(&patches));
     lap("plan", &mut timings);
 
-    stage("form factors");
-    let mut ff = form_factors(&patches, occluders.as_ref(), &ffp, hooks.progress);
+    hooks.start("form factors")?;
+    let go_on = |done: usize, total: usize| hooks.report(done, total);
+    let mut ff = form_factors(&patches, occluders.as_ref(), &ffp, Some(&go_on));
+    // The rows skipped after a cancellation leave the matrix incomplete: it goes no further.
+    hooks.check()?;
     lap("form_factors", &mut timings);
     form_factor_effects(&ff, ffp.exact_pieces, &mut effects);
 
@@ -182,7 +180,7 @@ pub fn discretise(
     let checks_occ = || {
         occluders
             .as_ref()
-            .unwrap_or_else(|| built.get_or_init(|| Occluders::new(scene)))
+            .unwrap_or_else(|| built.get_or_init(|| scene.occluders()))
     };
     let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
     let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
@@ -329,11 +327,6 @@ fn second_half(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<BakeOutput, BakeError> {
-    let stage = |s: &str| {
-        if let Some(f) = hooks.stage {
-            f(s)
-        }
-    };
     let mut timings = system.timings_ms.clone();
     let t_all = Instant::now();
     let mut clock = Instant::now();
@@ -345,18 +338,18 @@ fn second_half(
     let channels = system.channels;
     let n = system.live.len();
 
-    stage("transfer");
+    hooks.start("transfer")?;
     let (mut m, transfer) = transfer_step(system, f, params, &mut effects, hooks)?;
     lap("transfer", &mut timings);
 
     let (format, encode_params) = encode_params_for(params, channels);
 
-    stage("order");
+    hooks.start("order")?;
     let (candidates, chosen) = choose_order(system, &m, params, encode_params)?;
     order::permute_in_place(&mut m, n, channels, &chosen.perm);
     lap("order", &mut timings);
 
-    stage("encode");
+    hooks.start("encode")?;
     // Errors are weighed for the scene's own emitters and for runtime lights alike
     // (`ErrorWeights`), and the sparse entries chosen by that weighted error.
     let file_patches: Vec<Patch> = order::permute_rows(&system.core_patches, &chosen.perm);
@@ -372,7 +365,7 @@ fn second_half(
     .map_err(encode_error)?;
     lap("encode", &mut timings);
 
-    stage("measure");
+    hooks.start("measure")?;
     let measured = Measured::new(&m, n, channels, &matrix, &emission, &candidates, &chosen);
     lap("measure", &mut timings);
 
@@ -413,11 +406,12 @@ fn second_half(
     };
     let report = report::report(scene, system, &file, summary);
     let report = report::store(&mut file, report)?;
-    Ok(BakeOutput {
+    let out = BakeOutput {
         file,
         report,
         patch_source,
-    })
+    };
+    crate::probes::attach(out, &params.probes, params.probe_rank, hooks)
 }
 
 /// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,

@@ -3,8 +3,9 @@
 
 use crate::bounce::BounceSpec;
 use crate::encode::EncodeParams;
-use crate::form_factor::{FormFactorParams, Progress};
+use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
+use crate::probes::{ProbeRank, ProbeSpec};
 use crate::simplify::VoxelParams;
 use radiosity_core::Format;
 
@@ -51,6 +52,11 @@ pub struct BakeParams {
     /// ([`crate::simplify::runtime_mesh::direct_points`]), 1 to
     /// [`MAX_DIRECT_POINTS`](crate::simplify::runtime_mesh::MAX_DIRECT_POINTS).
     pub direct_points: u32,
+    /// Light probes placed and weighed after the transfer ([`crate::probes`]); `None` by
+    /// default here (the command line and the host API default to `Auto`).
+    pub probes: ProbeSpec,
+    /// What the probes store: rows of weights or factors ([`ProbeRank`]).
+    pub probe_rank: ProbeRank,
 }
 
 impl Default for BakeParams {
@@ -67,6 +73,8 @@ impl Default for BakeParams {
             closure_tolerance: 0.05,
             seed: 1,
             direct_points: crate::simplify::runtime_mesh::DIRECT_POINTS,
+            probes: ProbeSpec::None,
+            probe_rank: ProbeRank::Auto,
         }
     }
 }
@@ -93,11 +101,55 @@ impl BakeParams {
     }
 }
 
-/// Callbacks for a front end: stage names as they start, and form-factor progress.
+/// Callbacks for a front end: stage names as they start, the progress of the counting stages,
+/// and a cancellation flag.
 #[derive(Clone, Copy, Default)]
 pub struct Hooks<'a> {
     /// Called with a stage name when it starts.
     pub stage: Option<&'a (dyn Fn(&str) + Sync)>,
-    /// Form-factor rows done / total.
-    pub progress: Option<Progress<'a>>,
+    /// Work done / total within the current stage (form-factor rows, transfer quarters,
+    /// probes), called from worker threads.
+    pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// Set by the front end to stop the bake: checked between stages and between the rows of
+    /// the form factors and the probes; a bake that sees it set returns
+    /// [`BakeError::Cancelled`](crate::BakeError::Cancelled).
+    pub cancel: Option<&'a std::sync::atomic::AtomicBool>,
+}
+
+impl Hooks<'_> {
+    /// Starts stage `name` ([`Self::stage`]), or returns [`BakeError::Cancelled`] when the
+    /// front end has asked to stop.
+    ///
+    /// [`BakeError::Cancelled`]: crate::BakeError::Cancelled
+    pub fn start(&self, name: &str) -> Result<(), crate::BakeError> {
+        self.check()?;
+        if let Some(f) = self.stage {
+            f(name);
+        }
+        Ok(())
+    }
+
+    /// [`BakeError::Cancelled`](crate::BakeError::Cancelled) when the front end has asked to
+    /// stop.
+    pub fn check(&self) -> Result<(), crate::BakeError> {
+        if self.cancelled() {
+            Err(crate::BakeError::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Whether the front end has asked to stop.
+    pub fn cancelled(&self) -> bool {
+        self.cancel
+            .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
+    /// Reports `done` of `total` in the current stage; returns whether to go on.
+    pub fn report(&self, done: usize, total: usize) -> bool {
+        if let Some(p) = self.progress {
+            p(done, total);
+        }
+        !self.cancelled()
+    }
 }

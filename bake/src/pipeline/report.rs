@@ -10,7 +10,8 @@ use crate::scene::Scene;
 use radiosity_core::{
     Bounces, DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, TransferMatrix,
 };
-use serde::{Deserialize, Serialize};
+use radiosity_runtime::SharedPatch;
+use serde::Serialize;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 
@@ -86,98 +87,8 @@ pub struct BakeReport {
     /// The patches holding parts of more than one object (file patch order), with each
     /// object's exposed area in them; every other patch belongs to its `object` whole.
     pub shared_patches: Vec<SharedPatch>,
-}
-
-/// A patch of parts of several objects: the exposed area of each object in it (the patch's
-/// own `object` is the largest of them). `objects` and `areas` have one entry per object, in
-/// increasing object order; the areas sum to the patch's area.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SharedPatch {
-    /// Index of the patch in the file.
-    pub patch: u32,
-    /// The objects (file object order).
-    pub objects: Vec<u32>,
-    /// Each object's exposed area in the patch.
-    pub areas: Vec<f64>,
-    /// The object of each of the patch's direct-light samples (the mesh's `samples_of(patch)`
-    /// order): `solve` takes each object's direct light from its own samples.
-    #[serde(default)]
-    pub sample_objects: Vec<u32>,
-}
-
-/// Every file patch's area per object: a patch belongs to its `object` whole, unless the
-/// report's `shared_patches` splits it.
-pub struct ObjectShares<'a> {
-    patches: &'a [radiosity_core::Patch],
-    /// Per file patch, its entry in `shared` (`u32::MAX` for none).
-    slot: Vec<u32>,
-    shared: Vec<SharedPatch>,
-}
-
-impl<'a> ObjectShares<'a> {
-    /// The shares for `patches` of a file of `objects` objects. `shared` is checked: a list
-    /// naming a patch or object past the end, a patch twice, lists of unequal lengths or an
-    /// area not finite and at least 0 is not used (every patch then belongs to its `object`),
-    /// so a damaged report cannot move light between objects or out of range.
-    pub fn new(
-        patches: &'a [radiosity_core::Patch],
-        objects: usize,
-        shared: Vec<SharedPatch>,
-    ) -> Self {
-        let mut slot = vec![u32::MAX; patches.len()];
-        let good = shared.iter().enumerate().all(|(k, s)| {
-            let ok = (s.patch as usize) < patches.len()
-                && s.objects.len() == s.areas.len()
-                && s.objects.iter().all(|&o| (o as usize) < objects)
-                && s.sample_objects.iter().all(|&o| (o as usize) < objects)
-                && s.areas.iter().all(|a| a.is_finite() && *a >= 0.0)
-                && slot[s.patch as usize] == u32::MAX;
-            if ok {
-                slot[s.patch as usize] = k as u32;
-            }
-            ok
-        });
-        if !good {
-            slot.fill(u32::MAX);
-        }
-        Self {
-            patches,
-            slot,
-            shared: if good { shared } else { Vec::new() },
-        }
-    }
-
-    /// The shares read from a bake report (`shared_patches`; none when it has no such field).
-    pub fn from_report(
-        patches: &'a [radiosity_core::Patch],
-        objects: usize,
-        report: Option<&serde_json::Value>,
-    ) -> Self {
-        let shared = report
-            .and_then(|r| r.get("shared_patches"))
-            .and_then(|v| serde_json::from_value(v.clone()).ok())
-            .unwrap_or_default();
-        Self::new(patches, objects, shared)
-    }
-
-    /// The object of each direct-light sample of patch `i`, where it is shared and the report
-    /// says.
-    pub fn sample_objects(&self, i: usize) -> Option<&[u32]> {
-        let s = self.shared.get(self.slot[i] as usize)?;
-        (!s.sample_objects.is_empty()).then_some(s.sample_objects.as_slice())
-    }
-
-    /// `(object, area)` of patch `i`.
-    pub fn of(&self, i: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
-        let one = (self.slot[i] == u32::MAX)
-            .then(|| (self.patches[i].object, f64::from(self.patches[i].area)));
-        let many = self
-            .shared
-            .get(self.slot[i] as usize)
-            .into_iter()
-            .flat_map(|s| s.objects.iter().copied().zip(s.areas.iter().copied()));
-        one.into_iter().chain(many)
-    }
+    /// The light probes' placement and storage (`None` without probes).
+    pub probes: Option<crate::probes::ProbeReport>,
 }
 
 /// Closure measurements.
@@ -398,6 +309,7 @@ pub(super) fn report(
                 })
             })
             .collect(),
+        probes: None,
     }
 }
 

@@ -9,6 +9,7 @@
 use crate::error::BakeError;
 use glam::DVec3;
 use radiosity_core::Rgb;
+use radiosity_geometry::Occluders;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 pub use texture::Texture;
@@ -532,6 +533,18 @@ impl Scene {
             .map(|i| self.positions[i as usize])
     }
 
+    /// The occlusion BVH over every triangle, with each triangle's emission flag (an emitter
+    /// drawn on a surface covers it: [`Occluders::covered`]).
+    pub fn occluders(&self) -> Occluders {
+        let corners: Vec<[DVec3; 3]> = (0..self.triangles.len()).map(|t| self.corners(t)).collect();
+        let emits = self
+            .triangles
+            .iter()
+            .map(|t| self.materials[t.material as usize].emission.mean() > 0.0)
+            .collect();
+        Occluders::with_emitters(&corners, emits)
+    }
+
     /// Area of triangle `t`.
     pub fn triangle_area(&self, t: usize) -> f64 {
         let p = self.corners(t);
@@ -586,5 +599,63 @@ impl Scene {
             }
             _ => kd,
         }
+    }
+}
+
+#[cfg(test)]
+mod occluder_tests {
+    use super::{Material, Scene, Triangle};
+    use glam::dvec3;
+
+    /// A light drawn in the plane of the ceiling it overlaps (the Cornell page's box): a ray from
+    /// the floor reaches the light whichever of the two coincident faces the BVH meets first, and
+    /// the ceiling under the light is covered (hidden from the floor, buried to the bake).
+    #[test]
+    fn an_emitter_in_the_plane_of_a_surface_covers_it() {
+        // Facing down (−y): corners counter-clockwise seen from below.
+        let square = |lo: f64, hi: f64| {
+            [
+                dvec3(lo, 1.0, lo),
+                dvec3(hi, 1.0, lo),
+                dvec3(hi, 1.0, hi),
+                dvec3(lo, 1.0, hi),
+            ]
+        };
+        let mut positions = square(0.0, 1.0).to_vec();
+        positions.extend(square(0.4, 0.6));
+        let tri = |v: [u32; 3], material: u32| Triangle {
+            vertices: v,
+            texcoords: None,
+            object: material,
+            material,
+            line: 0,
+        };
+        let light = Material {
+            name: "light".into(),
+            reflectance: radiosity_core::Rgb::splat(0.5),
+            emission: radiosity_core::Rgb::splat(10.0),
+            texture: None,
+        };
+        let scene = Scene {
+            positions,
+            triangles: vec![
+                tri([0, 1, 2], 0),
+                tri([0, 2, 3], 0),
+                tri([4, 5, 6], 1),
+                tri([4, 6, 7], 1),
+            ],
+            objects: vec!["ceiling".into(), "light".into()],
+            materials: vec![Material::default_grey(), light],
+            ..Default::default()
+        };
+        let occ = scene.occluders();
+        let floor = dvec3(0.5, 0.0, 0.45);
+        // (0.55, 1, 0.5) lies in triangle 0 of the ceiling and triangle 2 of the light.
+        let under = dvec3(0.55, 1.0, 0.5);
+        assert!(occ.reaches(floor, under, 2), "the light is seen");
+        assert!(!occ.reaches(floor, under, 0), "the ceiling under it is not");
+        assert!(occ.covered(0, under) && !occ.covered(2, under));
+        let beside = dvec3(0.8, 1.0, 0.3);
+        assert!(occ.reaches(floor, beside, 0) && !occ.covered(0, beside));
     }
 }

@@ -123,7 +123,7 @@ pub(super) struct Loose<'a> {
 
 impl Loose<'_> {
     pub(super) fn occluders(&self) -> &Occluders {
-        self.occluders.get_or_init(|| Occluders::new(self.scene))
+        self.occluders.get_or_init(|| self.scene.occluders())
     }
 
     /// Whether two pieces see each other past the large surfaces: no surface of at least

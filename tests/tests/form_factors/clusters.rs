@@ -7,7 +7,7 @@ fn many_pieces_go_through_clustered_pairs_and_keep_a_sphere_in_a_box() {
     let dir = tempfile::tempdir().unwrap();
     let s = sphere_in_a_box(dir.path());
     let p = simplify(&s, &VoxelParams::with_patches(120)).unwrap();
-    let occ = Occluders::new(&s);
+    let occ = s.occluders();
     let object = |name: &str| s.objects.iter().position(|o| o == name).unwrap() as u32;
     let ball = object("ball");
     let run = |exact_pieces| {
@@ -101,7 +101,7 @@ fn a_clustered_pair_that_carries_its_row_gets_rays_in_proportion() {
     tris.extend(quad(square(z * 0.025, 0.25), z, 2));
     let names = ["low", "high", "blocker"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let p = simplify(&scene, &VoxelParams::with_cell_size(1000.0)).unwrap();
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
     let params = FormFactorParams {
@@ -200,7 +200,7 @@ fn partly_buried_rows_are_their_exposed_share() {
         }
     }
     assert!(rows.len() > 20, "only {} straddling patches", rows.len());
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let (f, _) = form_factor_rows(
         &patches,
         Some(&occ),
@@ -302,7 +302,7 @@ fn coarse_patches_on_a_fine_sphere_sample_each_pair_as_a_whole() {
     // 7 s (5120 facets around 80, 61 patches).
     let dir = tempfile::tempdir().unwrap();
     let s = nested_spheres(dir.path(), 3, 1);
-    let occ = Occluders::new(&s);
+    let occ = s.occluders();
     let p = simplify(&s, &VoxelParams::with_patches(24)).unwrap();
     let n = p.len();
     let ff = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);
@@ -401,7 +401,7 @@ fn ray_cast_rows_match_the_quadrature_on_a_sphere_in_a_box() {
     let dir = tempfile::tempdir().unwrap();
     let s = sphere_in_a_box(dir.path());
     let p = simplify(&s, &VoxelParams::with_patches(120)).unwrap();
-    let occ = Occluders::new(&s);
+    let occ = s.occluders();
     let object = |name: &str| s.objects.iter().position(|o| o == name).unwrap() as u32;
     let ball = object("ball");
     let exact = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);

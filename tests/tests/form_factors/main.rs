@@ -54,7 +54,7 @@ fn parallel_and_perpendicular_plates_match_the_catalogue() {
     ];
     let s = load(dir.path(), "c11", &plates, Placement::general(1.0));
     let p = simplify(&s, &VoxelParams::with_patches(128)).unwrap();
-    let occ = Occluders::new(&s);
+    let occ = s.occluders();
     let ff = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);
     // Nothing can come between two plates: the blocker test spares every ray.
     assert_eq!(ff.rays_cast, 0);
@@ -134,11 +134,12 @@ fn closed_box_rows_sum_to_one() {
 fn cornell_box_with_rays() {
     let s = cornell_box();
     let p = simplify(&s, &VoxelParams::with_patches(256)).unwrap();
-    let occ = Occluders::new(&s);
+    let occ = s.occluders();
     let rows_seen = std::sync::atomic::AtomicUsize::new(0);
     let progress = |_done: usize, total: usize| {
         assert_eq!(total, p.len());
         rows_seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        true
     };
     let ff = form_factors(
         &p,

@@ -41,7 +41,7 @@ fn shadow_rays_follow_the_kernel_next_to_a_large_panel() {
     }
     let names = ["panel", "plate", "wall0", "wall1", "wall2", "wall3"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
 
     // Hemisphere rays from the plate: the share that first meets the panel's front is F.
     let mut rng = radiosity_bake::rng::SplitMix64(7);
@@ -92,7 +92,7 @@ fn clustered_rays_see_across_a_narrow_gap_and_not_through_a_thin_layer() {
     tris.extend(quad(square(far + z * gap, 0.5), -z, 4));
     let names = ["floor", "rug", "plate", "low", "high"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
 
     // Hemisphere rays from the plate: the share that first meets the floor.
     let mut rng = radiosity_bake::rng::SplitMix64(5);
@@ -142,7 +142,7 @@ fn sampled_rows_are_the_rows_of_the_whole_matrix() {
         (&ball, 120, clustered),
     ] {
         let p = simplify(scene, &VoxelParams::with_patches(patches)).unwrap();
-        let occ = Occluders::new(scene);
+        let occ = scene.occluders();
         let whole = form_factors(&p, Some(&occ), &params, None);
         let rows = radiosity_bake::check::row_check::sample_rows(p.len(), 12, 3);
         let (f, rays) = form_factor_rows(&p, Some(&occ), &params, &rows, None);
@@ -200,7 +200,7 @@ fn hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets() {
     tris.extend(quad(square(crate_at, 0.25), z, 6));
     let names = ["floor", "low", "high", "front", "back", "crate", "inside"];
     let scene = Scene::from_triangles(names.iter().map(|s| s.to_string()).collect(), &tris);
-    let occ = Occluders::new(&scene);
+    let occ = scene.occluders();
     let p = simplify(&scene, &VoxelParams::with_cell_size(1000.0)).unwrap();
     let find = |o: u32| (0..p.len()).find(|&i| p.patches[i].object == o).unwrap();
     let ff = form_factors(&p, Some(&occ), &FormFactorParams::default(), None);

@@ -1,16 +1,16 @@
-//! Runtime lighting around the gather (`docs/contract.md`, "Conventions", runtime per frame):
+//! Lighting around the gather (`docs/contract.md`, "Conventions", runtime per frame):
 //! analytic lights → direct irradiance per patch with shadow rays through a BVH over the
 //! file's full-detail mesh → first exitance → gather → total irradiance and radiosity, and
 //! indirect light interpolated to any point of the mesh.
 
-use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
-use radiosity_bake::geometry::Occluders;
 use radiosity_core::{Gather, Light, Mesh, RadFile, Rgb, finish_frame, first_exitance};
+use radiosity_geometry::Occluders;
 
 /// A baked scene ready to light: the file, and the BVH over its mesh when it has one.
-pub(crate) struct Runtime {
-    pub(crate) file: RadFile<'static>,
+pub struct BakedScene {
+    /// The parsed file (its patches, matrix, mesh and probes).
+    pub file: RadFile<'static>,
     occluders: Option<Occluders>,
     /// The file's probes decoded for the CPU frame (`None` without probes).
     probes: Option<radiosity_core::DecodedProbes>,
@@ -18,22 +18,22 @@ pub(crate) struct Runtime {
 
 /// One frame's per-patch quantities (matrix numbering).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Frame {
+pub struct Frame {
     /// Direct irradiance from the analytic lights, H_d.
-    pub(crate) direct: Vec<Rgb>,
+    pub direct: Vec<Rgb>,
     /// First exitance x = s·E + ρ∘H_d.
-    pub(crate) exitance: Vec<Rgb>,
+    pub exitance: Vec<Rgb>,
     /// Gathered (indirect, and emitter-direct) irradiance y = M·x.
-    pub(crate) gathered: Vec<Rgb>,
+    pub gathered: Vec<Rgb>,
     /// Total irradiance H = H_d + y.
-    pub(crate) irradiance: Vec<Rgb>,
+    pub irradiance: Vec<Rgb>,
     /// Radiosity B = s·E + ρ∘H.
-    pub(crate) radiosity: Vec<Rgb>,
+    pub radiosity: Vec<Rgb>,
 }
 
-impl Runtime {
+impl BakedScene {
     /// Wraps a file, building the BVH over its mesh (if any).
-    pub(crate) fn new(file: RadFile<'static>) -> Self {
+    pub fn new(file: RadFile<'static>) -> Self {
         let occluders = file.mesh.as_ref().map(|m| {
             let tris: Vec<[DVec3; 3]> = (0..m.triangles.len())
                 .map(|t| m.corners(t).map(|c| Vec3::from(c).as_dvec3()))
@@ -49,24 +49,25 @@ impl Runtime {
     }
 
     /// The file's probes, decoded for the CPU frame.
-    pub(crate) fn decoded_probes(&self) -> Option<&radiosity_core::DecodedProbes> {
+    pub fn decoded_probes(&self) -> Option<&radiosity_core::DecodedProbes> {
         self.probes.as_ref()
     }
 
     /// Patches.
-    pub(crate) fn n(&self) -> usize {
+    pub fn n(&self) -> usize {
         self.file.n()
     }
 
     /// The mesh, or an error saying why it is needed.
-    pub(crate) fn mesh(&self, why: &str) -> anyhow::Result<&Mesh<'static>> {
-        self.file.mesh.as_ref().with_context(|| {
-            format!("this .rad file has no mesh section ({why} needs one); bake it again with this version")
-        })
+    pub fn mesh(&self, why: &str) -> crate::Result<&Mesh<'static>> {
+        self.file
+            .mesh
+            .as_ref()
+            .ok_or_else(|| crate::Error::NoMesh(why.to_owned()))
     }
 
     /// The bounding box of the mesh's vertices, if the file has a mesh with any.
-    pub(crate) fn mesh_bounds(&self) -> Option<(DVec3, DVec3)> {
+    pub fn mesh_bounds(&self) -> Option<(DVec3, DVec3)> {
         let mesh = self.file.mesh.as_ref()?;
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for p in mesh.positions.iter() {
@@ -78,13 +79,13 @@ impl Runtime {
     }
 
     /// The BVH over the mesh, if the file has one.
-    pub(crate) fn occluders(&self) -> Option<&Occluders> {
+    pub fn occluders(&self) -> Option<&Occluders> {
         self.occluders.as_ref()
     }
 
     /// Direct irradiance at a point with unit `normal` from every light, shadow rays through
     /// the mesh (or unshadowed when the file has no mesh — callers refuse that case first).
-    pub(crate) fn direct_at(&self, lights: &[Light], point: DVec3, normal: DVec3) -> Rgb {
+    pub fn direct_at(&self, lights: &[Light], point: DVec3, normal: DVec3) -> Rgb {
         let mut h = Rgb::ZERO;
         for l in lights {
             let Some((e, ray)) = l.irradiance_at(point.as_vec3(), normal.as_vec3()) else {
@@ -113,16 +114,13 @@ impl Runtime {
     /// Direct irradiance per patch: the area-weighted mean over the patch's samples (one per
     /// piece of the full-detail surface inside the patch), so that a shadow edge crossing a
     /// patch dims it in proportion.
-    pub(crate) fn direct(&self, lights: &[Light]) -> anyhow::Result<Vec<Rgb>> {
+    pub fn direct(&self, lights: &[Light]) -> crate::Result<Vec<Rgb>> {
         Ok(self.direct_with_samples(lights)?.0)
     }
 
-    /// [`Runtime::direct`], with the direct irradiance at every sample of the mesh (its sample
+    /// [`BakedScene::direct`], with the direct irradiance at every sample of the mesh (its sample
     /// order; empty without lights).
-    pub(crate) fn direct_with_samples(
-        &self,
-        lights: &[Light],
-    ) -> anyhow::Result<(Vec<Rgb>, Vec<Rgb>)> {
+    pub fn direct_with_samples(&self, lights: &[Light]) -> crate::Result<(Vec<Rgb>, Vec<Rgb>)> {
         let n = self.n();
         if lights.is_empty() {
             return Ok((vec![Rgb::ZERO; n], Vec::new()));
@@ -155,7 +153,7 @@ impl Runtime {
             .iter()
             .position(|v| !v.to_array().iter().all(|c| c.is_finite()))
         {
-            bail!(
+            overflow!(
                 "patch {p}: the direct irradiance from the lights overflows f32 (a light too intense or too close)"
             );
         }
@@ -164,29 +162,29 @@ impl Runtime {
 
     /// A whole frame: direct light, first exitance (emitters scaled by `emission`), gather,
     /// totals.
-    pub(crate) fn frame(
+    pub fn frame(
         &self,
         gather: &mut dyn Gather,
         lights: &[Light],
         emission: f32,
-    ) -> anyhow::Result<(Frame, f64)> {
+    ) -> crate::Result<(Frame, f64)> {
         if !(emission.is_finite() && emission >= 0.0) {
-            bail!("emission scale must be finite and non-negative, not {emission}");
+            invalid!("emission scale must be finite and non-negative, not {emission}");
         }
         let direct = self.direct(lights)?;
         self.frame_with_direct(gather, direct, emission)
     }
 
-    /// [`Runtime::frame`] from direct irradiance already computed ([`Runtime::direct`]) for the
+    /// [`BakedScene::frame`] from direct irradiance already computed ([`BakedScene::direct`]) for the
     /// frame's lights, for a caller that needed it first.
-    pub(crate) fn frame_with_direct(
+    pub fn frame_with_direct(
         &self,
         gather: &mut dyn Gather,
         direct: Vec<Rgb>,
         emission: f32,
-    ) -> anyhow::Result<(Frame, f64)> {
+    ) -> crate::Result<(Frame, f64)> {
         if !(emission.is_finite() && emission >= 0.0) {
-            bail!("emission scale must be finite and non-negative, not {emission}");
+            invalid!("emission scale must be finite and non-negative, not {emission}");
         }
         let n = self.n();
         let scaled: Vec<radiosity_core::Patch>;
@@ -227,96 +225,33 @@ impl Runtime {
     }
 }
 
-/// Warns when nothing lights the scene: no patch emits and no lights file was given, so every
-/// irradiance is zero and an image is black. Says how to add light.
-pub(crate) fn warn_if_unlit(rt: &Runtime, lights: &[Light]) {
-    let emits = rt
-        .file
-        .patches
-        .iter()
-        .any(|p| p.emission.max_channel() > 0.0);
-    if lights.is_empty() && !emits {
-        eprintln!(
-            "warning: nothing lights this scene (no emitting material, no --lights): everything is black; add lights with --lights LIGHTS.json (see docs/examples/lights.json) or give a material Ke in the MTL file"
-        );
+impl BakedScene {
+    /// Whether nothing lights the scene under `lights`: no patch emits and no light is given,
+    /// so every irradiance is zero (a caller warns: an image would be black).
+    pub fn is_unlit(&self, lights: &[Light]) -> bool {
+        lights.is_empty()
+            && !self
+                .file
+                .patches
+                .iter()
+                .any(|p| p.emission.max_channel() > 0.0)
     }
 }
 
 /// Refuses a frame whose irradiance or radiosity overflowed f32 (emission or light intensities
 /// near f32's limit, amplified by the bounces): an error, never `inf` or `null` in the output.
-pub(crate) fn ensure_finite(irradiance: &[Rgb], radiosity: &[Rgb]) -> anyhow::Result<()> {
+pub fn ensure_finite(irradiance: &[Rgb], radiosity: &[Rgb]) -> crate::Result<()> {
     let finite = |v: &Rgb| v.to_array().iter().all(|c| c.is_finite());
     match irradiance
         .iter()
         .zip(radiosity)
         .position(|(h, b)| !(finite(h) && finite(b)))
     {
-        Some(i) => anyhow::bail!(
+        Some(i) => overflow!(
             "patch {i}: the irradiance or radiosity overflows f32 (emission or light intensities too large)"
         ),
         None => Ok(()),
     }
-}
-
-/// A scene ready for the runtime, from a `.rad` file or baked from an OBJ on the spot.
-pub(crate) struct Loaded {
-    pub(crate) runtime: Runtime,
-    /// The bake's effect plan (`{}` when the file has no report).
-    pub(crate) effects: serde_json::Value,
-    /// Milliseconds spent loading, and baking when the input was an OBJ.
-    pub(crate) timings: std::collections::BTreeMap<&'static str, f64>,
-}
-
-/// Loads `input`: a `.rad` file, or an OBJ scene baked with `args` (progress bar unless
-/// `quiet`).
-pub(crate) fn load(
-    input: &std::path::Path,
-    args: &crate::args::BakeArgs,
-    quiet: bool,
-) -> anyhow::Result<Loaded> {
-    use serde_json::{Value, json};
-    let mut timings = std::collections::BTreeMap::new();
-    let t = std::time::Instant::now();
-    let is_rad = input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("rad"));
-    let (file, effects) = if is_rad {
-        if !args.given.is_empty() {
-            bail!(
-                "{} is already baked: the bake flag(s) {} do not apply to it (bake the OBJ scene again with them)",
-                input.display(),
-                args.given.join(", ")
-            );
-        }
-        let bytes =
-            std::fs::read(input).with_context(|| format!("cannot read {}", input.display()))?;
-        let file = RadFile::parse(&bytes)
-            .with_context(|| format!("{} is not a valid .rad file", input.display()))?
-            .into_owned();
-        let effects = file
-            .report
-            .as_deref()
-            .and_then(|r| serde_json::from_str::<Value>(r).ok())
-            .and_then(|r| r.get("effects").cloned())
-            .unwrap_or(json!({}));
-        timings.insert("load", t.elapsed().as_secs_f64() * 1e3);
-        (file, effects)
-    } else {
-        let params = crate::bake::params(args)?;
-        let load = crate::bake::load_options(args)?;
-        let (out, load_ms) = crate::bake::bake_scene(input, None, &load, &params, quiet)?;
-        timings.insert("load", load_ms);
-        timings.insert(
-            "bake",
-            out.report.timings_ms.get("total").copied().unwrap_or(0.0),
-        );
-        (out.file, serde_json::to_value(&out.report.effects)?)
-    };
-    Ok(Loaded {
-        runtime: Runtime::new(file),
-        effects,
-        timings,
-    })
 }
 
 #[cfg(test)]
@@ -330,7 +265,7 @@ mod tests {
 
     /// One patch: a unit floor quad at y = 0 facing up, with a zero matrix; optionally a
     /// blocker quad at y = 1 (facing down) over half of it.
-    fn floor(blocker: bool) -> Runtime {
+    fn floor(blocker: bool) -> BakedScene {
         let layout = MatrixLayout::new(1, 1, Format::F32, DEFAULT_MAX_TILE).unwrap();
         let mut positions = vec![[0., 0., 0.], [0., 0., 1.], [1., 0., 1.], [1., 0., 0.]];
         let mut triangles = vec![[0u32, 1, 2], [0, 2, 3]];
@@ -401,7 +336,7 @@ mod tests {
             probes: None,
         };
         file.validate().unwrap();
-        Runtime::new(file)
+        BakedScene::new(file)
     }
 
     #[test]
@@ -430,7 +365,7 @@ mod tests {
     fn lights_need_a_mesh() {
         let mut rt = floor(false);
         rt.file.mesh = None;
-        let rt = Runtime::new(rt.file);
+        let rt = BakedScene::new(rt.file);
         let light = [Light::Directional {
             direction: Vec3::NEG_Y,
             irradiance: Rgb::splat(1.0),

@@ -1,5 +1,6 @@
-//! Light probes (`bake --probes`, `radiosity_core::Probes`): where they go, what each stores,
-//! and the irradiance a point takes from them.
+//! Light probes (`bake --probes`, `radiosity_core::Probes`): where they go and what each
+//! stores. Their frame and the irradiance a point takes from them are the runtime's
+//! (`radiosity_runtime::probes`).
 //!
 //! Placement: `auto` lays a cubic lattice of about [`AUTO_PROBES`] probes over the bounding box
 //! of the scene's mesh, `SPACING` a lattice of that step, `FILE.json`
@@ -18,32 +19,39 @@
 //! probe of the cell is in sight, a tent twice as wide; no probe there either: "outside the
 //! probe grid".
 
-use crate::render::{PatchGrid, triangle_normal};
-use crate::runtime::Runtime;
-use anyhow::{Context, bail};
+use crate::BakeError;
+use crate::pipeline::{BakeOutput, Hooks};
+use crate::rng::SplitMix64;
 use glam::{DVec3, Vec3};
-use radiosity_bake::rng::SplitMix64;
-use radiosity_core::{
-    DecodedProbes, ProbeFactors, ProbeWeight, Probes, Rgb, SH_COEFFICIENTS, probes::sh_basis,
-    sh_irradiance,
-};
+use radiosity_core::{ProbeFactors, ProbeWeight, Probes, SH_COEFFICIENTS, probes::sh_basis};
+use radiosity_runtime::BakedScene;
+use radiosity_runtime::render::{PatchGrid, triangle_normal};
 use rayon::prelude::*;
 use serde::Deserialize;
 use std::borrow::Cow;
 use std::path::Path;
 
+/// A probe error: the message alone (it names the flag or file).
+fn refuse<T>(message: String) -> Result<T, BakeError> {
+    Err(BakeError::Flag(message))
+}
+
 /// Rays a probe: 64 × 64 strata over the sphere.
-pub(crate) const RAYS: usize = 64 * 64;
+pub const RAYS: usize = 64 * 64;
 /// Probes `auto` aims at over the scene's bounding box, before those inside solids are
 /// dropped: eight a side of a cube (docs/decisions/probe-interpolation.md weighs 64 to 913,
 /// docs/decisions/probe-factors.md what factoring makes affordable).
-pub(crate) const AUTO_PROBES: f64 = 512.0;
+pub const AUTO_PROBES: f64 = 512.0;
 /// Where probes go.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) enum ProbeSpec {
+pub enum ProbeSpec {
+    /// No probes.
     None,
+    /// A lattice of about `AUTO_PROBES` probes over the mesh's bounds.
     Auto,
+    /// A lattice of this step, in scene units.
     Spacing(f64),
+    /// These points.
     Points(Vec<DVec3>),
 }
 
@@ -53,60 +61,78 @@ struct ProbesFile {
     probes: Vec<[f64; 3]>,
 }
 
-/// Parses `--probes`: `auto`, `none`, a spacing in scene units, or a JSON file of points.
-pub(crate) fn parse_spec(s: &str) -> anyhow::Result<ProbeSpec> {
-    match s {
-        "none" => return Ok(ProbeSpec::None),
-        "auto" => return Ok(ProbeSpec::Auto),
-        _ => {}
-    }
-    if let Ok(h) = s.parse::<f64>() {
-        if !(h.is_finite() && h > 0.0) {
-            bail!("--probes spacing must be positive and finite, not {s}");
+impl ProbeSpec {
+    /// Parses `--probes`: `auto`, `none`, a spacing in scene units, or a JSON file of points.
+    pub fn parse(s: &str) -> Result<ProbeSpec, BakeError> {
+        match s {
+            "none" => return Ok(Self::None),
+            "auto" => return Ok(ProbeSpec::Auto),
+            _ => {}
         }
-        return Ok(ProbeSpec::Spacing(h));
+        if let Ok(h) = s.parse::<f64>() {
+            if !(h.is_finite() && h > 0.0) {
+                return refuse(format!(
+                    "--probes spacing must be positive and finite, not {s}"
+                ));
+            }
+            return Ok(ProbeSpec::Spacing(h));
+        }
+        let path = Path::new(s);
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            BakeError::Flag(format!(
+                "--probes {s}: not auto, none or a spacing, and cannot read it as a file: {e}"
+            ))
+        })?;
+        let file: ProbesFile = serde_json::from_str(&text).map_err(|e| {
+            BakeError::Flag(format!(
+                "bad probes file {s}: not {{\"probes\": [[x, y, z], …]}}: {e}"
+            ))
+        })?;
+        let points: Vec<DVec3> = file.probes.iter().map(|p| DVec3::from(*p)).collect();
+        if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+            return refuse(format!("bad probes file {s}: probe {i} is not finite"));
+        }
+        Ok(ProbeSpec::Points(points))
     }
-    let path = Path::new(s);
-    let text = std::fs::read_to_string(path).with_context(|| {
-        format!("--probes {s}: not auto, none or a spacing, and cannot read it as a file")
-    })?;
-    let file: ProbesFile = serde_json::from_str(&text)
-        .with_context(|| format!("bad probes file {s}: not {{\"probes\": [[x, y, z], …]}}"))?;
-    let points: Vec<DVec3> = file.probes.iter().map(|p| DVec3::from(*p)).collect();
-    if let Some(i) = points.iter().position(|p| !p.is_finite()) {
-        bail!("bad probes file {s}: probe {i} is not finite");
-    }
-    Ok(ProbeSpec::Points(points))
 }
 
 /// What the bake says about its probes.
-#[derive(Clone, Debug, serde::Serialize)]
-pub(crate) struct ProbeReport {
-    pub(crate) placed: usize,
-    pub(crate) dropped_inside: usize,
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ProbeReport {
+    /// Probes kept.
+    pub placed: usize,
+    /// Probes dropped for lying inside solid objects.
+    pub dropped_inside: usize,
     /// Weights the rays found (patch and probe pairs), before any factoring.
-    pub(crate) weights: usize,
+    pub weights: usize,
     /// The rank of the stored factors, `None` for rows of weights.
-    pub(crate) rank: Option<usize>,
-    pub(crate) bytes: usize,
-    pub(crate) spacing: f64,
-    pub(crate) seconds: f64,
+    pub rank: Option<usize>,
+    /// Bytes of the PROBES section.
+    pub bytes: usize,
+    /// The lattice step (or the median distance between scattered probes).
+    pub spacing: f64,
+    /// Seconds spent placing, weighing and factoring.
+    pub seconds: f64,
 }
 
-fn bounds(rt: &Runtime) -> anyhow::Result<(DVec3, DVec3)> {
-    rt.mesh("probes")?;
-    rt.mesh_bounds().context("probes need a mesh with vertices")
+fn bounds(rt: &BakedScene) -> Result<(DVec3, DVec3), BakeError> {
+    rt.mesh("probes")
+        .map_err(|e| BakeError::Flag(e.to_string()))?;
+    rt.mesh_bounds()
+        .ok_or_else(|| BakeError::Flag("probes need a mesh with vertices".into()))
 }
 
 /// A lattice of step `h` over `[lo, hi]`, centred on the box: `round(size/h)` probes an axis
 /// (at least one), so the outermost lie between a quarter and three quarters of a step inside
 /// the bounds (a scene's walls are on its bounds, and a probe on a wall sees nothing right).
 /// The step is `h` on every axis, so a point between probes takes trilinear weights.
-fn grid(lo: DVec3, hi: DVec3, h: f64) -> anyhow::Result<Vec<DVec3>> {
+fn grid(lo: DVec3, hi: DVec3, h: f64) -> Result<Vec<DVec3>, BakeError> {
     let cells = ((hi - lo) / h).round().max(DVec3::ONE);
     let count = cells.x * cells.y * cells.z;
     if count > 1e6 {
-        bail!("--probes spacing {h} gives {count:.0} probes over the scene (at most 1 000 000)");
+        return refuse(format!(
+            "--probes spacing {h} gives {count:.0} probes over the scene (at most 1 000 000)"
+        ));
     }
     let (nx, ny, nz) = (cells.x as usize, cells.y as usize, cells.z as usize);
     let first = (lo + hi) / 2.0 - (cells - DVec3::ONE) * (h / 2.0);
@@ -130,7 +156,7 @@ fn sphere_direction(u1: f64, u2: f64) -> DVec3 {
 }
 
 /// One probe's weights, or `None` when most of its rays meet back faces (inside a solid).
-fn weigh(rt: &Runtime, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<ProbeWeight>> {
+fn weigh(rt: &BakedScene, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<ProbeWeight>> {
     let mesh = rt.mesh("probes").expect("checked by the caller");
     let occ = rt.occluders().expect("a mesh has a BVH");
     let side = (RAYS as f64).sqrt() as usize;
@@ -175,11 +201,12 @@ fn weigh(rt: &Runtime, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<Pro
 }
 
 /// Places and weighs the probes of `spec` over the runtime's file (which needs its mesh).
-pub(crate) fn bake(
-    rt: &Runtime,
+pub fn bake(
+    rt: &BakedScene,
     spec: &ProbeSpec,
     rank: ProbeRank,
-) -> anyhow::Result<Option<(Probes<'static>, ProbeReport)>> {
+    hooks: Hooks<'_>,
+) -> Result<Option<(Probes<'static>, ProbeReport)>, BakeError> {
     let t = std::time::Instant::now();
     let (candidates, spacing) = match spec {
         ProbeSpec::None => return Ok(None),
@@ -196,13 +223,24 @@ pub(crate) fn bake(
             (grid(lo, hi, h)?, Some(h))
         }
     };
-    rt.mesh("--probes")?;
+    rt.mesh("--probes")
+        .map_err(|e| BakeError::Flag(e.to_string()))?;
     let patch_grid = PatchGrid::new(&rt.file.patches);
+    let done = std::sync::atomic::AtomicUsize::new(0);
     let rows: Vec<Option<Vec<ProbeWeight>>> = candidates
         .par_iter()
         .enumerate()
-        .map(|(i, &p)| weigh(rt, &patch_grid, p, 0x9e37_79b9 ^ i as u64))
+        .map(|(i, &p)| {
+            if hooks.cancelled() {
+                return None;
+            }
+            let row = weigh(rt, &patch_grid, p, 0x9e37_79b9 ^ i as u64);
+            let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            hooks.report(d, candidates.len());
+            row
+        })
         .collect();
+    hooks.check()?;
     let mut positions = Vec::new();
     let mut kept = Vec::new();
     for (p, row) in candidates.iter().zip(rows) {
@@ -263,76 +301,6 @@ pub(crate) fn bake(
     Ok(Some((probes, report)))
 }
 
-/// The probes' radiance SH for a frame of total irradiance `h` (file numbering): `P·(B − E)`,
-/// with `B − E = ρ∘H` whatever the frame's emission scale.
-pub(crate) fn frame_sh(rt: &Runtime, h: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
-    let Some(probes) = rt.decoded_probes() else {
-        return Vec::new();
-    };
-    let reflected: Vec<Rgb> = h
-        .iter()
-        .zip(rt.file.patches.iter())
-        .map(|(h, p)| p.reflectance * *h)
-        .collect();
-    gather_all(probes, &reflected)
-}
-
-/// Every probe's SH from the patches' reflected radiosity, the probes spread over the threads.
-pub(crate) fn gather_all(probes: &DecodedProbes, reflected: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
-    let modes = probes.modes(reflected);
-    (0..probes.len())
-        .into_par_iter()
-        .map(|p| probes.gather_probe_with(p, reflected, &modes))
-        .collect()
-}
-
-/// The reflected irradiance at `p` facing unit `n` from the probes around it (module docs), or
-/// `None` when no probe in reach is in sight.
-pub(crate) fn reflected_at(
-    rt: &Runtime,
-    sh: &[[Rgb; SH_COEFFICIENTS]],
-    p: DVec3,
-    n: DVec3,
-) -> Option<Rgb> {
-    let normal = n.as_vec3().to_array();
-    let mut sum = Rgb::ZERO;
-    for (i, w) in neighbours(rt, p, Some(n))? {
-        sum += sh_irradiance(&sh[i], normal) * w;
-    }
-    Some(sum)
-}
-
-/// The radiance SH at `p` for an object there (a moving one, lit from every side): the probes
-/// around it with their trilinear weights, without the facing term; `None` when no probe in
-/// reach is in sight. `sh_irradiance` of it gives the object's irradiance for each normal.
-pub(crate) fn sh_at(
-    rt: &Runtime,
-    sh: &[[Rgb; SH_COEFFICIENTS]],
-    p: DVec3,
-) -> Option<[Rgb; SH_COEFFICIENTS]> {
-    let mut sum = [Rgb::ZERO; SH_COEFFICIENTS];
-    for (i, w) in neighbours(rt, p, None)? {
-        for (s, c) in sum.iter_mut().zip(&sh[i]) {
-            *s += *c * w;
-        }
-    }
-    Some(sum)
-}
-
-/// The probes `p` takes light from and their weights (`Probes::interpolation_weights`, the
-/// runtime's BVH saying which are in sight), or `None` when none is.
-fn neighbours(rt: &Runtime, p: DVec3, n: Option<DVec3>) -> Option<Vec<(usize, f32)>> {
-    let probes = rt.file.probes.as_ref()?;
-    let occ = rt.occluders()?;
-    let mut out = Vec::new();
-    let visible = |i: usize| occ.segment_visible(p, Vec3::from(probes.positions[i]).as_dvec3());
-    let at = p.as_vec3().to_array();
-    let facing = n.map(|n| n.as_vec3().to_array());
-    probes
-        .interpolation_weights(at, facing, visible, &mut out)
-        .then_some(out)
-}
-
 /// The median distance from a probe to its nearest neighbour, over at most 1024 of them
 /// (evenly picked), for scattered probes; `alone` (the scene's size) for fewer than two.
 fn median_spacing(pos: &[DVec3], alone: f64) -> f64 {
@@ -359,7 +327,7 @@ fn median_spacing(pos: &[DVec3], alone: f64) -> f64 {
 
 /// What `bake --probe-rank` keeps of the probes' weights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum ProbeRank {
+pub enum ProbeRank {
     /// [`auto_rank`], or rows of weights where those cost no more a frame.
     Auto,
     /// Rows of weights, every one the rays found.
@@ -371,22 +339,28 @@ pub(crate) enum ProbeRank {
 /// The rank `auto` factors the probes' weights to over `patches` patches: a sixteenth of them,
 /// from 128 to 512 (468 probes in the Cornell box meet the issue's bounds at rank 128 over
 /// 1008 patches and at 256 over 4098, not at 128: docs/decisions/probe-factors.md).
-pub(crate) fn auto_rank(patches: usize) -> usize {
+pub fn auto_rank(patches: usize) -> usize {
     (patches / 16).clamp(128, 512)
 }
 
 /// Columns the randomized factoring samples beyond the rank (docs/decisions/probe-factors.md).
 const OVERSAMPLE: usize = 64;
 
-/// Parses `--probe-rank`: `auto`, `full` or a positive integer.
-pub(crate) fn parse_rank(s: &str) -> anyhow::Result<ProbeRank> {
-    match s {
-        "auto" => Ok(ProbeRank::Auto),
-        "full" => Ok(ProbeRank::Full),
-        _ => match s.parse::<usize>() {
-            Ok(k) if k > 0 => Ok(ProbeRank::Rank(k)),
-            _ => bail!("--probe-rank must be auto, full or a positive integer, not {s}"),
-        },
+impl ProbeRank {
+    /// Parses `--probe-rank`: `auto`, `full` or a positive integer.
+    pub fn parse(s: &str) -> Result<Self, BakeError> {
+        match s {
+            "auto" => Ok(ProbeRank::Auto),
+            "full" => Ok(ProbeRank::Full),
+            _ => match s.parse::<usize>() {
+                Ok(k) if k > 0 => Ok(ProbeRank::Rank(k)),
+                _ => {
+                    return refuse(format!(
+                        "--probe-rank must be auto, full or a positive integer, not {s}"
+                    ));
+                }
+            },
+        }
     }
 }
 
@@ -600,4 +574,42 @@ mod tests {
         // Nothing to gain at the matrix's smaller side.
         assert!(factor(&rows, n, 50).is_none());
     }
+}
+
+/// Places and weighs the probes of `spec` in a bake's file and stores its report again (its
+/// `probes`, the PROBES section's bytes, the file's new size and the `probes` and `total`
+/// timings). The output unchanged for [`ProbeSpec::None`].
+pub fn attach(
+    out: BakeOutput,
+    spec: &ProbeSpec,
+    rank: ProbeRank,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
+    if *spec == ProbeSpec::None {
+        return Ok(out);
+    }
+    hooks.start("probes")?;
+    let t = std::time::Instant::now();
+    let BakeOutput {
+        file,
+        mut report,
+        patch_source,
+    } = out;
+    let rt = BakedScene::new(file);
+    let baked = bake(&rt, spec, rank, hooks)?;
+    let mut file = rt.file;
+    if let Some((probes, r)) = baked {
+        file.probes = Some(probes);
+        report.bytes.probes = r.bytes;
+        report.probes = Some(r);
+    }
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    report.timings_ms.insert("probes", ms);
+    *report.timings_ms.entry("total").or_insert(0.0) += ms;
+    let report = crate::pipeline::store(&mut file, report)?;
+    Ok(BakeOutput {
+        file,
+        report,
+        patch_source,
+    })
 }

@@ -26,36 +26,34 @@
 //! A point whose rays mostly meet the backs of faces is inside an object, and one outside the
 //! bounding box of the scene's mesh is outside it: both are answered as such, without a figure.
 
+use crate::BakedScene;
 use crate::render::{PatchGrid, triangle_normal};
-use crate::runtime::Runtime;
-use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
-use radiosity_bake::geometry::point_polygon::point_to_polygon;
-use radiosity_bake::geometry::polygon::Polygon;
-use radiosity_bake::geometry::{Hit, Occluders};
-use radiosity_bake::rng::SplitMix64;
 use radiosity_core::{Light, Rgb};
+use radiosity_geometry::point_polygon::point_to_polygon;
+use radiosity_geometry::polygon::Polygon;
+use radiosity_geometry::rng::SplitMix64;
+use radiosity_geometry::{Hit, Occluders};
 use rayon::prelude::*;
 use serde::Deserialize;
-use std::path::Path;
 
 /// Hemisphere rays a point: 64 × 64 strata, one jittered ray in each.
-pub(crate) const RAYS: usize = 64 * 64;
+pub const RAYS: usize = 64 * 64;
 
 /// Shadow rays a point to the emitting surfaces.
-pub(crate) const EMITTER_SAMPLES: usize = 1024;
+pub const EMITTER_SAMPLES: usize = 1024;
 
 /// Shadow rays to the emitting surfaces at each surface a gather ray meets.
-pub(crate) const HIT_EMITTER_SAMPLES: usize = 16;
+pub const HIT_EMITTER_SAMPLES: usize = 16;
 
 /// Hits closer to the point than this many sides (`√area`) of the patches around them gather
 /// their reflected light again instead of interpolating it from those patches: the point sees
 /// such a hit's surroundings in more detail than the patches hold
 /// (`docs/decisions/secondary-gather.md`).
-pub(crate) const NEAR_SIDES: f64 = 4.0;
+pub const NEAR_SIDES: f64 = 4.0;
 
 /// Cosine-weighted rays of that second gather at a near hit: 4 × 4 strata.
-pub(crate) const SECOND_RAYS: usize = 4 * 4;
+pub const SECOND_RAYS: usize = 4 * 4;
 
 /// Emitting triangles up to which the emitters' direct light starts from each one's exact
 /// unoccluded irradiance ([`Emitters::irradiance_at`]); a scene of more samples them all.
@@ -82,21 +80,25 @@ struct Entry {
 
 /// A query point with its unit normal (as given, normalised).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Point {
-    pub(crate) position: DVec3,
-    pub(crate) normal: DVec3,
+pub struct Point {
+    /// Where the irradiance is asked.
+    pub position: DVec3,
+    /// The unit normal of the surface it would fall on.
+    pub normal: DVec3,
     /// The normal as given.
-    pub(crate) given_normal: DVec3,
+    pub given_normal: DVec3,
 }
 
 /// What a point is answered with.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Answer {
+pub enum Answer {
     /// Total irradiance, W/m², by the final gather; and where the file has probes, by the
     /// probes (the same direct light plus the probes' reflected light), `None` for a point
     /// outside the probe grid.
     Irradiance {
+        /// The total irradiance.
         total: Rgb,
+        /// The probes' figure (module doc).
         probes: Option<Option<Rgb>>,
     },
     /// The point lies inside an object (most of its rays meet back faces).
@@ -106,19 +108,20 @@ pub(crate) enum Answer {
 }
 
 /// Parses a points file's text.
-pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Point>> {
-    let file: PointsFile = serde_json::from_str(text).context("not a points file")?;
+pub fn parse(text: &str) -> crate::Result<Vec<Point>> {
+    let file: PointsFile = serde_json::from_str(text)
+        .map_err(|e| crate::Error::Invalid(format!("not a points file: {e}")))?;
     file.points
         .iter()
         .enumerate()
         .map(|(i, e)| {
             let (p, n) = (DVec3::from(e.position), DVec3::from(e.normal));
             if !p.is_finite() || !n.is_finite() {
-                bail!("point {i}: position and normal must be finite");
+                invalid!("point {i}: position and normal must be finite");
             }
             let len = n.length();
             if !(len > 1e-12) {
-                bail!(
+                invalid!(
                     "point {i}: normal [{}, {}, {}] has zero length",
                     n.x,
                     n.y,
@@ -132,13 +135,6 @@ pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Point>> {
             })
         })
         .collect()
-}
-
-/// Reads and parses a points file.
-pub(crate) fn load(path: &Path) -> anyhow::Result<Vec<Point>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read points file {}", path.display()))?;
-    parse(&text).with_context(|| format!("bad points file {}", path.display()))
 }
 
 /// A cosine-weighted direction about the unit normal `n` from `(u1, u2)` in [0, 1)².
@@ -200,7 +196,7 @@ impl Emitters {
     /// `L_e = E/π`.
     fn irradiance_at(
         &self,
-        rt: &Runtime,
+        rt: &BakedScene,
         mesh: &radiosity_core::Mesh<'_>,
         p: DVec3,
         n: DVec3,
@@ -300,7 +296,7 @@ impl Emitters {
     /// Each patch's direct irradiance from the emitting surfaces, the area-weighted mean over
     /// its direct-light points: the first-bounce share of its gathered irradiance, which the
     /// final gather replaces by the figure at the point its ray meets.
-    fn per_patch(&self, rt: &Runtime, mesh: &radiosity_core::Mesh<'_>, n: usize) -> Vec<Rgb> {
+    fn per_patch(&self, rt: &BakedScene, mesh: &radiosity_core::Mesh<'_>, n: usize) -> Vec<Rgb> {
         if self.triangles.is_empty() {
             return vec![Rgb::ZERO; n];
         }
@@ -331,7 +327,7 @@ impl Emitters {
 /// small light), so each hit takes the second from the patches around it and the first from
 /// shadow rays of its own.
 struct Surfaces<'a> {
-    rt: &'a Runtime,
+    rt: &'a BakedScene,
     mesh: &'a radiosity_core::Mesh<'static>,
     occ: &'a Occluders,
     lights: &'a [Light],
@@ -341,7 +337,7 @@ struct Surfaces<'a> {
 }
 
 impl<'a> Surfaces<'a> {
-    fn new(rt: &'a Runtime, lights: &'a [Light], gathered: &[Rgb]) -> anyhow::Result<Self> {
+    fn new(rt: &'a BakedScene, lights: &'a [Light], gathered: &[Rgb]) -> crate::Result<Self> {
         let mesh = rt.mesh("--points")?;
         let grid = PatchGrid::new(&rt.file.patches);
         let emitters = Emitters::new(mesh);
@@ -451,13 +447,13 @@ fn off_the_surface(surfaces: &Surfaces<'_>, p: DVec3, n: DVec3, slack: f64) -> D
 
 /// The answer at every point for a frame whose gathered irradiance is `gathered` and total
 /// irradiance `irradiance` (file numbering) under `lights`. The file needs its mesh.
-pub(crate) fn answer(
-    rt: &Runtime,
+pub fn answer(
+    rt: &BakedScene,
     gathered: &[Rgb],
     irradiance: &[Rgb],
     lights: &[Light],
     points: &[Point],
-) -> anyhow::Result<Vec<Answer>> {
+) -> crate::Result<Vec<Answer>> {
     let probe_sh = crate::probes::frame_sh(rt, irradiance);
     let surfaces = Surfaces::new(rt, lights, gathered)?;
     // A mesh without vertices holds every point outside it.

@@ -14,11 +14,9 @@
 //! object's share of the patch moves from that object's old mean reflectance (over its
 //! full-detail triangles, or its patches without a mesh) to the new one.
 
-use anyhow::{Context, bail};
-use radiosity_bake::pipeline::ObjectShares;
+use crate::ObjectShares;
 use radiosity_core::{RadFile, Rgb};
 use serde::Deserialize;
-use std::path::Path;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -35,25 +33,28 @@ struct Entry {
 
 /// One object's new reflectance.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct MaterialEdit {
-    pub(crate) object: String,
-    pub(crate) reflectance: Rgb,
+pub struct MaterialEdit {
+    /// The object's name in the file.
+    pub object: String,
+    /// Its new diffuse reflectance, each channel in [0, 1).
+    pub reflectance: Rgb,
 }
 
 /// Parses a materials file's text (names are checked against a scene by [`patch_edits`]).
-pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<MaterialEdit>> {
-    let file: MaterialsFile = serde_json::from_str(text).context("not a materials file")?;
+pub fn parse(text: &str) -> crate::Result<Vec<MaterialEdit>> {
+    let file: MaterialsFile = serde_json::from_str(text)
+        .map_err(|e| crate::Error::Invalid(format!("not a materials file: {e}")))?;
     let mut seen = std::collections::HashSet::new();
     file.materials
         .iter()
         .enumerate()
         .map(|(i, e)| {
             if !seen.insert(e.object.as_str()) {
-                bail!("material {i}: object `{}` is edited twice", e.object);
+                invalid!("material {i}: object `{}` is edited twice", e.object);
             }
             let [r, g, b] = e.reflectance;
             if !e.reflectance.iter().all(|v| v.is_finite() && (0.0..1.0).contains(v)) {
-                bail!(
+                invalid!(
                     "material {i} (object `{}`): reflectance [{r}, {g}, {b}] must be finite and in [0, 1)",
                     e.object
                 );
@@ -66,32 +67,27 @@ pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<MaterialEdit>> {
         .collect()
 }
 
-/// Reads and parses a materials file.
-pub(crate) fn load(path: &Path) -> anyhow::Result<Vec<MaterialEdit>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read materials file {}", path.display()))?;
-    parse(&text).with_context(|| format!("bad materials file {}", path.display()))
-}
-
 /// An edit resolved against a file: new reflectance per matrix patch and per object (by
 /// index into the file's objects).
-pub(crate) struct Resolved {
-    pub(crate) patches: Vec<(u32, Rgb)>,
-    pub(crate) objects: Vec<(u32, Rgb)>,
+pub struct Resolved {
+    /// `(matrix patch, new reflectance)`.
+    pub patches: Vec<(u32, Rgb)>,
+    /// `(object index, new reflectance)`.
+    pub objects: Vec<(u32, Rgb)>,
 }
 
 /// The patch edits (matrix patch, new reflectance) of `edits` on `file`, with the object
 /// indices edited. An object the file does not name is an error listing a few it does.
-pub(crate) fn patch_edits(
+pub fn patch_edits(
     file: &RadFile<'_>,
     shares: &ObjectShares<'_>,
     edits: &[MaterialEdit],
-) -> anyhow::Result<Resolved> {
+) -> crate::Result<Resolved> {
     let mut objects = Vec::with_capacity(edits.len());
     for e in edits {
         let Some(o) = file.objects.iter().position(|n| n.as_ref() == e.object) else {
             let some: Vec<&str> = file.objects.iter().take(8).map(|n| n.as_ref()).collect();
-            bail!(
+            invalid!(
                 "materials: object `{}` is not in the scene (its {} objects include {})",
                 e.object,
                 file.objects.len(),

@@ -12,25 +12,28 @@
 //! `width` and `height` the image size in pixels, 1 to [`MAX_SIDE`]. Without a file,
 //! [`Camera::frame`] chooses one from the geometry.
 
-use anyhow::{Context, bail};
 use glam::DVec3;
-use radiosity_bake::geometry::Occluders;
+use radiosity_geometry::Occluders;
 use serde::Deserialize;
-use std::path::Path;
 
 /// Largest image side accepted (a typo of 51200 should not allocate gigabytes).
-pub(crate) const MAX_SIDE: u32 = 8192;
+pub const MAX_SIDE: u32 = 8192;
 
 /// A pinhole camera with its image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Camera {
-    pub(crate) position: DVec3,
-    pub(crate) look_at: DVec3,
-    pub(crate) up: DVec3,
+pub struct Camera {
+    /// Where the pinhole is.
+    pub position: DVec3,
+    /// The point it looks at.
+    pub look_at: DVec3,
+    /// The up direction (need not be unit or orthogonal to the view).
+    pub up: DVec3,
     /// Vertical field of view in degrees, in (0, 180).
-    pub(crate) fov_deg: f64,
-    pub(crate) width: u32,
-    pub(crate) height: u32,
+    pub fov_deg: f64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
 }
 
 #[derive(Deserialize)]
@@ -87,7 +90,7 @@ fn defaulted(text: &str) -> Option<String> {
 
 /// A camera's orthonormal frame: right, up, and forward (the viewing direction).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Basis {
+pub struct Basis {
     right: DVec3,
     up: DVec3,
     forward: DVec3,
@@ -97,7 +100,7 @@ pub(crate) struct Basis {
 
 impl Camera {
     /// Parses and validates a camera file's text.
-    pub(crate) fn parse(text: &str) -> anyhow::Result<Self> {
+    pub fn parse(text: &str) -> crate::Result<Self> {
         crate::lights::refuse_bare_array(
             text,
             r#"{"position": [x, y, z], "look_at": [x, y, z], ...} (see docs/examples/camera.json)"#,
@@ -116,53 +119,44 @@ impl Camera {
         Ok(cam)
     }
 
-    /// Reads, parses and validates a camera file.
-    pub(crate) fn load(path: &Path) -> anyhow::Result<Self> {
-        Ok(Self::load_noting_defaults(path)?.0)
-    }
-
-    /// [`Camera::load`], with a note naming the fields the file leaves out and the defaults
-    /// they took (`None` when it gives them all), for the caller to print once it succeeds.
-    pub(crate) fn load_noting_defaults(path: &Path) -> anyhow::Result<(Self, Option<String>)> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read camera file {}", path.display()))?;
-        let cam =
-            Self::parse(&text).with_context(|| format!("bad camera file {}", path.display()))?;
-        let note = defaulted(&text).map(|d| format!("camera file {}: {d}", path.display()));
-        Ok((cam, note))
+    /// The note a caller prints for a camera file's text that leaves fields out: which, and
+    /// the defaults they took (`"no up given: up [0, 1, 0] used"`); `None` when it gives them
+    /// all.
+    pub fn defaults_note(text: &str) -> Option<String> {
+        defaulted(text)
     }
 
     /// Checks the values: finite, a viewing direction, an up vector not along it, a field of
     /// view in (0, 180) degrees and an image of 1 to [`MAX_SIDE`] pixels a side.
-    pub(crate) fn validate(&self) -> anyhow::Result<()> {
+    pub fn validate(&self) -> crate::Result<()> {
         if ![self.position, self.look_at, self.up]
             .iter()
             .all(|v| v.is_finite())
             || !self.fov_deg.is_finite()
         {
-            bail!("camera has a NaN or infinite value");
+            invalid!("camera has a NaN or infinite value");
         }
         let view = self.look_at - self.position;
         if !(view.length() > 0.0) {
-            bail!("camera look_at equals its position");
+            invalid!("camera look_at equals its position");
         }
         if !(self.up.length() > 0.0) || view.normalize().cross(self.up.normalize()).length() < 1e-6
         {
-            bail!("camera up is zero or along the viewing direction");
+            invalid!("camera up is zero or along the viewing direction");
         }
         if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            bail!("camera fov_deg must be in (0, 180), got {}", self.fov_deg);
+            invalid!("camera fov_deg must be in (0, 180), got {}", self.fov_deg);
         }
         for (name, side) in [("width", self.width), ("height", self.height)] {
             if side == 0 || side > MAX_SIDE {
-                bail!("camera {name} must be 1 to {MAX_SIDE} pixels, got {side}");
+                invalid!("camera {name} must be 1 to {MAX_SIDE} pixels, got {side}");
             }
         }
         Ok(())
     }
 
     /// The camera's frame. Call on a validated camera.
-    pub(crate) fn basis(&self) -> Basis {
+    pub fn basis(&self) -> Basis {
         let forward = (self.look_at - self.position).normalize();
         let right = forward.cross(self.up).normalize();
         let up = right.cross(forward);
@@ -176,7 +170,7 @@ impl Camera {
 
     /// The unit direction through image point `(x, y)` in pixels from the top-left corner
     /// (pixel `(i, j)` spans `[i, i+1) × [j, j+1)`; its centre is `(i + 0.5, j + 0.5)`).
-    pub(crate) fn ray(&self, b: &Basis, x: f64, y: f64) -> DVec3 {
+    pub fn ray(&self, b: &Basis, x: f64, y: f64) -> DVec3 {
         let aspect = f64::from(self.width) / f64::from(self.height);
         let sx = (2.0 * x / f64::from(self.width) - 1.0) * b.half_h * aspect;
         let sy = (1.0 - 2.0 * y / f64::from(self.height)) * b.half_h;
@@ -188,12 +182,7 @@ impl Camera {
     /// the image. A closed room would show only the backs of its walls from outside, so when
     /// the first thing the camera sees is a back face, the camera moves inside, near the wall,
     /// with a wider lens.
-    pub(crate) fn frame(
-        triangles: &[[DVec3; 3]],
-        occ: &Occluders,
-        width: u32,
-        height: u32,
-    ) -> Self {
+    pub fn frame(triangles: &[[DVec3; 3]], occ: &Occluders, width: u32, height: u32) -> Self {
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for t in triangles {
             for p in t {

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 /// Most vertices a [`Polygon`] holds: a triangle cut by the six faces of a box has at most
 /// nine, and one more half-space clip adds one.
-pub(crate) const MAX_VERTICES: usize = 12;
+pub const MAX_VERTICES: usize = 12;
 
 /// A convex planar polygon with at most [`MAX_VERTICES`] vertices, counter-clockwise about its
 /// front normal. Plain value type: no allocation, so kernels can build them in inner loops.
@@ -132,7 +132,7 @@ impl Polygon {
 }
 
 /// Twice the vector area of a closed polygon given by its vertices (Newell's method).
-pub(crate) fn doubled_area_vector(v: &[DVec3]) -> DVec3 {
+pub fn doubled_area_vector(v: &[DVec3]) -> DVec3 {
     let m = v.len();
     if m < 3 {
         return DVec3::ZERO;
@@ -148,7 +148,7 @@ pub(crate) fn doubled_area_vector(v: &[DVec3]) -> DVec3 {
 }
 
 /// The area-weighted centroid of a planar polygon (vertex mean when it has no area).
-pub(crate) fn centroid(v: &[DVec3]) -> DVec3 {
+pub fn centroid(v: &[DVec3]) -> DVec3 {
     let m = v.len();
     if m == 0 {
         return DVec3::ZERO;
@@ -169,7 +169,7 @@ pub(crate) fn centroid(v: &[DVec3]) -> DVec3 {
 }
 
 /// Distance from point `p` to the closed segment `a`–`b`.
-pub(crate) fn point_segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+pub fn point_segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let ab = b - a;
     let l2 = ab.length_squared();
     let t = if l2 > 0.0 {
@@ -181,7 +181,7 @@ pub(crate) fn point_segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 }
 
 /// Distance from `p` to a convex planar polygon with unit front normal `n`.
-pub(crate) fn point_polygon_distance(p: DVec3, v: &[DVec3], n: DVec3) -> f64 {
+pub fn point_polygon_distance(p: DVec3, v: &[DVec3], n: DVec3) -> f64 {
     let m = v.len();
     if m == 0 {
         return f64::INFINITY;

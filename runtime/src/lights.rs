@@ -14,11 +14,9 @@
 //! half-angle in degrees, in (0, 180], with a hard edge. Unknown fields are refused (a
 //! misspelt `"intensty"` must not silently become a black light).
 
-use anyhow::{Context, bail};
 use glam::Vec3;
 use radiosity_core::{Light, Rgb};
 use serde::Deserialize;
-use std::path::Path;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -80,7 +78,7 @@ impl From<&LightEntry> for Light {
 
 /// serde_json's message on one line (it carries the line and column), with the types it
 /// expected said as the file's shapes instead of the Rust names.
-pub(crate) fn json_error(e: &serde_json::Error) -> anyhow::Error {
+pub fn json_error(e: &serde_json::Error) -> crate::Error {
     let text = e
         .to_string()
         .replace('\n', " ")
@@ -96,20 +94,20 @@ pub(crate) fn json_error(e: &serde_json::Error) -> anyhow::Error {
             "expected struct CameraFile",
             r#"expected an object {"position": [x, y, z], "look_at": [x, y, z], ...} (see docs/examples/camera.json)"#,
         );
-    anyhow::anyhow!("{text}")
+    crate::Error::Invalid(text)
 }
 
 /// Refuses a file that is a bare JSON array where an object is expected (serde would read
 /// the array as the object's fields in order and complain about the first one instead).
-pub(crate) fn refuse_bare_array(text: &str, expected: &str) -> anyhow::Result<()> {
+pub fn refuse_bare_array(text: &str, expected: &str) -> crate::Result<()> {
     if text.trim_start().starts_with('[') {
-        bail!("expected an object {expected} at the top level, not a bare array");
+        invalid!("expected an object {expected} at the top level, not a bare array");
     }
     Ok(())
 }
 
 /// Parses and validates a lights file's text.
-pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
+pub fn parse(text: &str) -> crate::Result<Vec<Light>> {
     refuse_bare_array(text, r#"{"lights": [...]} (see docs/examples/lights.json)"#)?;
     // A light given as an array would be read as its fields in order (the first one its
     // type): say what a light is instead.
@@ -117,7 +115,7 @@ pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
         && let Some(serde_json::Value::Array(lights)) = top.get("lights")
         && let Some(i) = lights.iter().position(|l| !l.is_object())
     {
-        bail!(
+        invalid!(
             r#"light {i}: expected a light object {{"type": "point", "spot" or "directional", ...}}, not {}"#,
             lights[i]
         );
@@ -128,18 +126,11 @@ pub(crate) fn parse(text: &str) -> anyhow::Result<Vec<Light>> {
         let light = Light::from(e);
         // f32 fields of huge JSON numbers (1e39) become infinite here; validate catches them.
         if let Err(why) = light.validate() {
-            bail!("light {i}: {why}");
+            invalid!("light {i}: {why}");
         }
         lights.push(light);
     }
     Ok(lights)
-}
-
-/// Reads, parses and validates a lights file.
-pub(crate) fn load(path: &Path) -> anyhow::Result<Vec<Light>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read lights file {}", path.display()))?;
-    parse(&text).with_context(|| format!("bad lights file {}", path.display()))
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@
 //!   wrong sign; the polygon is first clipped to the closed front half-space of `x`.
 //! - γ near 0 or π: `atan2(|R×R'|, R·R')` instead of `acos`, accurate at both ends.
 
-use crate::geometry::polygon::Polygon;
+use crate::polygon::Polygon;
 use glam::DVec3;
 use std::f64::consts::PI;
 

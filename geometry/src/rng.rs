@@ -63,7 +63,7 @@ impl SplitMix64 {
 /// shadow rays start on their quadrature leaf (`quadrature::Sample::leaf_point`). (Roberts'
 /// R2 sequence was tried first: its first 32 points leave a gap of 0.11 in the first
 /// coordinate, and missed a wall patch 8% buried in five of eight shifts.)
-pub(crate) fn sobol2(scramble: [u32; 2], k: u32) -> [f64; 2] {
+pub fn sobol2(scramble: [u32; 2], k: u32) -> [f64; 2] {
     let mut second = 0u32;
     let mut direction = 1u32 << 31;
     for bit in 0..32 {

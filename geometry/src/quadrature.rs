@@ -111,7 +111,7 @@ const TIE_SLACK: f64 = 1e-9;
 /// Calls `f` once per quadrature point of `tri`, subdividing where `dist` (a lower bound of the
 /// distance from a point to the target) is small compared with the leaf size. The weights
 /// sum to the triangle's area.
-pub(crate) fn integrate(
+pub fn integrate(
     tri: [DVec3; 3],
     params: &Adaptive,
     dist: &impl Fn(DVec3) -> f64,
@@ -124,7 +124,7 @@ pub(crate) fn integrate(
 /// sphere holding the target), asked first: where it already lets a leaf stop, `dist` is not
 /// called. The refinement test is monotone in the distance, so the leaves, and every value,
 /// are those of [`integrate`] with `dist` alone.
-pub(crate) fn integrate_bounded(
+pub fn integrate_bounded(
     tri: [DVec3; 3],
     params: &Adaptive,
     bound: &impl Fn(DVec3) -> f64,
@@ -277,7 +277,7 @@ mod tests {
         let exact_calls = core::cell::Cell::new(0);
         let dist = |x: DVec3| {
             exact_calls.set(exact_calls.get() + 1);
-            crate::geometry::polygon::point_polygon_distance(x, &sq, n)
+            crate::polygon::point_polygon_distance(x, &sq, n)
         };
         let mut plain = Vec::new();
         integrate(tri, &params, &dist, &mut |q| plain.push((q.x, q.w)));

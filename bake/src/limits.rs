@@ -2,13 +2,13 @@
 //! matrices the bake holds at its peak against the machine's physical memory, and a ceiling no
 //! machine passes.
 
-use anyhow::bail;
-use radiosity_bake::bounce::BounceSpec;
+use crate::BakeError;
+use crate::bounce::BounceSpec;
 
 /// Largest patch target on any machine. A target is hit within +10%, and the matrix's n²
 /// entries must stay countable in 32 bits (the sparse rows' offsets are `u32`): 1.1 · 58 000
 /// = 63 800 patches, 4.07e9 entries < 2³².
-pub(crate) const MAX_PATCHES: usize = 58_000;
+pub const MAX_PATCHES: usize = 58_000;
 
 /// How far over its target a bake may land (the simplification hits it within ±10%).
 const OVERSHOOT: f64 = 1.1;
@@ -38,20 +38,20 @@ fn bytes_per_entry(bounces: BounceSpec) -> f64 {
 }
 
 /// Estimated peak memory in bytes of a bake aimed at `patches` patches under `bounces`.
-pub(crate) fn bake_peak_bytes(patches: usize, bounces: BounceSpec) -> f64 {
+pub fn bake_peak_bytes(patches: usize, bounces: BounceSpec) -> f64 {
     let n = patches as f64 * OVERSHOOT;
     bytes_per_entry(bounces) * n * n
 }
 
 /// The largest patch target whose estimated peak fits in `memory` bytes (at most
 /// [`MAX_PATCHES`]), rounded down to a hundred.
-pub(crate) fn largest_fitting(memory: u64, bounces: BounceSpec) -> usize {
+pub fn largest_fitting(memory: u64, bounces: BounceSpec) -> usize {
     let n = (memory as f64 / bytes_per_entry(bounces)).sqrt() / OVERSHOOT;
     ((n as usize) / 100 * 100).clamp(1, MAX_PATCHES)
 }
 
 /// The machine's physical memory in bytes (`MemTotal` of `/proc/meminfo`), where known.
-pub(crate) fn physical_memory() -> Option<u64> {
+pub fn physical_memory() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
     let kib: u64 = line
@@ -65,7 +65,7 @@ pub(crate) fn physical_memory() -> Option<u64> {
 }
 
 /// Why a patch target is above [`MAX_PATCHES`] (`None` when it is not).
-pub(crate) fn above_ceiling(patches: usize) -> Option<String> {
+pub fn above_ceiling(patches: usize) -> Option<String> {
     (patches > MAX_PATCHES).then(|| {
         format!(
             "more than any bake can hold: at most {MAX_PATCHES} (a bake of n patches stores n² matrix entries, counted in 32 bits)"
@@ -74,39 +74,39 @@ pub(crate) fn above_ceiling(patches: usize) -> Option<String> {
 }
 
 /// Refuses a patch target above [`MAX_PATCHES`].
-pub(crate) fn check_ceiling(patches: usize) -> anyhow::Result<()> {
+pub fn check_ceiling(patches: usize) -> Result<(), BakeError> {
     match above_ceiling(patches) {
-        Some(why) => bail!("--patches {patches} is {why}"),
+        Some(why) => Err(BakeError::Flag(format!("--patches {patches} is {why}"))),
         None => Ok(()),
     }
 }
 
 /// Refuses a patch target the bake cannot hold: above [`MAX_PATCHES`], or whose estimated
 /// peak ([`bake_peak_bytes`]) exceeds `memory` bytes of physical memory (when known).
-pub(crate) fn check_patches_in(
+pub fn check_patches_in(
     patches: usize,
     memory: Option<u64>,
     bounces: BounceSpec,
-) -> anyhow::Result<()> {
+) -> Result<(), BakeError> {
     check_ceiling(patches)?;
     if let Some(memory) = memory {
         let peak = bake_peak_bytes(patches, bounces);
         if peak > memory as f64 {
-            bail!(
+            return Err(BakeError::Flag(format!(
                 "--patches {patches} needs about {:.1} GB at the bake's peak (dense matrices of {} bytes per pair of up to {} patches), more than this machine's {:.1} GB of memory: at most {} patches fit",
                 peak / 1e9,
                 bytes_per_entry(bounces),
                 (patches as f64 * OVERSHOOT).round(),
                 memory as f64 / 1e9,
                 largest_fitting(memory, bounces)
-            );
+            )));
         }
     }
     Ok(())
 }
 
 /// [`check_patches_in`] this machine's physical memory.
-pub(crate) fn check_patches(patches: usize, bounces: BounceSpec) -> anyhow::Result<()> {
+pub fn check_patches(patches: usize, bounces: BounceSpec) -> Result<(), BakeError> {
     check_patches_in(patches, physical_memory(), bounces)
 }
 

@@ -7,7 +7,6 @@
 //! ([`LOCAL_EXTENT`]), so a scene far from the origin loses no precision and one of any size
 //! looks the same to obvhs, whose CWBVH has an absolute epsilon.
 
-use crate::scene::Scene;
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
@@ -154,12 +153,12 @@ impl RayTriangle {
 /// seen across: `hemisphere_rays_check_rows_across_micro_gaps_and_thin_sheets`; the
 /// conference room's chair parts, 4e-10 to 5e-9 apart, were seen across by some rays and
 /// passed through by others.)
-pub(crate) const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
+pub const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
 
 /// Two sheets this close along a ray (relative to its distance) count as one panel: a ray meeting
 /// the back of one and then the front of the other sees that front ([`Occluders::reaches`],
 /// [`Occluders::first_surface`]).
-pub(crate) const SHEET_GAP: f64 = 1e-4;
+pub const SHEET_GAP: f64 = 1e-4;
 
 /// Where a ray first meets a triangle ([`Occluders::closest_hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -175,17 +174,17 @@ pub struct Hit {
 }
 
 impl Occluders {
-    /// Builds the BVH over every triangle of `scene`.
-    pub fn new(scene: &Scene) -> Self {
-        let corners: Vec<[DVec3; 3]> = (0..scene.triangles.len())
-            .map(|t| scene.corners(t))
-            .collect();
-        let mut occ = Self::from_triangles(&corners);
-        occ.emits = scene
-            .triangles
-            .iter()
-            .map(|t| scene.materials[t.material as usize].emission.mean() > 0.0)
-            .collect();
+    /// Builds the BVH over triangles given by their corners, `emits[t]` saying whether
+    /// triangle `t` emits (for [`Self::reaches`]'s ties and [`Self::covered`]). The bake builds
+    /// it from its scene (`Scene::occluders`); [`Self::from_triangles`] is the same with
+    /// nothing emitting.
+    ///
+    /// # Panics
+    /// If `emits` is not one flag per triangle.
+    pub fn with_emitters(tris: &[[DVec3; 3]], emits: Vec<bool>) -> Self {
+        assert_eq!(emits.len(), tris.len(), "one emission flag per triangle");
+        let mut occ = Self::from_triangles(tris);
+        occ.emits = emits;
         occ.covers = occ.find_covers();
         occ
     }

@@ -1,0 +1,298 @@
+//! The bake flags (`docs/contract.md`, "Command line"), as the command line and the C ABI's
+//! `options_json` give them, validated into [`BakeParams`] and [`LoadOptions`] in one place.
+
+use crate::BakeError;
+use crate::bounce::BounceSpec;
+use crate::form_factor::FormFactorParams;
+use crate::order::OrderKind;
+use crate::pipeline::{BakeParams, FormatChoice};
+use crate::probes::{ProbeRank, ProbeSpec};
+use crate::scene::{LoadOptions, Scene};
+use crate::simplify::VoxelParams;
+use radiosity_core::Format;
+use serde::Deserialize;
+use std::path::Path;
+
+/// A flag's value as JSON gives it: text (`"inf"`, `"auto"`) or a number (`3`).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Word {
+    /// A string.
+    Text(String),
+    /// A number, as written.
+    Number(serde_json::Number),
+}
+
+impl Word {
+    fn text(&self) -> String {
+        match self {
+            Word::Text(s) => s.clone(),
+            Word::Number(n) => n.to_string(),
+        }
+    }
+}
+
+impl From<&str> for Word {
+    fn from(s: &str) -> Self {
+        Word::Text(s.to_owned())
+    }
+}
+
+/// Every bake flag, by its long name with `_` for `-` (`--form-factors` is `form_factors`);
+/// `None` takes the command line's default. Unknown keys are refused when read from JSON
+/// ([`BakeFlags::from_json`]).
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BakeFlags {
+    /// Target patch count.
+    pub patches: Option<usize>,
+    /// Voxel cell size in scene units (instead of `patches`).
+    pub voxel: Option<f64>,
+    /// Bounces: a number K ≥ 1, `inf`, or `auto` (the default).
+    pub bounces: Option<Word>,
+    /// Storage format: auto (the default), bc1, bc4, u8, f16, f32.
+    pub format: Option<String>,
+    /// Patch order: none, random, paper, spatial, best (the default).
+    pub order: Option<String>,
+    /// Fraction of the largest entries kept exactly.
+    pub sparse: Option<f32>,
+    /// Share of the 4×4 blocks given a block correction.
+    pub corrections: Option<f32>,
+    /// Largest tile side in patches (a multiple of 4).
+    pub tile: Option<u32>,
+    /// Form factors: draft, default, fine.
+    pub form_factors: Option<String>,
+    /// Lower reflectances at or above this, in (0, 1), to it with a warning.
+    pub max_reflectance: Option<f64>,
+    /// Direct-light points a patch has at least (1 to 64).
+    pub direct_points: Option<u32>,
+    /// Light probes: `auto` (the default), `none`, a spacing, or a JSON file of points.
+    pub probes: Option<Word>,
+    /// What the probes store: `auto` (the default), `full` or a rank.
+    pub probe_rank: Option<Word>,
+}
+
+/// Refuses with a flag's message.
+fn refuse<T>(message: String) -> Result<T, BakeError> {
+    Err(BakeError::Flag(message))
+}
+
+impl BakeFlags {
+    /// Reads the flags from a JSON object (`{"patches": 1024, "format": "bc1"}`); an unknown
+    /// key, a value of the wrong type or anything but an object is an error naming it.
+    pub fn from_json(text: &str) -> Result<Self, BakeError> {
+        if text.trim().is_empty() {
+            return Ok(Self::default());
+        }
+        serde_json::from_str(text).map_err(|e| BakeError::Flag(format!("bad bake options: {e}")))
+    }
+
+    /// The bake's parameters and the scene's loading options, every flag checked (a patch
+    /// target this machine cannot hold is refused here, before anything is loaded).
+    pub fn params(&self) -> Result<(BakeParams, LoadOptions), BakeError> {
+        let mut p = BakeParams {
+            bounces: parse_bounces(&self.bounces.as_ref().map_or("auto".into(), Word::text))?,
+            ..BakeParams::default()
+        };
+        if let Some(n) = self.patches {
+            // Before anything is loaded or allocated: the dense matrices must fit in memory.
+            crate::limits::check_patches(n, p.bounces)?;
+        }
+        if let Some(v) = voxel_params(self.patches, self.voxel)? {
+            p.voxel = v;
+        }
+        p.form_factors = form_factor_params(self.form_factors.as_deref().unwrap_or("default"))?;
+        p.format = match self.format.as_deref().unwrap_or("auto") {
+            "auto" => FormatChoice::Auto,
+            name => FormatChoice::Fixed(Format::from_name(name).ok_or_else(|| {
+                BakeError::Flag(format!(
+                    "unknown --format {name:?} (auto, bc1, bc4, u8, f16, f32)"
+                ))
+            })?),
+        };
+        if let Some(f) = self.sparse {
+            if !(0.0..=1.0).contains(&f) {
+                return refuse(format!("--sparse must be a fraction in [0, 1], not {f}"));
+            }
+            p.sparse_fraction = Some(f);
+        }
+        if let Some(f) = self.corrections {
+            if !(0.0..=1.0).contains(&f) {
+                return refuse(format!(
+                    "--corrections must be a fraction in [0, 1], not {f}"
+                ));
+            }
+            p.corrections = Some(f);
+        }
+        if let Some(t) = self.tile {
+            if t < 4 || t % 4 != 0 {
+                return refuse(format!("--tile must be a positive multiple of 4, not {t}"));
+            }
+            p.encode.max_tile = t;
+        }
+        if let Some(k) = self.direct_points {
+            let most = crate::simplify::runtime_mesh::MAX_DIRECT_POINTS;
+            if !(1..=most).contains(&k) {
+                return refuse(format!("--direct-points must be 1 to {most}, not {k}"));
+            }
+            p.direct_points = k;
+        }
+        let order = self.order.as_deref().unwrap_or("best");
+        p.order = OrderKind::from_name(order).ok_or_else(|| {
+            BakeError::Flag(format!(
+                "unknown --order {order:?} (none, random, paper, spatial, best)"
+            ))
+        })?;
+        p.probes = ProbeSpec::parse(&self.probes.as_ref().map_or("auto".into(), Word::text))?;
+        p.probe_rank =
+            ProbeRank::parse(&self.probe_rank.as_ref().map_or("auto".into(), Word::text))?;
+        Ok((p, capped_loading(self.max_reflectance)?))
+    }
+}
+
+/// The simplification asked for by `--patches N` or `--voxel SIZE` (`None`: the default).
+pub fn voxel_params(
+    patches: Option<usize>,
+    voxel: Option<f64>,
+) -> Result<Option<VoxelParams>, BakeError> {
+    Ok(match (patches, voxel) {
+        (Some(_), Some(_)) => return refuse("give --patches or --voxel, not both".into()),
+        (Some(0), _) => return refuse("--patches must be at least 1".into()),
+        (Some(n), None) => {
+            crate::limits::check_ceiling(n)?;
+            Some(VoxelParams::with_patches(n))
+        }
+        (None, Some(s)) if !(s.is_finite() && s > 0.0) => {
+            return refuse(format!("--voxel must be a positive size, not {s}"));
+        }
+        (None, Some(s)) => Some(VoxelParams::with_cell_size(s)),
+        (None, None) => None,
+    })
+}
+
+/// Loading with `--max-reflectance`, checked.
+pub fn capped_loading(max_reflectance: Option<f64>) -> Result<LoadOptions, BakeError> {
+    let mut o = LoadOptions::default();
+    if let Some(r) = max_reflectance {
+        if !(r > 0.0 && r < 1.0) {
+            return refuse(format!("--max-reflectance must be in (0, 1), not {r}"));
+        }
+        o.max_reflectance = Some(r);
+    }
+    Ok(o)
+}
+
+/// The form-factor settings named by `--form-factors` (`FormFactorParams`'s presets).
+pub fn form_factor_params(name: &str) -> Result<FormFactorParams, BakeError> {
+    Ok(match name {
+        "draft" => FormFactorParams::fast(),
+        "default" => FormFactorParams::default(),
+        "fine" => FormFactorParams::high_quality(),
+        other => {
+            return refuse(format!(
+                "unknown --form-factors {other:?} (draft, default, fine)"
+            ));
+        }
+    })
+}
+
+/// `--bounces`: `auto`, `inf` or a count of at least 1.
+fn parse_bounces(s: &str) -> Result<BounceSpec, BakeError> {
+    Ok(match s {
+        "auto" => BounceSpec::default(),
+        "inf" | "infinite" => BounceSpec::Infinite,
+        k => match k.parse::<u32>() {
+            Ok(0) => return refuse("--bounces must be at least 1".into()),
+            Ok(k) => BounceSpec::Fixed(k),
+            Err(_) => {
+                return refuse(format!(
+                    "--bounces must be a number, `inf` or `auto`, not {k:?}"
+                ));
+            }
+        },
+    })
+}
+
+/// Loads a scene (`Scene::load_with`: glTF for `.gltf` and `.glb`, else OBJ), refusing first
+/// an OBJ that is not text (a PNG renamed `.obj` is "not an OBJ file", not a scene without
+/// triangles), and naming `--max-reflectance` when a `Kd` or `baseColorFactor` at or above 1
+/// is refused.
+pub fn load_scene(path: &Path, load: &LoadOptions) -> Result<Scene, BakeError> {
+    if !crate::scene::is_gltf_path(path)
+        && let Some(why) = binary_data(path)
+    {
+        return Err(BakeError::NotText {
+            path: path.to_owned(),
+            message: why,
+        });
+    }
+    Scene::load_with(path, load).map_err(|e| match e {
+        BakeError::Material {
+            path,
+            line,
+            material,
+            message,
+        } if load.validate_materials
+            && load.max_reflectance.is_none()
+            && kd_at_or_above_one(&message) =>
+        {
+            let what = if message.starts_with("baseColorFactor ") {
+                "baseColorFactor"
+            } else {
+                "Kd"
+            };
+            BakeError::Material {
+                path,
+                line,
+                material,
+                message: format!(
+                    "{message}; --max-reflectance R (e.g. 0.95) lowers such {what} to R with a warning"
+                ),
+            }
+        }
+        e => e,
+    })
+}
+
+/// Whether a material message is about a `Kd` or `baseColorFactor` with a channel at or above
+/// 1 (`Kd 1 1 1 is not a reflectance …`), which `--max-reflectance` would lower.
+fn kd_at_or_above_one(message: &str) -> bool {
+    let Some(rest) = message
+        .strip_prefix("Kd ")
+        .or_else(|| message.strip_prefix("baseColorFactor "))
+    else {
+        return false;
+    };
+    rest.split_whitespace()
+        .take(3)
+        .filter_map(|c| c.parse::<f64>().ok())
+        .any(|c| c.is_finite() && c >= 1.0)
+}
+
+/// Whether the first 64 KiB of `path` are binary data (`not an OBJ file: …`): a NUL byte, or
+/// more than 1% control bytes (an OBJ is text; a Latin-1 name is not binary). `None` for
+/// text, or a file that cannot be read (the loader says why).
+fn binary_data(path: &Path) -> Option<String> {
+    use std::io::Read;
+    let mut head = Vec::with_capacity(1 << 16);
+    std::fs::File::open(path)
+        .ok()?
+        .take(1 << 16)
+        .read_to_end(&mut head)
+        .ok()?;
+    let line_of = |at: usize| head[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+    if let Some(at) = head.iter().position(|&b| b == 0) {
+        return Some(format!(
+            "not an OBJ file: binary data (a NUL byte on line {})",
+            line_of(at)
+        ));
+    }
+    let control = |b: &u8| (*b < 0x20 && !b"\t\n\r\x0c".contains(b)) || *b == 0x7f;
+    let count = head.iter().filter(|b| control(b)).count();
+    (count * 100 > head.len()).then(|| {
+        format!(
+            "not an OBJ file: binary data ({count} control bytes in the first {})",
+            head.len()
+        )
+    })
+}
