@@ -25,7 +25,8 @@
 #define RAD_ERR_LENGTH 2
 
 /*
- A value is refused: non-finite exitance, a string that is not UTF-8.
+ A value is refused: a negative or non-finite exitance or light, an unknown light kind, bad
+ bake options, a scene that cannot be loaded or baked, a string that is not UTF-8.
  */
 #define RAD_ERR_VALUE 3
 
@@ -71,6 +72,45 @@
 #define RAD_ERR_NO_PROBES 11
 
 /*
+ The bake was cancelled from its progress callback; nothing was written.
+ */
+#define RAD_ERR_CANCELLED 12
+
+/*
+ A point light: `position`, `value` = intensity in W/sr.
+ */
+#define RAD_LIGHT_POINT 0
+
+/*
+ A spot light: `position`, `direction` (the cone's axis), `cone_deg` (the cone's
+ half-angle in degrees, in (0, 180]), `value` = intensity in W/sr.
+ */
+#define RAD_LIGHT_SPOT 1
+
+/*
+ A directional light (a sun): `direction` (the way the light travels), `value` =
+ irradiance in W/m^2 on a surface facing it.
+ */
+#define RAD_LIGHT_DIRECTIONAL 2
+
+/*
+ Point status of rad_scene_point_irradiance: the point is answered.
+ */
+#define RAD_POINT_OK 0
+
+/*
+ Point status of rad_scene_point_irradiance: the point lies inside an object (most of its
+ rays meet the backs of faces); its irradiance is zero.
+ */
+#define RAD_POINT_INSIDE 1
+
+/*
+ Point status of rad_scene_point_irradiance: the point lies outside the scene; its
+ irradiance is zero.
+ */
+#define RAD_POINT_OUTSIDE 2
+
+/*
  A gather over a scene's transfer matrix on one backend. Opaque: made by rad_gather_new,
  freed by rad_gather_free; used by one thread at a time.
  */
@@ -81,6 +121,14 @@ typedef struct RadGather RadGather;
  rad_scene_free.
  */
 typedef struct RadScene RadScene;
+
+/*
+ Called during a bake with the stage's name (a NUL-terminated string valid during the call)
+ and the fraction of the bake done, in [0, 1], never decreasing, 1 at the end. Called on the
+ thread that called rad_bake, about every 100 ms. A non-zero return cancels the bake:
+ rad_bake then returns RAD_ERR_CANCELLED and leaves nothing at the output path.
+ */
+typedef int32_t (*RadProgress)(void *user, const char *stage, double fraction);
 
 /*
  A linear RGB triple of floats: exitance and irradiance in W/m², reflectance unitless.
@@ -102,11 +150,38 @@ typedef struct RadRgb {
 } RadRgb;
 
 /*
- The host's visibility test for [`rad_probe_irradiance`]: whether the segment from `from`
+ The host's visibility test for rad_probe_irradiance: whether the segment from `from`
  to `to` (3 floats each, scene units) is clear of the scene. `user` is the pointer the host
  passed along. NULL in its place: every probe is in sight.
  */
 typedef bool (*RadProbeVisible)(void *user, const float *from, const float *to);
+
+/*
+ An analytic light, as the lights file of the command line gives one.
+ */
+typedef struct RadLight {
+  /*
+   RAD_LIGHT_POINT, RAD_LIGHT_SPOT or RAD_LIGHT_DIRECTIONAL.
+   */
+  uint32_t kind;
+  /*
+   Point, spot: where the light is, in scene units.
+   */
+  float position[3];
+  /*
+   Spot: the cone's axis; directional: the direction the light travels. Need not be unit
+   length; not zero.
+   */
+  float direction[3];
+  /*
+   Spot: the cone's half-angle in degrees, in (0, 180].
+   */
+  float cone_deg;
+  /*
+   Point, spot: intensity in W/sr; directional: irradiance in W/m^2. Finite, not negative.
+   */
+  struct RadRgb value;
+} RadLight;
 
 /*
  One patch of the simplified scene, in the matrix numbering (the index `x` and `y` use).
@@ -172,6 +247,22 @@ extern "C" {
 const char *rad_version(void);
 
 /*
+ Bakes an OBJ or glTF scene into `output_path` (written atomically: a failed or cancelled bake
+ leaves nothing there). `options_json`: the bake flags as a JSON object, long names with '_'
+ for '-' ({"patches": 1024, "format": "bc1", "probes": "none"}); NULL or "{}" for the
+ defaults (those of `radiosity bake`); an unknown key is an error. `progress` may be NULL;
+ `user` is passed to it. RAD_ERR_VALUE for bad options or a scene that cannot be loaded or
+ baked (the message says which), RAD_ERR_IO for a file that cannot be read,
+ RAD_ERR_CANCELLED when `progress` asked to stop.
+
+ # Safety
+
+ `scene_path` and `output_path` are NULL or NUL-terminated strings; `options_json` is NULL or
+ a NUL-terminated string; `progress`, if not NULL, is safe to call with `user`.
+ */
+int32_t rad_bake(const char *scene_path, const char *output_path, const char *options_json, RadProgress progress, void *user);
+
+/*
  This thread's last failure: a NUL-terminated message naming the function and the reason,
  or "" when nothing has failed on this thread. Owned by the library and valid until this
  thread's next call into it; never NULL.
@@ -216,7 +307,7 @@ const char *rad_gather_backend(const struct RadGather *gather);
 /*
  One gather: `y = M · x`, per-patch irradiance (W/m²) from first exitance `x` (W/m²), `n` =
  the scene's patch count, both in the matrix numbering. `x` and `y` may be the same array.
- RAD_ERR_VALUE for a non-finite `x` (nothing written), RAD_ERR_GATHER when the backend fails.
+ RAD_ERR_VALUE for a negative or non-finite `x` (nothing written), RAD_ERR_GATHER when the backend fails.
 
  # Safety
 
@@ -284,6 +375,38 @@ int32_t rad_scene_probes_frame(const struct RadScene *scene, const struct RadRgb
  is safe to call with `user` and two 3-float arrays.
  */
 int32_t rad_probe_irradiance(const struct RadScene *scene, const struct RadRgb *sh, size_t sh_len, const float *point, const float *normal, RadProbeVisible visible, void *user, struct RadRgb *out);
+
+/*
+ Per-patch direct irradiance from `lights`, with shadow rays against the file's full-detail
+ mesh at its direct-light points (each patch the area-weighted mean over its points): what
+ `radiosity solve --lights` feeds its gather. `n` = the patch count; `lights` may be NULL
+ when `light_count` is 0 (all zeros). Feed the result to rad_first_exitance.
+ RAD_ERR_VALUE for a bad light (nothing written), RAD_ERR_NO_MESH for a file without a mesh
+ when lights are given.
+
+ # Safety
+
+ `scene` is NULL or a live scene; `lights` is NULL or `light_count` readable lights;
+ `direct` is NULL or `n` writable values.
+ */
+int32_t rad_scene_direct(const struct RadScene *scene, const struct RadLight *lights, size_t light_count, struct RadRgb *direct, size_t n);
+
+/*
+ Total irradiance at `count` points, as `radiosity solve --points` answers them: `y` is this
+ frame's gather result (`n` entries, rad_gather_run's output) for the same `lights`;
+ `points` and `normals` are 3 floats each per point (normals need not be unit length, not
+ zero). `out[i]` receives the irradiance in W/m^2 and `status[i]` RAD_POINT_OK,
+ RAD_POINT_INSIDE or RAD_POINT_OUTSIDE (`out[i]` is then zero). RAD_ERR_VALUE for a bad
+ light, a non-finite or negative `y`, a non-finite point or a zero normal (nothing
+ written); RAD_ERR_NO_MESH for a file without a mesh.
+
+ # Safety
+
+ `scene` is NULL or a live scene; `lights` is NULL or `light_count` readable lights; `y` is
+ NULL or `n` readable values; `points` and `normals` are NULL or `3 * count` readable floats;
+ `out` is NULL or `count` writable values; `status` is NULL or `count` writable values.
+ */
+int32_t rad_scene_point_irradiance(const struct RadScene *scene, const struct RadLight *lights, size_t light_count, const struct RadRgb *y, size_t n, const float *points, const float *normals, size_t count, struct RadRgb *out, int32_t *status);
 
 /*
  Opens and fully validates the `.rad` file at `path` (a NUL-terminated path in the
@@ -410,7 +533,8 @@ int32_t rad_scene_corner_indirect(const struct RadScene *scene, const struct Rad
 /*
  First exitance `x = E + ρ · direct` per patch (the core's `first_exitance`) from the host's
  direct irradiance `direct` (W/m², `n` = patch count; all zeros for the scene's own emitters
- alone). `direct` and `x` may be the same array. RAD_ERR_VALUE for a non-finite `direct`.
+ alone). `direct` and `x` may be the same array. RAD_ERR_VALUE for a negative or non-finite
+ `direct`.
 
  # Safety
 

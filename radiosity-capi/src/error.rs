@@ -12,7 +12,7 @@ thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
 }
 
-/// A failed call: the status code it returns and the message [`rad_last_error`] gives.
+/// A failed call: the status code it returns and the message rad_last_error gives.
 #[derive(Debug)]
 pub(crate) struct Failure {
     pub(crate) code: i32,
@@ -63,8 +63,8 @@ pub(crate) fn guard<T>(name: &str, fail: T, body: impl FnOnce() -> Result<T, Fai
     }
 }
 
-/// [`guard`] for a function that returns a status code: [`RAD_OK`] or the failure's code
-/// ([`RAD_ERR_PANIC`] for a caught panic).
+/// guard for a function that returns a status code: RAD_OK or the failure's code
+/// (RAD_ERR_PANIC for a caught panic).
 pub(crate) fn status(name: &str, body: impl FnOnce() -> Result<(), Failure>) -> i32 {
     let mut code = RAD_ERR_PANIC;
     guard(name, (), || match body() {
@@ -121,7 +121,7 @@ pub(crate) unsafe fn slice<'a, T>(p: *const T, len: usize, what: &str) -> Result
     Ok(unsafe { std::slice::from_raw_parts(p, len) })
 }
 
-/// The `len` elements at `p` for writing, after the same checks as [`slice`].
+/// The `len` elements at `p` for writing, after the same checks as slice.
 ///
 /// # Safety
 ///

@@ -88,7 +88,7 @@ pub unsafe extern "C" fn rad_gather_new(
         let name = unsafe { CStr::from_ptr(backend) }
             .to_str()
             .map_err(|_| Failure::new(RAD_ERR_VALUE, "backend name is not UTF-8"))?;
-        let gather = build(&scene.file.matrix, name)?;
+        let gather = build(&scene.rt.file.matrix, name)?;
         // SAFETY: as above.
         unsafe { out.write(Box::into_raw(Box::new(gather))) };
         Ok(())
@@ -127,7 +127,7 @@ pub unsafe extern "C" fn rad_gather_backend(gather: *const RadGather) -> *const 
 
 /// One gather: `y = M · x`, per-patch irradiance (W/m²) from first exitance `x` (W/m²), `n` =
 /// the scene's patch count, both in the matrix numbering. `x` and `y` may be the same array.
-/// RAD_ERR_VALUE for a non-finite `x` (nothing written), RAD_ERR_GATHER when the backend fails.
+/// RAD_ERR_VALUE for a negative or non-finite `x` (nothing written), RAD_ERR_GATHER when the backend fails.
 ///
 /// # Safety
 ///
@@ -155,6 +155,15 @@ pub unsafe extern "C" fn rad_gather_run(
         // SAFETY: the caller promises `n` readable values at `x`; an overlap with `y` is
         // copied away before `y` is borrowed.
         let x = unsafe { read_input(x, n, y.cast_const(), n, "x") }?;
+        if let Some(i) = x
+            .iter()
+            .position(|v| !(v.is_finite() && v.to_array().iter().all(|c| *c >= 0.0)))
+        {
+            return Err(Failure::new(
+                RAD_ERR_VALUE,
+                format!("exitance of patch {i} is negative or not finite"),
+            ));
+        }
         // SAFETY: the caller promises `n` writable values at a non-NULL `y`; `x` no longer
         // borrows them if they overlapped.
         let y = unsafe { slice_mut(y, n, "y") }?;

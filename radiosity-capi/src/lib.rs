@@ -29,11 +29,14 @@
 //!   at once. A gather is used by one thread at a time (it keeps scratch buffers); make one
 //!   gather per thread to gather in parallel.
 
+mod bake;
 mod error;
 mod gather;
 mod probes;
+mod runtime;
 mod scene;
 
+pub use bake::{RadProgress, rad_bake};
 pub use error::rad_last_error;
 pub use gather::{
     RadGather, rad_gather_backend, rad_gather_free, rad_gather_name, rad_gather_new, rad_gather_run,
@@ -41,6 +44,10 @@ pub use gather::{
 pub use probes::{
     RadProbeVisible, rad_probe_irradiance, rad_scene_probe_count, rad_scene_probe_positions,
     rad_scene_probes_frame,
+};
+pub use runtime::{
+    RAD_LIGHT_DIRECTIONAL, RAD_LIGHT_POINT, RAD_LIGHT_SPOT, RAD_POINT_INSIDE, RAD_POINT_OK,
+    RAD_POINT_OUTSIDE, RadLight, rad_scene_direct, rad_scene_point_irradiance,
 };
 pub use scene::{
     RadScene, rad_first_exitance, rad_scene_corner_indirect, rad_scene_free, rad_scene_from_bytes,
@@ -58,7 +65,8 @@ pub const RAD_OK: i32 = 0;
 pub const RAD_ERR_POINTER: i32 = 1;
 /// A length does not match the scene (patch count, three corners per triangle).
 pub const RAD_ERR_LENGTH: i32 = 2;
-/// A value is refused: non-finite exitance, a string that is not UTF-8.
+/// A value is refused: a negative or non-finite exitance or light, an unknown light kind, bad
+/// bake options, a scene that cannot be loaded or baked, a string that is not UTF-8.
 pub const RAD_ERR_VALUE: i32 = 3;
 /// The file could not be read.
 pub const RAD_ERR_IO: i32 = 4;
@@ -77,6 +85,8 @@ pub const RAD_ERR_PANIC: i32 = 10;
 /// The scene has no light probes (baked with `--probes none`), or none of them is in sight of
 /// the point asked about.
 pub const RAD_ERR_NO_PROBES: i32 = 11;
+/// The bake was cancelled from its progress callback; nothing was written.
+pub const RAD_ERR_CANCELLED: i32 = 12;
 
 /// A linear RGB triple of floats: exitance and irradiance in W/m², reflectance unitless.
 /// The layout of the core's `Rgb`.

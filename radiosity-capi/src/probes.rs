@@ -8,14 +8,14 @@ use crate::{RAD_ERR_LENGTH, RAD_ERR_NO_PROBES, RAD_ERR_VALUE, RadRgb};
 use radiosity_core::{Rgb, SH_COEFFICIENTS, sh_irradiance};
 use std::ffi::c_void;
 
-/// The host's visibility test for [`rad_probe_irradiance`]: whether the segment from `from`
+/// The host's visibility test for rad_probe_irradiance: whether the segment from `from`
 /// to `to` (3 floats each, scene units) is clear of the scene. `user` is the pointer the host
 /// passed along. NULL in its place: every probe is in sight.
 pub type RadProbeVisible =
     Option<unsafe extern "C" fn(user: *mut c_void, from: *const f32, to: *const f32) -> bool>;
 
 fn probes(scene: &RadScene) -> Result<&radiosity_core::DecodedProbes, Failure> {
-    scene.probes.as_ref().ok_or_else(|| {
+    scene.rt.decoded_probes().ok_or_else(|| {
         Failure::new(
             RAD_ERR_NO_PROBES,
             "the scene has no light probes (it was baked with --probes none)",
@@ -47,7 +47,7 @@ pub unsafe extern "C" fn rad_scene_probe_count(scene: *const RadScene) -> usize 
     guard("rad_scene_probe_count", 0, || {
         // SAFETY: the caller promises a live scene or NULL (checked).
         let scene = unsafe { scene_ref(scene) }?;
-        Ok(scene.file.probes.as_ref().map_or(0, |p| p.len()))
+        Ok(scene.rt.file.probes.as_ref().map_or(0, |p| p.len()))
     })
 }
 
@@ -63,6 +63,7 @@ pub unsafe extern "C" fn rad_scene_probe_positions(scene: *const RadScene) -> *c
         // SAFETY: the caller promises a live scene or NULL (checked).
         let scene = unsafe { scene_ref(scene) }?;
         Ok(scene
+            .rt
             .file
             .probes
             .as_ref()
@@ -106,7 +107,7 @@ pub unsafe extern "C" fn rad_scene_probes_frame(
         }
         let reflected: Vec<Rgb> = h
             .iter()
-            .zip(scene.file.patches.iter())
+            .zip(scene.rt.file.patches.iter())
             .map(|(h, p)| p.reflectance * *h)
             .collect();
         // SAFETY: the caller promises `sh_len` writable values at a non-NULL `sh`; `h` no
@@ -150,7 +151,7 @@ pub unsafe extern "C" fn rad_probe_irradiance(
     status("rad_probe_irradiance", || {
         // SAFETY: the caller promises a live scene or NULL (checked).
         let scene = unsafe { scene_ref(scene) }?;
-        let file_probes = match &scene.file.probes {
+        let file_probes = match &scene.rt.file.probes {
             Some(p) => p,
             None => return probes(scene).map(|_| ()),
         };

@@ -14,10 +14,9 @@ use std::path::PathBuf;
 /// A parsed `.rad` file. Opaque: made by rad_scene_open or rad_scene_from_bytes, freed by
 /// rad_scene_free.
 pub struct RadScene {
-    pub(crate) file: RadFile<'static>,
+    /// The file with its ray caster (the BVH over the full-detail mesh) and decoded probes.
+    pub(crate) rt: radiosity_runtime::BakedScene,
     names: Vec<CString>,
-    /// The file's probes decoded for the frame (`None` without probes).
-    pub(crate) probes: Option<radiosity_core::DecodedProbes>,
 }
 
 impl RadScene {
@@ -31,17 +30,15 @@ impl RadScene {
             .iter()
             .map(|n| CString::new(n.replace('\0', " ")).unwrap_or_default())
             .collect();
-        let probes = file.probes.as_ref().map(radiosity_core::DecodedProbes::new);
         Ok(Self {
-            file,
+            rt: radiosity_runtime::BakedScene::new(file),
             names,
-            probes,
         })
     }
 
     /// The mesh with at least one triangle, or the reason there is none.
     fn mesh(&self) -> Result<&Mesh<'static>, Failure> {
-        match &self.file.mesh {
+        match &self.rt.file.mesh {
             Some(m) if !m.triangles.is_empty() => Ok(m),
             Some(_) => Err(Failure::new(
                 RAD_ERR_NO_MESH,
@@ -55,7 +52,7 @@ impl RadScene {
     }
 
     fn triangles(&self) -> &[MeshTriangle] {
-        self.file.mesh.as_ref().map_or(&[], |m| &m.triangles)
+        self.rt.file.mesh.as_ref().map_or(&[], |m| &m.triangles)
     }
 }
 
@@ -175,7 +172,7 @@ pub unsafe extern "C" fn rad_scene_free(scene: *mut RadScene) {
 pub unsafe extern "C" fn rad_scene_patch_count(scene: *const RadScene) -> usize {
     // SAFETY: the caller promises a live scene or NULL (checked).
     guard("rad_scene_patch_count", 0, || {
-        Ok(unsafe { scene_ref(scene) }?.file.n())
+        Ok(unsafe { scene_ref(scene) }?.rt.file.n())
     })
 }
 
@@ -190,7 +187,7 @@ pub unsafe extern "C" fn rad_scene_patches(scene: *const RadScene) -> *const Rad
     guard("rad_scene_patches", std::ptr::null(), || {
         // SAFETY: the caller promises a live scene or NULL (checked).
         let scene = unsafe { scene_ref(scene) }?;
-        let patches: &[RadPatch] = bytemuck::cast_slice(&scene.file.patches);
+        let patches: &[RadPatch] = bytemuck::cast_slice(&scene.rt.file.patches);
         Ok(patches.as_ptr())
     })
 }
@@ -274,7 +271,7 @@ pub unsafe extern "C" fn rad_scene_vertex_count(scene: *const RadScene) -> usize
     guard("rad_scene_vertex_count", 0, || {
         // SAFETY: the caller promises a live scene or NULL (checked).
         let scene = unsafe { scene_ref(scene) }?;
-        Ok(scene.file.mesh.as_ref().map_or(0, |m| m.positions.len()))
+        Ok(scene.rt.file.mesh.as_ref().map_or(0, |m| m.positions.len()))
     })
 }
 
@@ -295,10 +292,13 @@ pub unsafe extern "C" fn rad_scene_vertices(scene: *const RadScene) -> *const f3
 }
 
 pub(crate) fn check_n(scene: &RadScene, n: usize, what: &str) -> Result<(), Failure> {
-    if n != scene.file.n() {
+    if n != scene.rt.file.n() {
         return Err(Failure::new(
             RAD_ERR_LENGTH,
-            format!("{what}: n = {n}, the scene has {} patches", scene.file.n()),
+            format!(
+                "{what}: n = {n}, the scene has {} patches",
+                scene.rt.file.n()
+            ),
         ));
     }
     Ok(())
@@ -374,7 +374,8 @@ pub unsafe extern "C" fn rad_scene_corner_indirect(
 
 /// First exitance `x = E + ρ · direct` per patch (the core's `first_exitance`) from the host's
 /// direct irradiance `direct` (W/m², `n` = patch count; all zeros for the scene's own emitters
-/// alone). `direct` and `x` may be the same array. RAD_ERR_VALUE for a non-finite `direct`.
+/// alone). `direct` and `x` may be the same array. RAD_ERR_VALUE for a negative or non-finite
+/// `direct`.
 ///
 /// # Safety
 ///
@@ -394,16 +395,19 @@ pub unsafe extern "C" fn rad_first_exitance(
         // SAFETY: the caller promises `n` readable values at `direct`; an overlap with `x` is
         // copied away.
         let direct = unsafe { read_input(direct, n, x.cast_const(), n, "direct") }?;
-        if let Some(i) = direct.iter().position(|d| !d.is_finite()) {
+        if let Some(i) = direct
+            .iter()
+            .position(|d| !(d.is_finite() && d.to_array().iter().all(|c| *c >= 0.0)))
+        {
             return Err(Failure::new(
                 RAD_ERR_VALUE,
-                format!("direct irradiance of patch {i} is not finite"),
+                format!("direct irradiance of patch {i} is negative or not finite"),
             ));
         }
         // SAFETY: the caller promises `n` writable values at a non-NULL `x`; `direct` no
         // longer borrows them if they overlapped.
         let x = unsafe { slice_mut(x, n, "x") }?;
-        first_exitance(&scene.file.patches, &direct, bytemuck::cast_slice_mut(x));
+        first_exitance(&scene.rt.file.patches, &direct, bytemuck::cast_slice_mut(x));
         Ok(())
     })
 }
