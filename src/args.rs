@@ -2,8 +2,8 @@
 
 use anyhow::bail;
 use clap::Args;
-use radiosity_bake::bounce::BounceSpec;
 use radiosity_bake::form_factor::FormFactorParams;
+use radiosity_bake::transfer::BounceSpec;
 
 /// How to bake (`bake`, and `solve` on an OBJ).
 #[derive(Args, Clone, Debug)]

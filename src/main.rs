@@ -356,7 +356,7 @@ fn main() -> ExitCode {
             patches,
             runs,
             json,
-        } => limits::check_patches(patches, radiosity_bake::bounce::BounceSpec::Infinite)
+        } => limits::check_patches(patches, radiosity_bake::transfer::BounceSpec::Infinite)
             .and_then(|()| bench::run(patches, json, runs)),
         Command::Report { quick, output } => {
             report::output_dir(output).and_then(|dir| report::run(quick, &dir))
