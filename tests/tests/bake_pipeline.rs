@@ -49,7 +49,7 @@ fn radiosity(out: &BakeOutput) -> Vec<Rgb> {
 #[test]
 fn white_furnace_matches_e_over_one_minus_rho() {
     // Closed box, uniform ρ, every face emitting L = 1/π (E = 1): B = 1/(1 − ρ) everywhere
-    // (shared/reference/multibounce.md §1), whatever the meshing, if rows of F sum to 1. The
+    // (docs/reference/multibounce.md §1), whatever the meshing, if rows of F sum to 1. The
     // issue asks for 0.5%; f32 storage isolates the transfer, the default (BC4 for a grey scene)
     // adds compression.
     let dir = tempfile::tempdir().unwrap();

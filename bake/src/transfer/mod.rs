@@ -13,7 +13,7 @@
 //!   also the more accurate (see the tests).
 //!
 //! Closed scenes need rows of F that sum to exactly 1, or multi-bounce light is lost: at
-//! ρ = 0.999 a row-sum error of 1e-4 costs 9% of the radiosity (shared/reference/multibounce.md).
+//! ρ = 0.999 a row-sum error of 1e-4 costs 9% of the radiosity (docs/reference/multibounce.md §1).
 //! [`enforce_closure`] balances F symmetrically so that every row sums to 1 while reciprocity
 //! `A_i F_ij = A_j F_ji` is kept exactly.
 

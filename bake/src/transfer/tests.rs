@@ -119,7 +119,7 @@ fn tiled_copies_and_transposes_cover_every_entry() {
 #[test]
 fn infinite_bounces_on_two_plates_match_the_closed_form() {
     // B1 = (E1 + ρ1 E2)/(1 − ρ1ρ2): with E2 = 0, irradiance at plate 2 from unit first
-    // exitance at plate 1 is M21 = 1/(1 − ρ1ρ2) (multibounce.md §3a).
+    // exitance at plate 1 is M21 = 1/(1 − ρ1ρ2) (docs/reference/multibounce.md §3a).
     let (r1, r2) = (0.9, 0.99);
     let (m, rep) =
         transfer_matrix(&plates(), &[[r1; 3], [r2; 3]], 1, BounceSpec::Infinite).unwrap();

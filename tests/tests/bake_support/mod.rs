@@ -162,7 +162,7 @@ pub(crate) struct Reference {
     pub(crate) reciprocal: Option<f64>,
 }
 
-/// The rows of `tests/data/viewfactors.csv` (a copy of `shared/reference/viewfactors.csv`)
+/// The rows of `tests/data/viewfactors.csv` (reference data, copied unchanged: `tests/data/README.md`)
 /// whose Howell reference is `howell`.
 pub(crate) fn references(howell: &str) -> Vec<Reference> {
     let text = std::fs::read_to_string(concat!(
