@@ -4,7 +4,6 @@
 use super::radiosity_ok;
 use radiosity_tests::scenes::{Material, block, closed_box, write_scene};
 
-#[allow(dead_code, unreachable_pub)]
 #[path = "../../examples/gpu_engine/main.rs"]
 mod gpu_engine;
 

@@ -1,7 +1,7 @@
 //! Helpers shared by the bake tests: OBJ scenes built in code, written to a temporary
 //! directory and read back through the real loader, optionally moved to general position.
 
-#![allow(dead_code)] // each test file uses its own subset
+#![allow(dead_code, reason = "each test file uses its own subset")]
 
 use glam::{DMat3, DVec3, dvec3};
 use radiosity_bake::scene::Scene;
