@@ -353,7 +353,7 @@ fn main() -> ExitCode {
             json,
         } => radiosity_bake::limits::check_patches(
             patches,
-            radiosity_bake::bounce::BounceSpec::Infinite,
+            radiosity_bake::transfer::BounceSpec::Infinite,
         )
         .map_err(anyhow::Error::from)
         .and_then(|()| bench::run(patches, json, runs)),

@@ -24,13 +24,13 @@ use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use markdown::{Notes, markdown};
 use measure::{Timer, sample, time_in_turns};
-use radiosity_bake::bounce::BounceSpec;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{
     BakeOutput, BakeParams, Discretised, FormatChoice, Hooks, discretise,
 };
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
+use radiosity_bake::transfer::BounceSpec;
 use radiosity_core::Format;
 use radiosity_pathtrace::{ObjectEstimate, PathTracer};
 use radiosity_perf::peers::LuSolve;

@@ -30,7 +30,10 @@ pub(crate) struct Ctx<'a, 'm> {
     pub(crate) matrix: &'a TransferMatrix<'m>,
     pub(crate) tables: &'a [[f32; 256]],
     /// `LogScale::factors()` per tile and channel for the `zmm` log bodies (else empty).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    #[cfg_attr(
+        not(target_arch = "x86_64"),
+        expect(dead_code, reason = "only the x86-64 `zmm` bodies read it")
+    )]
     pub(crate) factors: &'a [([f32; 16], [f32; 16])],
     /// BC1 palette tables per tile, `None` for small tiles (empty for other formats).
     pub(crate) bc1: &'a [Option<Bc1Palettes>],

@@ -27,52 +27,24 @@
 //! multiply-add) and compiled twice: the baseline (`wide` as built) and, inside
 //! `#[target_feature(enable = "avx2,fma,f16c")]`, an `std::arch` implementation (`vpsrlvd` to
 //! put the indices in place, `vpermilps`/`vpermps` to expand palettes, `vgatherdps` for the BC4
-//! palette, `vcvtph2ps`, `vfmadd`). On CPUs with AVX-512F a third path runs BC1 through its own
-//! `zmm` body (`avx512.rs`): one whole 4×4 block per register, so a block is one `vpsrlvd`,
-//! three palette broadcasts, three `vpermilps` and three `vfmadd`; the endpoint arithmetic that
-//! turns a block into palette-table keys runs for 16 blocks at a time in vector registers, a
-//! run of 128 blocks ahead of their use (keying each group just before its blocks made every
-//! scalar key load wait for the wide vector store it read from: 2.3 → 1.7 ms on one thread).
-//! BC4 and u8 get `zmm` bodies too: their log codes become values without the 256-entry table
-//! look-ups (scalar loads for u8, `vgatherdps` for BC4's palette) through the core's product
-//! form of the quantiser, `LogScale::decode(q) = high[(255 − q) >> 4] · low[(255 − q) & 15]`:
-//! two 16-entry tables in two registers, two `vpermps` and one multiply for 16 codes, the same
-//! rounding as the table, so still bit-identical. [`CpuGather::new`] takes the fastest path
-//! `is_x86_feature_detected!` allows ([`SimdPath::detect`]); f16 and f32 run the AVX2 body on
-//! the AVX-512 path (they are at their memory roof already).
+//! palette, `vcvtph2ps`, `vfmadd`). Dedicated bodies:
 //!
-//! Most CPUs an engine meets have AVX2 but not AVX-512 (Intel's desktop parts, AMD before Zen
-//! 4), so on the AVX2 path BC1 and BC4 have bodies of their own too (`avx2.rs`): BC1 is the
-//! `zmm` body in two halves (keys of eight blocks per register, a run ahead of their use; the
-//! exitance in 16-byte form), BC4 turns its palette codes into values through the same product
-//! form instead of a `vgatherdps`. On a Zen 3 virtual machine with AVX2 only, at 4098 patches
-//! (`gather_file`): BC1 6.6 → 3.3 ms on one thread and 3.2 → 1.9–2.9 ms on two; BC4
-//! 14.2–15.0 → 10.7–13.3 ms on two. u8 keeps the generic body: the product form measured 22 ms
-//! against its 14 ms of scalar look-ups there (`vpermps` crosses 128-bit lanes, slow on Zen 3).
+//! - `avx512.rs` (AVX-512F): BC1, BC4 and u8 with one whole 4×4 block per `zmm` register. BC1
+//!   turns the endpoints of 16 blocks at a time into palette-table keys in vector registers, a
+//!   run of 128 blocks ahead of their use; BC4 and u8 turn log codes into values without the
+//!   256-entry table through the core's product form of the quantiser,
+//!   `LogScale::decode(q) = high[(255 − q) >> 4] · low[(255 − q) & 15]` (two 16-entry tables in
+//!   two registers, two `vpermps` and one multiply for 16 codes: the same rounding as the
+//!   table). f16 and f32 run the AVX2 body on this path.
+//! - `avx2.rs` (AVX2): BC1 as the `zmm` body in two halves (keys of eight blocks per register,
+//!   the exitance in 16-byte form), BC4 through the same product form. u8 keeps the generic
+//!   body.
 //!
-//! Measured at n = 4096 (3 channels, 2 threads, Zen 5 EPYC with AVX-512), milliseconds per
-//! gather, `cargo bench -p radiosity-benches --bench gather` (AVX-512 column: `radiosity bench
-//! --patches 4096` and `cargo run --release -p radiosity-backend-cpu --example gather_file --
-//! FILE.rad` on a 4106-patch Cornell box):
-//!
-//! | format | runtime AVX-512 path | runtime AVX2 path | plain build, baseline (SSE2) | `target-cpu=native` build, baseline (`wide` on AVX-512) |
-//! |--------|------:|------:|------:|------:|
-//! | bc1    | 0.81–0.85 | 1.75–1.92 | 8.0–8.6 | 6.0  |
-//! | bc4    | 3.1–3.2   | 6.5–7.3   | 15–17   | 15.4 |
-//! | u8     | 2.2–2.4   | 5.3       | 7.1–7.4 | 5.0  |
-//! | f16    | (AVX2)    | 2.7–3.0   | 22      | 20.5 |
-//! | f32    | (AVX2)    | 3.8–5.4   | 5.6–7.3 | 4.5  |
-//!
-//! (The `native` column is one run of an older form of the same body; the AVX2 column is the
-//! generic AVX2 body: the BC1 and BC4 bodies of `avx2.rs` are not measured on that machine.)
-//! `target-cpu=native` alone does not reach the bottleneck, decoding: `wide` has no permute, so
-//! the texel expansion stays scalar whatever the target. The explicit AVX2 kernels are 2–7× faster on BC1, BC4 and
-//! f16, equal on u8 and f32 (within 6%, scalar table look-ups and memory bandwidth bound both),
-//! and a plain x86-64 binary with them still runs on any x86-64 CPU, where a `native` build
-//! faults on older ones. So: runtime dispatch, plain builds. [`CpuGather::path`] names the path
-//! that runs. Tried on the AVX-512 BC1 body and not kept, because neither measured faster: two
-//! block rows side by side sharing each exitance load, and unchecked palette loads instead of
-//! keys masked into a power-of-two table.
+//! Every path decodes bit-identical entries. [`CpuGather::new`] takes the fastest path
+//! `is_x86_feature_detected!` allows ([`SimdPath::detect`]); [`CpuGather::path`] names the path
+//! that runs. A plain x86-64 binary with these bodies runs on any x86-64 CPU. Why runtime
+//! dispatch and these bodies, with the timings per format and path and what was tried:
+//! `docs/decisions/cpu-gather-bodies.md`.
 //!
 //! # Example
 //!

@@ -15,11 +15,11 @@
 //! match within 1e-3 of a code, and the largest distance; and whether `⌊255·t + 1/14⌋`
 //! recovers the D3D10 code everywhere (true when the decoder interpolates without rounding,
 //! since D3D10's truncated thirds, fifths and sevenths all lie at least 1/7 below the next
-//! integer). The gather runs a smaller probe of the same kind
-//! (`radiosity_backend_wgpu::probe::texture_decode_model`) to decide whether its texture path
+//! integer). The gather runs a smaller check of the same kind
+//! (`radiosity_backend_wgpu::texture_unit::texture_decode_model`) to decide whether its texture path
 //! may be used.
 
-use radiosity_backend_wgpu::probe::{
+use radiosity_backend_wgpu::texture_unit::{
     random_bc1_blocks, read_bc_texels, texel, texture_decode_model,
 };
 use radiosity_backend_wgpu::{AdapterChoice, choose_adapter};
@@ -36,7 +36,7 @@ fn main() {
     });
     println!("adapter: {}", adapter.info);
     if !adapter.info.bc {
-        println!("no TEXTURE_COMPRESSION_BC: nothing to probe");
+        println!("no TEXTURE_COMPRESSION_BC: nothing to measure");
         return;
     }
     // BC4: every (r0, r1), indices 0..7 twice over the 16 texels.
@@ -57,7 +57,8 @@ fn main() {
     // BC1: random endpoints, each row of texels using indices 0..3.
     let bc1 = random_bc1_blocks(65536);
 
-    let t4 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc4RUnorm, &bc4).expect("probe");
+    let t4 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc4RUnorm, &bc4)
+        .expect("texture unit texels");
     let mut s4 = Stats::default();
     for (k, block) in bc4.chunks_exact(8).enumerate() {
         let b = Bc4Block(block.try_into().unwrap());
@@ -86,7 +87,8 @@ fn main() {
         });
     }
 
-    let t1 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc1RgbaUnorm, &bc1).expect("probe");
+    let t1 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc1RgbaUnorm, &bc1)
+        .expect("texture unit texels");
     let mut s1 = Stats::default();
     for (k, block) in bc1.chunks_exact(8).enumerate() {
         let b = Bc1Block(block.try_into().unwrap());
@@ -96,7 +98,7 @@ fn main() {
         for i in 0..16 {
             let p = b.index(i) as usize;
             if !b.is_four_colour() && p == 3 {
-                continue; // transparent black: no interpolation to probe
+                continue; // transparent black: no interpolation to measure
             }
             for c in 0..3 {
                 let (a, z) = (f64::from(e0[c]), f64::from(e1[c]));
@@ -114,7 +116,7 @@ fn main() {
     }
     s1.print("bc1");
     println!(
-        "the gather's own probe (what `auto` decides by): {:?}",
+        "the gather's own check (what `auto` decides by): {:?}",
         texture_decode_model(&adapter)
     );
     if let Some(dir) = &dump {

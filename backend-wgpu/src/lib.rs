@@ -123,8 +123,8 @@ mod frame_timing;
 mod gather;
 mod light_probes;
 mod plan;
-pub mod probe;
 mod shader;
+pub mod texture_unit;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
 pub use auto::auto_gather;

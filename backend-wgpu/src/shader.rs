@@ -136,7 +136,7 @@ pub(crate) fn finish(channels: usize) -> String {
 /// code, so a bias of half that recovers ⌊·⌋ through any float error below 1/14 of a code.
 /// Rounding to nearest instead (the first version) left BC4 on an NVIDIA H100 with a lighting
 /// error of 6.3e-3 against 1.6e-3 with the bias; that texture unit is off D3D10's rules in
-/// other ways too, which `probe` finds, so `auto` does not use it.
+/// other ways too, which `texture_unit` finds, so `auto` does not use it.
 const TEX_BIAS: &str = "const TEX_BIAS: f32 = 0.07142857;";
 
 /// `x / 3 == (x · 683) >> 11` for every `x ≤ 765` (the largest `2a + b` of 8-bit codes), and

@@ -14,34 +14,58 @@
 //!    burial, escape and dark-patch checks and by [`check::row_check`].
 //! 6. [`effects`]: which effects a scene needs (colour, occlusion, emission), each with a
 //!    reason.
-//! 7. [`bounce`]: the multi-bounce transfer matrix `M = Σ (F^C)^b · F` and F's closure.
-//! 8. [`order`]: patch reordering before compression, with estimated errors.
-//! 9. [`encode`]: BC1/BC4, u8-log, f16 and f32 encoders from a dense matrix to a
-//!    [`radiosity_core::TransferMatrix`].
-//! 10. [`pipeline`]: the whole bake ([`pipeline::bake`]) with its report.
+//! 7. `closure`: burial (surface other objects bury, taken out of the patches), whether light
+//!    leaves the scene (F's row sums, then hemisphere rays) and the matching correction of F.
+//! 8. `dark`: patches whose row of F is zero, dropped when buried whole, checked by
+//!    hemisphere rays ([`pipeline::check_dark`]).
+//! 9. [`transfer`]: the multi-bounce transfer matrix `M = Σ (F^C)^b · F`, and the closure's
+//!    scaling and capping of F's rows.
+//! 10. [`order`]: patch reordering before compression, with estimated errors.
+//! 11. [`encode`]: BC1/BC4, u8-log, f16 and f32 encoders from a dense matrix to a
+//!     [`radiosity_core::TransferMatrix`].
+//! 12. [`pipeline`]: the whole bake ([`pipeline::bake`]) with its report.
+//! 13. [`probes`]: light probes placed and weighed over the baked file (a bake parameter).
 //!
-//! Beside the pipeline: [`check`] (rows of F against hemisphere rays, object-to-object view
-//! factors) and [`rng`] (the deterministic random streams).
+//! Beside the pipeline: [`host`] (the bake flags, loading with the command line's checks, and
+//! a whole bake to a file with progress and cancellation), [`limits`] (what a machine can
+//! bake), [`check`] (rows of F against hemisphere rays, object-to-object view factors) and
+//! [`rng`] (the deterministic random streams, from `radiosity-geometry`).
 #![deny(missing_docs)]
 
-pub mod bounce;
-pub mod check;
-pub mod effects;
-pub mod encode;
-pub mod error;
-pub mod form_factor;
-pub(crate) mod hemisphere;
-pub mod host;
-pub mod limits;
-pub mod order;
-pub mod pipeline;
-pub mod probes;
+// The stages in pipeline order, one a group so that rustfmt keeps the order.
 pub mod scene;
-pub mod simplify;
 
-pub use error::BakeError;
+pub mod simplify;
 
 // The geometry stage and the random streams live in `radiosity-geometry`, which the runtime
 // shares without the bake's heavy dependencies; the bake's stages name them as before.
 pub use radiosity_geometry as geometry;
+
+pub mod form_factor;
+
+pub(crate) mod hemisphere;
+
+pub mod effects;
+
+pub(crate) mod closure;
+
+pub(crate) mod dark;
+
+pub mod transfer;
+
+pub mod order;
+
+pub mod encode;
+
+pub mod pipeline;
+
+pub mod probes;
+
+// Beside the pipeline.
+pub mod check;
+pub mod error;
+pub mod host;
+pub mod limits;
 pub use radiosity_geometry::rng;
+
+pub use error::BakeError;

@@ -3,7 +3,7 @@
 //! machine passes.
 
 use crate::BakeError;
-use crate::bounce::BounceSpec;
+use crate::transfer::BounceSpec;
 
 /// Largest patch target on any machine. A target is hit within +10%, and the matrix's n²
 /// entries must stay countable in 32 bits (the sparse rows' offsets are `u32`): 1.1 · 58 000

@@ -3,7 +3,7 @@
 //! against the exact furnace answer. Run: `cargo bench -p radiosity-benches --bench transfer`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use radiosity_bake::bounce::{BounceSpec, Dense, transfer_matrix};
+use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
 use std::hint::black_box;
 
 /// A closed "scene" of n patches: F_ij ∝ 1/(1 + |i − j|), zero diagonal, rows normalised to 1.

@@ -82,7 +82,7 @@ mod tests {
     use glam::dvec3;
 
     /// Howell B-3: element whose normal passes through a corner of a parallel a×b rectangle at
-    /// distance c (value from /work/shared/reference/viewfactors.csv row 24, a = b = c = 1).
+    /// distance c (value from tests/tests/data/viewfactors.csv row 24, a = b = c = 1).
     #[test]
     fn corner_of_parallel_rectangle() {
         // Rectangle at z = 1 facing down (-z): counter-clockwise about -z.

@@ -12,7 +12,7 @@
 
 use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::{Accum, Mat, Par};
-use radiosity_bake::bounce::Dense;
+use radiosity_bake::transfer::Dense;
 use radiosity_core::{Gather, GatherError, Rgb, TransferMatrix, check_gather_args};
 use rayon::prelude::*;
 use wide::f32x8;

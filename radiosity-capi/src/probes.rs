@@ -137,7 +137,6 @@ pub unsafe extern "C" fn rad_scene_probes_frame(
 /// `normal` are NULL or 3 readable floats; `out` is NULL or writable; `visible`, when not NULL,
 /// is safe to call with `user` and two 3-float arrays.
 #[unsafe(no_mangle)]
-#[allow(clippy::too_many_arguments)]
 pub unsafe extern "C" fn rad_probe_irradiance(
     scene: *const RadScene,
     sh: *const RadRgb,

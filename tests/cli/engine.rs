@@ -4,8 +4,7 @@
 use super::radiosity_ok;
 use radiosity_tests::scenes::{Material, block, closed_box, write_scene};
 
-#[allow(dead_code, unreachable_pub)]
-#[path = "../../examples/gpu_engine.rs"]
+#[path = "../../examples/gpu_engine/main.rs"]
 mod gpu_engine;
 
 /// Whether wgpu finds an adapter; without one this test prints why and passes, except under

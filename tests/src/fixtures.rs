@@ -169,7 +169,7 @@ pub fn sample_mesh(n: usize) -> radiosity_core::Mesh<'static> {
 /// transfer matrix (`n·n·3`, natural order). For order tests and benches that need a real M
 /// before any reordering or encoding.
 pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
-    use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
+    use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
     let (core, f) = cornell_form_factors(patches);
     let reflectance: Vec<[f64; 3]> = core
         .iter()
@@ -182,11 +182,11 @@ pub fn cornell_transfer(patches: usize) -> (Vec<Patch>, Vec<f32>) {
 
 /// The patches and ray-cast form factors of [`cornell_transfer`], before any transfer: for
 /// tests that compute `M` under reflectances of their own.
-pub fn cornell_form_factors(patches: usize) -> (Vec<Patch>, radiosity_bake::bounce::Dense) {
-    use radiosity_bake::bounce::Dense;
+pub fn cornell_form_factors(patches: usize) -> (Vec<Patch>, radiosity_bake::transfer::Dense) {
     use radiosity_bake::form_factor::{FormFactorParams, form_factors};
     use radiosity_bake::scene::Scene;
     use radiosity_bake::simplify::{VoxelParams, simplify};
+    use radiosity_bake::transfer::Dense;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes/cornell-box/CornellBox-Original.obj");
     let scene = Scene::load_obj(&path).expect("Cornell box loads");

@@ -1,7 +1,7 @@
 //! The whole bake on scenes with known physics: furnace, effect decisions that change the work
 //! done, and compression quality on the Cornell box.
 
-use radiosity_bake::bounce::BounceSpec;
+use radiosity_bake::transfer::BounceSpec;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::check_dark;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};

@@ -24,12 +24,12 @@
 //! same scene builders and checks, which read best beside it.
 
 use glam::DVec3;
-use radiosity_bake::bounce::BounceSpec;
 use radiosity_bake::form_factor::ManyPieces;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
+use radiosity_bake::transfer::BounceSpec;
 use radiosity_core::{
     DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
 };

@@ -4,8 +4,8 @@
 
 mod gpu_support;
 
-use radiosity_bake::bounce::{BounceSpec, transfer_matrix};
 use radiosity_bake::encode::{EncodeParams, encode_dense};
+use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
 use radiosity_core::{
     DecodeMode, EditError, EditedGather, Format, Gather, Patch, ReferenceGather, ReflectanceEdit,
     Rgb, TransferMatrix,

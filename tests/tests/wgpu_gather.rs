@@ -359,12 +359,12 @@ fn impossible_requests_are_errors() {
     }
 }
 
-/// The texture-unit probe names Mesa's rules on Mesa's software drivers (known bit for bit),
-/// and the hardware path reports whatever the probe found as its decode model; `auto` takes
+/// The texture-unit check names Mesa's rules on Mesa's software drivers (known bit for bit),
+/// and the hardware path reports whatever the check found as its decode model; `auto` takes
 /// the hardware path only on a GPU whose texture unit matched a model.
 #[test]
-fn texture_probe_decides_the_hardware_path() {
-    use radiosity_backend_wgpu::probe::texture_decode_model;
+fn texture_unit_check_decides_the_hardware_path() {
+    use radiosity_backend_wgpu::texture_unit::texture_decode_model;
     for adapter in gpu_adapters().into_iter().filter(|a| a.info.bc) {
         let found = texture_decode_model(&adapter).unwrap();
         if adapter.info.is_mesa_software() {

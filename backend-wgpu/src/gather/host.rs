@@ -46,7 +46,7 @@ impl HostGather {
     /// A gather over `matrix` (valid, as a parsed `.rad`'s is) on the host's `device` and
     /// `queue`, between the host's `buffers`. `options.adapter` is ignored. Under
     /// [`DecodePath::Auto`] the shader decodes (exactly, under `options.software_mode`): the
-    /// texture unit's rounding is probed only on a device of the gather's own
+    /// texture unit's rounding is measured only on a device of the gather's own
     /// ([`crate::WgpuGather`]). [`DecodePath::HardwareBc`] needs a BC1/BC4 matrix and the
     /// device's `TEXTURE_COMPRESSION_BC`.
     ///
@@ -171,7 +171,7 @@ impl HostGather {
     }
 
     /// The CPU decode rules that reproduce the decoded entries bit for bit: the software
-    /// path's mode; `None` on the hardware path (its texture unit is not probed here).
+    /// path's mode; `None` on the hardware path (its texture unit is not measured here).
     pub fn decode_model(&self) -> Option<DecodeMode> {
         self.model
     }

@@ -23,7 +23,7 @@ pub(crate) use setup::{
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
 use crate::device::{self, SerialDevice};
-use crate::probe;
+use crate::texture_unit;
 use crate::{DecodePath, GpuError, GpuOptions};
 use bind::Dispatch;
 use radiosity_core::{DecodeMode, Gather, GatherError, Rgb, TransferMatrix, check_gather_args};
@@ -67,15 +67,17 @@ impl WgpuGather {
         let l = matrix.layout;
         let format = l.format();
         let info = adapter.info.clone();
-        // The texture unit's decode rules, measured once per adapter (`probe`), where its
+        // The texture unit's decode rules, measured once per adapter (`texture_unit`), where its
         // path is asked for or could be chosen.
         let hardware_possible = format.is_block_compressed() && info.bc;
         let texture_model = match options.path {
-            DecodePath::HardwareBc if hardware_possible => probe::texture_decode_model(adapter)?,
+            DecodePath::HardwareBc if hardware_possible => {
+                texture_unit::texture_decode_model(adapter)?
+            }
             // A software rasteriser's texture unit is software too, and slower than decoding
-            // in the shader (lavapipe, n = 1913 BC1: 100 ms against 39 ms): not probed.
+            // in the shader (lavapipe, n = 1913 BC1: 100 ms against 39 ms): not measured.
             DecodePath::Auto if hardware_possible && info.is_hardware() => {
-                probe::texture_decode_model(adapter).unwrap_or(None)
+                texture_unit::texture_decode_model(adapter).unwrap_or(None)
             }
             _ => None,
         };
@@ -100,7 +102,7 @@ impl WgpuGather {
             DecodePath::HardwareBc => texture_model,
             _ => Some(options.software_mode),
         };
-        // `auto` passed over a hardware texture unit because its probe matched no CPU rules.
+        // `auto` passed over a hardware texture unit because its measured rounding matched no CPU rules.
         let declined = options.path == DecodePath::Auto
             && hardware_possible
             && info.is_hardware()
@@ -205,8 +207,8 @@ impl WgpuGather {
     }
 
     /// The CPU decode rules that reproduce this gather's decoded entries bit for bit, when
-    /// known: the software path's mode; on the hardware path the rules a probe of the texture
-    /// unit matched ([`crate::probe::texture_decode_model`]: D3D10's on a decoder that
+    /// known: the software path's mode; on the hardware path the rules the texture unit was
+    /// measured to match ([`crate::texture_unit::texture_decode_model`]: D3D10's on a decoder that
     /// interpolates without rounding, Mesa's on llvmpipe/lavapipe), and `None` on drivers
     /// that match neither (D3D10 allows each palette entry to be off by one code; an NVIDIA
     /// H100 is off by up to 7).
@@ -215,12 +217,12 @@ impl WgpuGather {
     }
 
     /// Why the path is what it is, where that is not obvious: under [`DecodePath::Auto`] on a
-    /// GPU whose texture unit decodes BC1/BC4 by rules no CPU decoder reproduces (the probe of
-    /// [`crate::probe::texture_decode_model`] matched none, as on an NVIDIA H100), the shader
+    /// GPU whose texture unit decodes BC1/BC4 by rules no CPU decoder reproduces (the measurement
+    /// of [`crate::texture_unit::texture_decode_model`] matched none, as on an NVIDIA H100), the shader
     /// decodes instead and this says so. `None` otherwise.
     pub fn path_note(&self) -> Option<&'static str> {
         self.declined.then_some(
-            "its texture unit decodes BC off the CPU's rules (probed), so the shader decodes",
+            "its texture unit decodes BC off the CPU's rules (measured), so the shader decodes",
         )
     }
 

@@ -126,7 +126,6 @@ pub(super) fn choose(
 
 /// The correction of block (`br`, `bc`) whose decoded values are `decoded` and whose texels
 /// in the mask `sparse` are exact, if it removes any error.
-#[allow(clippy::too_many_arguments)]
 fn candidate(
     br: usize,
     bc: usize,

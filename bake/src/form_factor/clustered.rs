@@ -20,7 +20,6 @@ impl Pairs<'_> {
     /// apart compared with their sizes meet centre to centre, the rest through the source
     /// quadrature and the exact kernel, and visibility is sampled in proportion to the
     /// unoccluded contributions instead of one ray for each of them.
-    #[allow(clippy::too_many_arguments)] // internal kernel, like `exchange`
     pub(super) fn clustered(
         &self,
         src: &[Piece],

@@ -17,7 +17,6 @@ use crate::simplify::Piece;
 use glam::DVec3;
 
 /// The exchange `A_src·F(src → dst)` by integrating over `src`.
-#[allow(clippy::too_many_arguments)] // internal kernel: splitting the context into a struct buys nothing
 pub(super) fn exchange(
     src: &[Piece],
     dst: &[Piece],
@@ -83,7 +82,6 @@ fn lay_out_targets(dst: &[Piece], rule: Rule, scratch: &mut Scratch) {
 
 /// The contributions of source piece `si` (`s`) to every target piece it faces: added to
 /// `total` where no ray is needed, kept in `scratch.samples` where one is.
-#[allow(clippy::too_many_arguments)] // internal kernel, like `exchange`
 fn source_contributions(
     si: usize,
     s: &Piece,

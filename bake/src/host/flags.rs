@@ -2,7 +2,7 @@
 //! `options_json` give them, validated into [`BakeParams`] and [`LoadOptions`] in one place.
 
 use crate::BakeError;
-use crate::bounce::BounceSpec;
+use crate::transfer::BounceSpec;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
 use crate::pipeline::{BakeParams, FormatChoice};

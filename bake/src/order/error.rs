@@ -382,7 +382,6 @@ impl<'a> ErrorMeter<'a> {
     /// plane, decoded as the reference decoder does (D3D10): in value, in log codes of the
     /// tile's `scales` (0 for the float formats), and what a block correction with exponent
     /// bases `base` would remove from each (chosen for the first, with uniform weights).
-    #[allow(clippy::too_many_arguments)]
     fn block_error<V>(
         &self,
         seen: &V,

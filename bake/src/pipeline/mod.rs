@@ -5,13 +5,11 @@
 //! (`closure`), dark patches (`dark`)), [`bake_discretised`] the second (transfer, order,
 //! encode, measure, the runtime mesh and the report (`report`)); [`bake`] runs both.
 
-mod closure;
-mod dark;
 mod params;
 mod report;
 
-pub use closure::Exposure;
-pub use dark::{DarkCheck, check_dark};
+pub use crate::closure::Exposure;
+pub use crate::dark::{DarkCheck, check_dark};
 pub use params::{BakeParams, FormatChoice, Hooks};
 pub use radiosity_runtime::{ObjectShares, SharedPatch};
 pub use report::{BakeReport, Bytes, ClosureReport, store};
@@ -19,7 +17,8 @@ pub use report::{BakeReport, Bytes, ClosureReport, store};
 use report::{BakeSummary, Measured};
 
 use crate::BakeError;
-use crate::bounce::{BounceSpec, Dense, TransferError, transfer};
+use crate::closure::{closure_effect, escape_check, expose};
+use crate::dark::dark_patches;
 use crate::effects::{self, Effect, Effects};
 use crate::encode::{
     EncodeError, EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
@@ -31,8 +30,7 @@ use crate::form_factor::{
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
 use crate::simplify::{Patches, simplify};
-use closure::{closure_effect, escape_check, expose};
-use dark::dark_patches;
+use crate::transfer::{BounceSpec, Dense, TransferError, transfer};
 use radiosity_core::{Bounces, Format, Patch, RadFile, Rgb};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -422,7 +420,7 @@ fn transfer_step(
     params: &BakeParams,
     effects: &mut Effects,
     hooks: Hooks<'_>,
-) -> Result<(Vec<f32>, crate::bounce::TransferReport), BakeError> {
+) -> Result<(Vec<f32>, crate::transfer::TransferReport), BakeError> {
     let (m, transfer) = transfer(
         f,
         &system.reflectance,

@@ -1,12 +1,12 @@
 //! What a bake can be told: [`BakeParams`] and its presets, the storage format choice, and
 //! the front end's [`Hooks`].
 
-use crate::bounce::BounceSpec;
 use crate::encode::EncodeParams;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
 use crate::probes::{ProbeRank, ProbeSpec};
 use crate::simplify::VoxelParams;
+use crate::transfer::BounceSpec;
 use radiosity_core::Format;
 
 /// Which storage format to use.

@@ -3,7 +3,7 @@
 //! Conventions (`docs/contract.md`): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
 //! multiplied by the mean of `map_Kd` where one is given; `Ke` is emitted radiance L and the
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
-//! glTF (`gltf.rs`) maps `baseColorFactor` × `baseColorTexture` and `emissiveFactor` ×
+//! glTF (`gltf/`) maps `baseColorFactor` × `baseColorTexture` and `emissiveFactor` ×
 //! `emissiveStrength` onto the same conventions.
 
 use crate::error::BakeError;

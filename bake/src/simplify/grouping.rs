@@ -362,7 +362,7 @@ pub(super) fn absorb_small_groups(
 const BURIED_LOOK: u32 = 4;
 
 /// How many of `grouping`'s groups stay in the matrix: all but those buried whole (the bake
-/// drops a patch that no light can reach, `pipeline::dark`: a box's bottom face on the ground,
+/// drops a patch that no light can reach, `dark`: a box's bottom face on the ground,
 /// one per box in a yard of boxes). A group counts as buried whole when each of
 /// [`BURIED_LOOK`] points spread over its area ((k + ½)/K, and the radical inverse of k) is
 /// buried ([`Occluders::buried`]); the bake's own test then looks at 512.

@@ -307,7 +307,6 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
 
 /// The cell size whose grouping comes nearest `n` patches (bisection on the cell size), with
 /// its grouping; a warning in `warnings` when the nearest misses by more than the tolerance.
-#[allow(clippy::too_many_arguments)] // one step of `simplify`, sharing its locals
 fn fit_patch_count(
     scene: &Scene,
     component: &[u32],

@@ -1,7 +1,7 @@
 //! Helpers shared by the bake tests: OBJ scenes built in code, written to a temporary
 //! directory and read back through the real loader, optionally moved to general position.
 
-#![allow(dead_code)] // each test file uses its own subset
+#![allow(dead_code, reason = "each test file uses its own subset")]
 
 use glam::{DMat3, DVec3, dvec3};
 use radiosity_bake::scene::Scene;
@@ -162,7 +162,7 @@ pub(crate) struct Reference {
     pub(crate) reciprocal: Option<f64>,
 }
 
-/// The rows of `tests/data/viewfactors.csv` (a copy of `shared/reference/viewfactors.csv`)
+/// The rows of `tests/data/viewfactors.csv` (reference data, copied unchanged: `tests/data/README.md`)
 /// whose Howell reference is `howell`.
 pub(crate) fn references(howell: &str) -> Vec<Reference> {
     let text = std::fs::read_to_string(concat!(

@@ -2,13 +2,13 @@
 //! ([`expose`]); whether light leaves the scene (F's row sums, then hemisphere rays,
 //! [`escape_check`]); and the matching correction of F ([`closure_effect`]).
 
-use super::{BakeParams, ClosureReport};
-use crate::bounce::{Dense, cap_row_sums, closure_of_sums, enforce_closure};
 use crate::effects::Effect;
 use crate::geometry::Occluders;
 use crate::hemisphere::{cosine_direction, patch_point_at, patch_point_on, patch_rng};
+use crate::pipeline::{BakeParams, ClosureReport};
 use crate::simplify::Patches;
 use crate::simplify::runtime_mesh::direct_points;
+use crate::transfer::{Dense, cap_row_sums, closure_of_sums, enforce_closure};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -42,7 +42,7 @@ pub struct Exposure {
 /// "Buried surface": a closed room at ρ = 0.999 with 1% of its area buried gave a quarter of
 /// the furnace's light). A wholly buried patch's row and column are zeroed (it is dropped as
 /// dark). Nothing is done where nothing occludes (`occ` is `None`).
-pub(super) fn expose(
+pub(crate) fn expose(
     patches: &mut Patches,
     occ: Option<&Occluders>,
     f: &mut Dense,
@@ -132,7 +132,7 @@ pub(super) fn expose(
 /// Decides whether the scene is closed, corrects `f` (of exposed patches, [`expose`]) to
 /// match, and says why: a closed scene's rows are rebalanced to sum to 1, an open scene's rows
 /// above 1 are capped where they would create energy.
-pub(super) fn closure_effect(
+pub(crate) fn closure_effect(
     patches: &Patches,
     f: &mut Dense,
     areas: &[f64],
@@ -245,7 +245,7 @@ pub(super) fn closure_effect(
 
 /// The largest row sum of `F^C` (`Σ_j F_ij ρ_j`, over channels): a bound of the share of
 /// light kept per bounce.
-pub(super) fn largest_gain(f: &Dense, patches: &Patches) -> f64 {
+pub(crate) fn largest_gain(f: &Dense, patches: &Patches) -> f64 {
     let rho: Vec<[f64; 3]> = patches
         .patches
         .iter()

@@ -6,7 +6,7 @@
 //! range): an NVIDIA H100 (driver 580) interpolates BC4 with weights 0.140, 0.280, 0.440,
 //! 0.560, 0.720, 0.860 instead of sevenths (up to 7.5 codes off) and BC1 up to 6 codes off,
 //! which made its hardware path ten times less accurate than decoding in the shader. So the
-//! hardware path is chosen only where a probe shows a rule the CPU can reproduce.
+//! hardware path is chosen only where a measurement shows a rule the CPU can reproduce.
 
 use crate::GpuError;
 use crate::adapter::Adapter;
@@ -16,7 +16,7 @@ use radiosity_core::{Bc1Block, Bc4Block, DecodeMode};
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
 
-/// Blocks per row of a probe texture.
+/// Blocks per row of a test texture.
 const WIDE: usize = 64;
 
 /// What the texture unit returned for every texel of `blocks` (`format` is BC1 or BC4 RGBA
@@ -33,7 +33,7 @@ pub fn read_bc_texels(
     let dev = device::open(
         inner,
         &wgpu::DeviceDescriptor {
-            label: Some("bc probe"),
+            label: Some("bc texture unit check"),
             required_features: wgpu::Features::TEXTURE_COMPRESSION_BC,
             ..Default::default()
         },
@@ -47,7 +47,7 @@ pub fn read_bc_texels(
     let bytes = u64::from(width * height) * 16;
     let buffer = |usage| {
         device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("probe texels"),
+            label: Some("texture unit texels"),
             size: bytes,
             usage,
             mapped_at_creation: false,
@@ -56,7 +56,7 @@ pub fn read_bc_texels(
     let out = buffer(wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
     let read = buffer(wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("probe"),
+        label: Some("texture unit check"),
         source: wgpu::ShaderSource::Wgsl(
             "@group(0) @binding(0) var tex: texture_2d<f32>;
 @group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
@@ -71,7 +71,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
         ),
     });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("probe"),
+        label: Some("texture unit check"),
         layout: None,
         module: &module,
         entry_point: Some("main"),
@@ -79,7 +79,7 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
         cache: None,
     });
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("probe"),
+        label: Some("texture unit check"),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &[
             wgpu::BindGroupEntry {
@@ -101,10 +101,10 @@ fn main(@builtin(global_invocation_id) g: vec3<u32>) {
     }
     enc.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
     queue.submit([enc.finish()]);
-    crate::device::map_read_and_wait(device, &read, &format!("{info}: probe"))?;
+    crate::device::map_read_and_wait(device, &read, &format!("{info}: texture unit check"))?;
     let view = read
         .get_mapped_range(..)
-        .map_err(|e| GpuError::Device(format!("probe readback: {e}")))?;
+        .map_err(|e| GpuError::Device(format!("texture unit readback: {e}")))?;
     Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&view).to_vec())
 }
 
@@ -120,10 +120,10 @@ pub(crate) fn code_of(t: f32) -> i32 {
     (t * 255.0 + 1.0 / 14.0).floor() as i32
 }
 
-/// The probe's blocks: 4096 BC4 blocks (every endpoint pair on a 16-step grid of both
+/// The test blocks: 4096 BC4 blocks (every endpoint pair on a 16-step grid of both
 /// orders, plus pairs one apart) and 4096 BC1 blocks (random endpoints, both modes), each
 /// using every palette index.
-fn probe_blocks() -> (Vec<u8>, Vec<u8>) {
+fn test_blocks() -> (Vec<u8>, Vec<u8>) {
     let mut bc4 = Vec::with_capacity(4096 * 8);
     let mut idx = 0u64;
     for i in 0..16u64 {
@@ -164,7 +164,7 @@ pub fn random_bc1_blocks(count: usize) -> Vec<u8> {
 /// The decode rules under which the gather's texture path (codes read as [`code_of`]) gives
 /// exactly the entries the CPU decodes, or `None` when neither D3D10's nor Mesa's does.
 fn measure(adapter: &Adapter) -> Result<Option<DecodeMode>, GpuError> {
-    let (bc4, bc1) = probe_blocks();
+    let (bc4, bc1) = test_blocks();
     let t4 = read_bc_texels(adapter, wgpu::TextureFormat::Bc4RUnorm, &bc4)?;
     let t1 = read_bc_texels(adapter, wgpu::TextureFormat::Bc1RgbaUnorm, &bc1)?;
     let fits = |mode: DecodeMode| {
@@ -206,11 +206,11 @@ pub fn texture_decode_model(adapter: &Adapter) -> Result<Option<DecodeMode>, Gpu
 mod tests {
     use super::*;
 
-    /// The probe's BC4 blocks cover both palette modes and every index; its BC1 blocks both
+    /// The test BC4 blocks cover both palette modes and every index; its BC1 blocks both
     /// modes.
     #[test]
-    fn probe_blocks_cover_both_modes() {
-        let (bc4, bc1) = probe_blocks();
+    fn test_blocks_cover_both_modes() {
+        let (bc4, bc1) = test_blocks();
         assert_eq!((bc4.len(), bc1.len()), (4096 * 8, 4096 * 8));
         let modes4: Vec<bool> = bc4
             .chunks_exact(8)

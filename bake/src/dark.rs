@@ -13,7 +13,7 @@ use serde::Serialize;
 /// The `dark_patches` decision for a non-empty `dark` list, of which the burial test buried
 /// `buried` whole ([`expose`]), checked by hemisphere rays ([`check_dark`]); a dark patch whose
 /// rays land on patches also adds a warning to `patches`.
-pub(super) fn dark_patches(
+pub(crate) fn dark_patches(
     patches: &mut Patches,
     occ: &Occluders,
     dark: &[usize],

@@ -1,0 +1,198 @@
+//! Materials and their base-colour textures: glTF's metallic-roughness material read as a
+//! Lambertian reflectance and an emission.
+
+use super::Loader;
+use super::accessor::read_uri;
+use crate::error::BakeError;
+use crate::scene::{DEFAULT_REFLECTANCE, Material, Texture};
+use radiosity_core::Rgb;
+
+impl Loader<'_> {
+    /// The decoded texture of glTF image `image` (cached; `None` if it failed without
+    /// `validate_materials`).
+    fn texture(&mut self, image: &::gltf::Image<'_>) -> Result<Option<u32>, BakeError> {
+        if let Some(&t) = self.images.get(&image.index()) {
+            return Ok(t);
+        }
+        let what = format!("image {}: ", image.index());
+        let decoded = match image.source() {
+            ::gltf::image::Source::View { view, .. } => {
+                let buffer = &self.buffers.0[view.buffer().index()];
+                match view
+                    .offset()
+                    .checked_add(view.length())
+                    .filter(|&e| e <= buffer.len())
+                {
+                    Some(end) => Texture::decode(&buffer[view.offset()..end], self.path, &what),
+                    None => Err(self.err(format!(
+                        "{what}buffer view {} runs past the end of buffer {}",
+                        view.index(),
+                        view.buffer().index()
+                    ))),
+                }
+            }
+            ::gltf::image::Source::Uri { uri, .. } => match read_uri(&self.dir, uri) {
+                Ok(bytes) => {
+                    let shown = if uri.starts_with("data:") {
+                        self.path.to_path_buf()
+                    } else {
+                        self.dir.join(uri)
+                    };
+                    Texture::decode(&bytes, &shown, &what)
+                }
+                Err((Some(file), m)) => Err(BakeError::Texture {
+                    path: file,
+                    message: m,
+                }),
+                Err((None, m)) => Err(self.err(format!("{what}{m}"))),
+            },
+        };
+        let t = match decoded {
+            Ok(t) => {
+                self.scene.textures.push(t);
+                Some((self.scene.textures.len() - 1) as u32)
+            }
+            Err(e) if !self.options.validate_materials => {
+                self.scene
+                    .report
+                    .warnings
+                    .push(format!("{e}; texture ignored"));
+                None
+            }
+            Err(e) => return Err(e),
+        };
+        self.images.insert(image.index(), t);
+        Ok(t)
+    }
+
+    /// The scene material of a glTF material (made on first use).
+    pub(super) fn material(&mut self, m: &::gltf::Material<'_>) -> Result<u32, BakeError> {
+        let Some(index) = m.index() else {
+            // glTF's default material is white metal: not a diffuse reflectance. The OBJ
+            // fallback (grey 0.5) is used, as for a face without material.
+            if let Some(i) = self.no_material {
+                return Ok(i);
+            }
+            self.scene.report.warnings.push(format!(
+                "{}: primitive(s) without a material use grey {DEFAULT_REFLECTANCE}",
+                self.path.display()
+            ));
+            self.no_material = Some(0);
+            return Ok(0);
+        };
+        if let Some(i) = self.materials[index] {
+            return Ok(i);
+        }
+        let name = m
+            .name()
+            .filter(|n| !n.is_empty())
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("material{index}"));
+        let bad = |message: String| BakeError::Material {
+            path: self.path.into(),
+            line: None,
+            material: name.clone(),
+            message,
+        };
+        let pbr = m.pbr_metallic_roughness();
+        let f = pbr.base_color_factor();
+        let mut kd = [f[0], f[1], f[2]].map(f64::from);
+        if let Some(cap) = self.options.max_reflectance
+            && kd.iter().any(|c| c.is_finite() && *c >= cap)
+        {
+            let lowered = kd.map(|c| if c.is_finite() { c.min(cap) } else { c });
+            let said = bad(format!(
+                "baseColorFactor {} {} {} lowered to {} {} {} (reflectance cap {cap})",
+                kd[0], kd[1], kd[2], lowered[0], lowered[1], lowered[2]
+            ));
+            self.scene.report.warnings.push(said.to_string());
+            kd = lowered;
+        }
+        if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
+            let e = bad(format!(
+                "baseColorFactor {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",
+                kd[0], kd[1], kd[2]
+            ));
+            if self.options.validate_materials {
+                return Err(e);
+            }
+            self.scene
+                .report
+                .warnings
+                .push(format!("{e}; clamped to [0, 0.999]"));
+            kd = kd.map(|c| {
+                if c.is_finite() {
+                    c.clamp(0.0, 0.999)
+                } else {
+                    f64::from(DEFAULT_REFLECTANCE)
+                }
+            });
+        }
+        let strength = m.emissive_strength().map_or(1.0, f64::from);
+        let mut ke = m.emissive_factor().map(|c| f64::from(c) * strength);
+        let exitance_fits = |c: f64| ((std::f64::consts::PI * c) as f32).is_finite();
+        if ke
+            .iter()
+            .any(|c| !c.is_finite() || *c < 0.0 || !exitance_fits(*c))
+        {
+            let e = bad(format!(
+                "emission (emissiveFactor × emissiveStrength) {} {} {} must be finite and non-negative, with an exitance π·L below 3.4e38",
+                ke[0], ke[1], ke[2]
+            ));
+            if self.options.validate_materials {
+                return Err(e);
+            }
+            self.scene
+                .report
+                .warnings
+                .push(format!("{e}; emission dropped"));
+            ke = [0.0; 3];
+        }
+        let texture = match pbr.base_color_texture() {
+            Some(info) => {
+                let t = self.texture(&info.texture().source())?;
+                let s = info.texture().sampler();
+                if s.wrap_s() != ::gltf::texture::WrappingMode::Repeat
+                    || s.wrap_t() != ::gltf::texture::WrappingMode::Repeat
+                {
+                    self.ignored
+                        .insert("texture wrap modes other than REPEAT (read as REPEAT)");
+                }
+                t.map(|t| (t, info.tex_coord()))
+            }
+            None => None,
+        };
+        if m.emissive_texture().is_some() {
+            self.ignored
+                .insert("emissiveTexture (the emission is emissiveFactor × emissiveStrength)");
+        }
+        if pbr.metallic_roughness_texture().is_some()
+            || pbr.metallic_factor() != 0.0
+            || pbr.roughness_factor() != 1.0
+        {
+            self.ignored
+                .insert("metallic/roughness (surfaces are Lambertian)");
+        }
+        if m.normal_texture().is_some() || m.occlusion_texture().is_some() {
+            self.ignored.insert("normal and occlusion textures");
+        }
+        if m.alpha_mode() != ::gltf::material::AlphaMode::Opaque {
+            self.ignored.insert("alphaMode (surfaces are opaque)");
+        }
+        let pi = std::f64::consts::PI;
+        self.scene.materials.push(Material {
+            name,
+            reflectance: Rgb::new(kd[0] as f32, kd[1] as f32, kd[2] as f32),
+            emission: Rgb::new(
+                (pi * ke[0]) as f32,
+                (pi * ke[1]) as f32,
+                (pi * ke[2]) as f32,
+            ),
+            texture: texture.map(|(t, _)| t),
+        });
+        let i = (self.scene.materials.len() - 1) as u32;
+        self.tex_coord_of.insert(i, texture.map_or(0, |(_, c)| c));
+        self.materials[index] = Some(i);
+        Ok(i)
+    }
+}

@@ -1,0 +1,245 @@
+//! The glTF 2.0 reader (`.gltf` with external or data-URI buffers, `.glb`).
+//!
+//! The `gltf` crate parses and validates the JSON (and the GLB container); every byte of a
+//! buffer is read here through bounds-checked code, since accessor reading in the crate can
+//! panic on a short buffer. Positions are transformed to world space in f64 with the full node
+//! transform; a transform with negative determinant flips the winding so that the front stays
+//! counter-clockwise in world space. Conventions are those of the OBJ path (`docs/contract.md`).
+
+mod accessor;
+mod material;
+mod mesh;
+mod nodes;
+
+use super::{LoadOptions, LoadReport, Material, Scene, TriangleFilter};
+use crate::error::BakeError;
+use accessor::{Buffers, read_uri};
+use nodes::NodeTree;
+use std::collections::{BTreeSet, HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// Extensions read by this loader: a file that requires any other is refused.
+const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+
+/// Everything the loader needs while walking the nodes.
+struct Loader<'a> {
+    path: &'a Path,
+    dir: PathBuf,
+    doc: &'a ::gltf::Document,
+    buffers: Buffers,
+    options: &'a LoadOptions,
+    scene: Scene,
+    filter: TriangleFilter,
+    /// Scene material of each glTF material (filled lazily) and of the missing material.
+    materials: Vec<Option<u32>>,
+    no_material: Option<u32>,
+    /// Scene texture of each glTF image (`None` inside: it failed and was dropped).
+    images: HashMap<usize, Option<u32>>,
+    /// The TEXCOORD_n set of each scene material's texture.
+    tex_coord_of: HashMap<u32, u32>,
+    /// Object names used so far, for `name#2`.
+    names: HashSet<String>,
+    ignored: BTreeSet<&'static str>,
+    skipped_primitives: usize,
+    missing_texcoords: usize,
+    closed_double_sided: usize,
+}
+
+/// Loads a `.gltf` or `.glb` file into a scene.
+pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeError> {
+    let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let (doc, blob) = parse(path, &bytes)?;
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let buffers = read_buffers(path, &dir, &doc, blob)?;
+    let tree = NodeTree::of(&doc).map_err(|m| gltf_error(path, m))?;
+    let mut loader = Loader {
+        path,
+        dir,
+        doc: &doc,
+        buffers: Buffers(buffers),
+        options,
+        scene: Scene {
+            path: path.into(),
+            materials: vec![Material::default_grey()],
+            ..Default::default()
+        },
+        filter: TriangleFilter::default(),
+        materials: vec![None; doc.materials().len()],
+        no_material: None,
+        images: HashMap::new(),
+        tex_coord_of: HashMap::new(),
+        names: HashSet::new(),
+        ignored: BTreeSet::new(),
+        skipped_primitives: 0,
+        missing_texcoords: 0,
+        closed_double_sided: 0,
+    };
+    let roots = loader.roots(&tree);
+    loader.walk(&roots, &tree)?;
+    loader.finish()
+}
+
+fn gltf_error(path: &Path, message: String) -> BakeError {
+    BakeError::Gltf {
+        path: path.into(),
+        message,
+    }
+}
+
+/// The document of a glTF JSON or GLB file, validated (but for accessor bounds), and its GLB
+/// binary chunk.
+fn parse(path: &Path, bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), BakeError> {
+    let gerr = |message: String| gltf_error(path, message);
+    let what = if bytes.starts_with(b"glTF") {
+        "GLB"
+    } else {
+        "glTF JSON"
+    };
+    let parsed = ::gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| gerr(format!("not a valid {what} file: {e}")))?;
+    // Required extensions first: a Draco-compressed file fails validation for reasons that
+    // only the extension explains.
+    if let Some(ext) = parsed
+        .document
+        .extensions_required()
+        .find(|e| !SUPPORTED_EXTENSIONS.contains(e))
+    {
+        return Err(BakeError::UnsupportedExtension {
+            path: path.into(),
+            extension: ext.to_owned(),
+        });
+    }
+    let blob = parsed.blob;
+    let json = parsed.document.into_json();
+    let mut errors = Vec::new();
+    {
+        use ::gltf::json::validation::Validate;
+        json.validate(&json, ::gltf::json::Path::new, &mut |at, e| {
+            errors.push((at(), e))
+        });
+    }
+    // Accessor `min`/`max` (required on POSITION by the specification) are never read here.
+    errors.retain(|(at, _)| {
+        let at = at.as_str();
+        !(at.ends_with(".min") || at.ends_with(".max"))
+    });
+    if let Some((at, what)) = errors.first() {
+        let more = if errors.len() > 1 {
+            format!(" (and {} more problem(s))", errors.len() - 1)
+        } else {
+            String::new()
+        };
+        return Err(gerr(format!("invalid glTF: {at}: {what}{more}")));
+    }
+    Ok((::gltf::Document::from_json_without_validation(json), blob))
+}
+
+/// The document's buffers, each checked to hold its byteLength and cut to it.
+fn read_buffers(
+    path: &Path,
+    dir: &Path,
+    doc: &::gltf::Document,
+    blob: Option<Vec<u8>>,
+) -> Result<Vec<Vec<u8>>, BakeError> {
+    let gerr = |message: String| gltf_error(path, message);
+    let mut buffers = Vec::new();
+    for b in doc.buffers() {
+        let i = b.index();
+        let data = match b.source() {
+            ::gltf::buffer::Source::Bin => blob.clone().ok_or_else(|| {
+                gerr(format!(
+                    "buffer {i} refers to the GLB binary chunk, which this file does not have"
+                ))
+            })?,
+            ::gltf::buffer::Source::Uri(uri) => read_uri(dir, uri).map_err(|(file, m)| {
+                gerr(match file {
+                    Some(f) => format!("buffer {i}: cannot read {}: {m}", f.display()),
+                    None => format!("buffer {i}: {m}"),
+                })
+            })?,
+        };
+        if data.len() < b.length() {
+            return Err(gerr(format!(
+                "buffer {i} holds {} bytes, fewer than its byteLength {}",
+                data.len(),
+                b.length()
+            )));
+        }
+        let mut data = data;
+        data.truncate(b.length());
+        buffers.push(data);
+    }
+    Ok(buffers)
+}
+
+impl Loader<'_> {
+    /// An error about this file.
+    fn err(&self, message: impl Into<String>) -> BakeError {
+        BakeError::Gltf {
+            path: self.path.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The report's warnings, and the scene (an error if it has no triangle).
+    fn finish(mut self) -> Result<Scene, BakeError> {
+        let path = self.path;
+        let doc = self.doc;
+        if doc.animations().next().is_some() {
+            self.ignored.insert("animations");
+        }
+        if doc.skins().next().is_some() {
+            self.ignored.insert("skins");
+        }
+        if doc.cameras().next().is_some() {
+            self.ignored.insert("cameras");
+        }
+        let report: &mut LoadReport = &mut self.scene.report;
+        if self.skipped_primitives > 0 {
+            report.warnings.push(format!(
+                "{}: skipped {} point or line primitive(s) (only triangles are surfaces)",
+                path.display(),
+                self.skipped_primitives
+            ));
+        }
+        if self.missing_texcoords > 0 {
+            report.warnings.push(format!(
+                "{}: {} primitive(s) lack the TEXCOORD set their material's baseColorTexture uses; their reflectance is baseColorFactor alone",
+                path.display(),
+                self.missing_texcoords
+            ));
+        }
+        if self.closed_double_sided > 0 {
+            report.warnings.push(format!(
+                "{}: {} doubleSided primitive(s) are closed surfaces: only their outside is surface",
+                path.display(),
+                self.closed_double_sided
+            ));
+        }
+        let unused_ext: Vec<&str> = doc
+            .extensions_used()
+            .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+            .collect();
+        if !unused_ext.is_empty() {
+            report.warnings.push(format!(
+                "{}: ignored extension(s): {}",
+                path.display(),
+                unused_ext.join(", ")
+            ));
+        }
+        if !self.ignored.is_empty() {
+            let list: Vec<&str> = self.ignored.iter().copied().collect();
+            report
+                .warnings
+                .push(format!("{}: ignored: {}", path.display(), list.join("; ")));
+        }
+        report.warn_skipped(path);
+        if self.scene.triangles.is_empty() {
+            return Err(BakeError::EmptyScene { path: path.into() });
+        }
+        Ok(self.scene)
+    }
+}
