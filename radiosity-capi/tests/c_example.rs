@@ -52,11 +52,11 @@ fn library_dir() -> PathBuf {
     profile
 }
 
-/// Compiles the example into `out`, returning the executable.
-fn compile_example(out: &Path) -> PathBuf {
+/// Compiles the example `examples/NAME.c` into `out`, returning the executable.
+fn compile_example(out: &Path, name: &str) -> PathBuf {
     let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = library_dir();
-    let exe = out.join("gather");
+    let exe = out.join(name);
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let output = Command::new(&cc)
         .args([
@@ -69,7 +69,7 @@ fn compile_example(out: &Path) -> PathBuf {
         ])
         .arg("-I")
         .arg(crate_dir.join("include"))
-        .arg(crate_dir.join("examples/gather.c"))
+        .arg(crate_dir.join(format!("examples/{name}.c")))
         .arg("-L")
         .arg(&dir)
         .arg("-lradiosity_capi")
@@ -265,7 +265,7 @@ fn check_probes(stdout: &str, file: &RadFile<'_>) {
 #[test]
 fn c_example_on_a_baked_cornell_box() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = compile_example(dir.path());
+    let exe = compile_example(dir.path(), "gather");
     let obj =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
     let scene = Scene::load_obj(&obj).expect("Cornell box loads");
@@ -288,7 +288,7 @@ fn c_example_on_a_baked_cornell_box() {
 #[test]
 fn c_example_on_sample_files_with_and_without_a_mesh() {
     let dir = tempfile::tempdir().unwrap();
-    let exe = compile_example(dir.path());
+    let exe = compile_example(dir.path(), "gather");
     let with_mesh = sample_file(70, 3, Format::Bc1, 32);
     let stdout = run_example(&exe, dir.path(), "sample.rad", &with_mesh);
     assert!(stdout.contains("scene\t70\t2\t2\n"), "{stdout}");
@@ -298,4 +298,125 @@ fn c_example_on_sample_files_with_and_without_a_mesh() {
     let stdout = run_example(&exe, dir.path(), "grey.rad", &grey);
     assert!(stdout.contains("scene\t40\t2\t0\n"), "{stdout}");
     assert!(!stdout.contains("corners\t"), "{stdout}");
+}
+
+/// The tab-separated fields after `tag` of each line of `stdout` that starts with it.
+fn lines_of<'a>(stdout: &'a str, tag: &str) -> Vec<Vec<&'a str>> {
+    stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix(tag)?.strip_prefix('\t'))
+        .map(|l| l.split('\t').collect())
+        .collect()
+}
+
+/// `examples/engine.c`, an engine's whole loop: a bake with progress (monotone, reaching 1) and
+/// one cancelled (no file), direct light with shadows through `rad_scene_direct`, a gather and
+/// two points, and bad input. Its direct light equals the runtime's; its points equal `radiosity
+/// solve --points` on the same file and lights (the same code and seeds: to 1e-4 relative).
+#[test]
+fn c_engine_loop_bakes_lights_and_answers_points_as_the_library_and_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile_example(dir.path(), "engine");
+    let scene =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/CornellBox-Original.obj");
+    let rad = dir.path().join("box.rad");
+    let output = Command::new(&exe)
+        .arg(&scene)
+        .arg(&rad)
+        .env("NODEVICE_SELECT", "1")
+        .output()
+        .expect("the example runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success() && stdout.ends_with("ok\n"),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(!dir.path().join("box.rad.cancelled").exists());
+    // 16 refusals, each with its code and message.
+    assert_eq!(lines_of(&stdout, "refused").len(), 16, "{stdout}");
+
+    let bytes = std::fs::read(&rad).unwrap();
+    let file = RadFile::parse(&bytes).unwrap().into_owned();
+    let n = file.n();
+    let light = radiosity_core::Light::Point {
+        position: glam_vec(0.0, 1.0, 0.0),
+        intensity: Rgb::splat(2.0),
+    };
+    let rt = radiosity_runtime::BakedScene::new(file);
+    let want = rt.direct(&[light]).unwrap();
+    let got = lines_of(&stdout, "direct");
+    assert_eq!(got.len(), n);
+    let parse = |f: &[&str]| [f[1], f[2], f[3]].map(|v| v.parse::<f64>().unwrap());
+    // Printed with 9 significant digits: the same f32 values.
+    for (g, w) in got.iter().zip(&want) {
+        let g = parse(g);
+        for k in 0..3 {
+            let w = f64::from(w.channel(k));
+            assert!((g[k] - w).abs() <= 1e-7 * w.abs().max(1e-30), "{g:?} {w}");
+        }
+    }
+    assert!(
+        want.iter().any(|d| d.max_channel() > 0.0),
+        "the light reaches the room"
+    );
+    assert!(
+        want.iter().any(|d| d.max_channel() == 0.0),
+        "and its shadows do not"
+    );
+
+    // The points against `radiosity solve --points` on the same file and light.
+    let cli = profile_dir().join(format!("radiosity{}", std::env::consts::EXE_SUFFIX));
+    if !cli.exists() {
+        eprintln!(
+            "note: {} not built; solve --points comparison skipped",
+            cli.display()
+        );
+        return;
+    }
+    let lights = dir.path().join("lights.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights": [{"type": "point", "position": [0, 1, 0], "intensity": [2, 2, 2]}]}"#,
+    )
+    .unwrap();
+    let points = dir.path().join("points.json");
+    std::fs::write(
+        &points,
+        r#"{"points": [{"position": [0, 0.5, 0], "normal": [0, 1, 0]}, {"position": [100, 100, 100], "normal": [0, 1, 0]}]}"#,
+    )
+    .unwrap();
+    let output = Command::new(&cli)
+        .args(["solve", "--json", "--backend", "cpu", "--lights"])
+        .arg(&lights)
+        .arg("--points")
+        .arg(&points)
+        .arg(&rad)
+        .output()
+        .expect("radiosity runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let answers = json["points"].as_array().unwrap();
+    let got = lines_of(&stdout, "point");
+    assert_eq!(got[0][1], "0");
+    assert_eq!(answers[0]["status"], "ok");
+    let g = [got[0][2], got[0][3], got[0][4]].map(|v| v.parse::<f64>().unwrap());
+    for k in 0..3 {
+        let w = answers[0]["irradiance"][k].as_f64().unwrap();
+        assert!(
+            (g[k] - w).abs() <= 1e-4 * w.abs(),
+            "point 0 channel {k}: C {} solve {w}",
+            g[k]
+        );
+    }
+    assert_eq!(got[1][1], "2");
+    assert_eq!(answers[1]["status"], "outside the scene");
+}
+
+fn glam_vec(x: f32, y: f32, z: f32) -> glam::Vec3 {
+    glam::Vec3::new(x, y, z)
 }
