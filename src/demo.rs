@@ -184,7 +184,7 @@ fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Resu
         enc.set_repeat(Repeat::Infinite)?;
         for img in images {
             let rgba =
-                image::DynamicImage::ImageRgb8(crate::picture::srgb8(&img, exposure)).to_rgba8();
+                image::DynamicImage::ImageRgb8(crate::picture::srgb8(img, exposure)).to_rgba8();
             enc.encode_frame(Frame::from_parts(
                 rgba,
                 0,

@@ -354,11 +354,9 @@ impl ProbeRank {
             "full" => Ok(ProbeRank::Full),
             _ => match s.parse::<usize>() {
                 Ok(k) if k > 0 => Ok(ProbeRank::Rank(k)),
-                _ => {
-                    return refuse(format!(
-                        "--probe-rank must be auto, full or a positive integer, not {s}"
-                    ));
-                }
+                _ => refuse(format!(
+                    "--probe-rank must be auto, full or a positive integer, not {s}"
+                )),
             },
         }
     }
@@ -532,6 +530,44 @@ fn factor(rows: &[Vec<ProbeWeight>], patches: usize, k: usize) -> Option<ProbeFa
     })
 }
 
+/// Places and weighs the probes of `spec` in a bake's file and stores its report again (its
+/// `probes`, the PROBES section's bytes, the file's new size and the `probes` and `total`
+/// timings). The output unchanged for [`ProbeSpec::None`].
+pub fn attach(
+    out: BakeOutput,
+    spec: &ProbeSpec,
+    rank: ProbeRank,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
+    if *spec == ProbeSpec::None {
+        return Ok(out);
+    }
+    hooks.start("probes")?;
+    let t = std::time::Instant::now();
+    let BakeOutput {
+        file,
+        mut report,
+        patch_source,
+    } = out;
+    let rt = BakedScene::new(file);
+    let baked = bake(&rt, spec, rank, hooks)?;
+    let mut file = rt.file;
+    if let Some((probes, r)) = baked {
+        file.probes = Some(probes);
+        report.bytes.probes = r.bytes;
+        report.probes = Some(r);
+    }
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    report.timings_ms.insert("probes", ms);
+    *report.timings_ms.entry("total").or_insert(0.0) += ms;
+    let report = crate::pipeline::store(&mut file, report)?;
+    Ok(BakeOutput {
+        file,
+        report,
+        patch_source,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -574,42 +610,4 @@ mod tests {
         // Nothing to gain at the matrix's smaller side.
         assert!(factor(&rows, n, 50).is_none());
     }
-}
-
-/// Places and weighs the probes of `spec` in a bake's file and stores its report again (its
-/// `probes`, the PROBES section's bytes, the file's new size and the `probes` and `total`
-/// timings). The output unchanged for [`ProbeSpec::None`].
-pub fn attach(
-    out: BakeOutput,
-    spec: &ProbeSpec,
-    rank: ProbeRank,
-    hooks: Hooks<'_>,
-) -> Result<BakeOutput, BakeError> {
-    if *spec == ProbeSpec::None {
-        return Ok(out);
-    }
-    hooks.start("probes")?;
-    let t = std::time::Instant::now();
-    let BakeOutput {
-        file,
-        mut report,
-        patch_source,
-    } = out;
-    let rt = BakedScene::new(file);
-    let baked = bake(&rt, spec, rank, hooks)?;
-    let mut file = rt.file;
-    if let Some((probes, r)) = baked {
-        file.probes = Some(probes);
-        report.bytes.probes = r.bytes;
-        report.probes = Some(r);
-    }
-    let ms = t.elapsed().as_secs_f64() * 1e3;
-    report.timings_ms.insert("probes", ms);
-    *report.timings_ms.entry("total").or_insert(0.0) += ms;
-    let report = crate::pipeline::store(&mut file, report)?;
-    Ok(BakeOutput {
-        file,
-        report,
-        patch_source,
-    })
 }

@@ -1,12 +1,12 @@
 //! The whole bake on scenes with known physics: furnace, effect decisions that change the work
 //! done, and compression quality on the Cornell box.
 
-use radiosity_bake::transfer::BounceSpec;
 use radiosity_bake::order::OrderKind;
 use radiosity_bake::pipeline::check_dark;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
+use radiosity_bake::transfer::BounceSpec;
 use radiosity_core::{
     Bounces, DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
 };

@@ -2,13 +2,13 @@
 //! `options_json` give them, validated into [`BakeParams`] and [`LoadOptions`] in one place.
 
 use crate::BakeError;
-use crate::transfer::BounceSpec;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
 use crate::pipeline::{BakeParams, FormatChoice};
 use crate::probes::{ProbeRank, ProbeSpec};
 use crate::scene::{LoadOptions, Scene};
 use crate::simplify::VoxelParams;
+use crate::transfer::BounceSpec;
 use radiosity_core::Format;
 use serde::Deserialize;
 use std::path::Path;
