@@ -333,8 +333,8 @@ fn c_engine_loop_bakes_lights_and_answers_points_as_the_library_and_the_cli() {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(!dir.path().join("box.rad.cancelled").exists());
-    // 16 refusals, each with its code and message.
-    assert_eq!(lines_of(&stdout, "refused").len(), 16, "{stdout}");
+    // 17 refusals (the cancelled bake and 16 bad inputs), each with its code and message.
+    assert_eq!(lines_of(&stdout, "refused").len(), 17, "{stdout}");
 
     let bytes = std::fs::read(&rad).unwrap();
     let file = RadFile::parse(&bytes).unwrap().into_owned();
