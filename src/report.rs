@@ -10,13 +10,12 @@
 //! also counts what the discretisation itself loses). It writes `REPORT.md`, `report.csv`,
 //! and PNG plots, among them the paper's figures for this scene.
 //!
-//! `measure.rs` bakes and measures one configuration, `figures.rs` draws the pictures (with
-//! `plots.rs`), `markdown.rs` and `table.rs` write the tables.
+//! `measure.rs` bakes and measures one configuration, `figures.rs` draws the pictures (with the
+//! charts of `radiosity_perf::plots`), `markdown.rs` and `table.rs` write the tables.
 
 mod figures;
 mod markdown;
 mod measure;
-mod plots;
 mod table;
 
 use crate::embedded;

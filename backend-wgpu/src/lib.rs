@@ -115,6 +115,7 @@
 
 mod adapter;
 mod auto;
+mod choice;
 mod conv;
 mod corner;
 mod device;
@@ -128,6 +129,7 @@ pub mod texture_unit;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
 pub use auto::auto_gather;
+pub use choice::{Backend, Chosen, Unavailable, choose};
 pub use corner::{CornerBuffers, CornerPass};
 pub use edited_host::EditedHostGather;
 pub use frame_timing::{HostFrameTimes, time_host_frame};

@@ -5,9 +5,8 @@ use crate::scene::{RadScene, read_input};
 use crate::{
     RAD_ERR_BACKEND, RAD_ERR_GATHER, RAD_ERR_LENGTH, RAD_ERR_UNAVAILABLE, RAD_ERR_VALUE, RadRgb,
 };
-use radiosity_backend_cpu::CpuGather;
-use radiosity_backend_wgpu::{GpuOptions, WgpuGather, auto_gather};
-use radiosity_core::{DecodeMode, Gather, GatherError, ReferenceGather, TransferMatrix};
+use radiosity_backend_wgpu::Backend;
+use radiosity_core::{Gather, GatherError, TransferMatrix};
 use std::ffi::{CStr, CString, c_char};
 
 /// A gather over a scene's transfer matrix on one backend. Opaque: made by rad_gather_new,
@@ -29,34 +28,45 @@ impl RadGather {
     }
 }
 
+/// Turns Mesa's Vulkan device-select layer off on a headless machine, once, before the
+/// library lists GPU adapters: without a desktop session (`XDG_RUNTIME_DIR` unset or not a
+/// directory) the layer prints "XDG_RUNTIME_DIR is invalid" on the host's stderr for every
+/// instance, and all it would do is reorder GPUs, which the backend choice ranks itself
+/// (docs/decisions/nodevice-select.md). A host that set `NODEVICE_SELECT` keeps its value.
+fn quiet_device_select() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let headless =
+            std::env::var_os("XDG_RUNTIME_DIR").is_none_or(|d| !std::path::Path::new(&d).is_dir());
+        if headless && std::env::var_os("NODEVICE_SELECT").is_none() {
+            // SAFETY: setting a variable races with another thread reading or writing the
+            // environment at the same moment. It happens once, on the first GPU gather of a
+            // headless process, and the header says so: a host that reads the environment
+            // from other threads while it makes its first gather sets NODEVICE_SELECT itself.
+            unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+        }
+    });
+}
+
 fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, Failure> {
-    let cpu = || RadGather::new(Box::new(CpuGather::new(matrix.clone())), c"cpu");
-    let gpu = |g: WgpuGather| RadGather::new(Box::new(g), c"gpu");
-    match backend {
-        // The same choice as the CLI's `auto` (radiosity_backend_wgpu::auto_gather): a hardware
-        // GPU that can hold the matrix, else the CPU.
-        "auto" => Ok(match auto_gather(matrix, &GpuOptions::default()) {
-            Ok(g) => gpu(g),
-            Err(_) => cpu(),
-        }),
-        "cpu" => Ok(cpu()),
-        "reference" => Ok(RadGather::new(
-            Box::new(ReferenceGather::new(matrix.clone(), DecodeMode::D3d10)),
-            c"reference",
-        )),
-        "gpu" => WgpuGather::new(matrix, &GpuOptions::default())
-            .map(gpu)
-            .map_err(|e| {
-                Failure::new(
-                    RAD_ERR_UNAVAILABLE,
-                    format!("backend gpu is not available: {e}"),
-                )
-            }),
-        other => Err(Failure::new(
+    let Some(kind) = Backend::from_name(backend) else {
+        return Err(Failure::new(
             RAD_ERR_BACKEND,
-            format!("unknown backend {other:?}: use auto, cpu, gpu or reference"),
-        )),
+            format!("unknown backend {backend:?}: use auto, cpu, gpu or reference"),
+        ));
+    };
+    if matches!(kind, Backend::Auto | Backend::Gpu) {
+        quiet_device_select();
     }
+    // The command line's choice (radiosity_backend_wgpu::choose).
+    let chosen = radiosity_backend_wgpu::choose(kind, matrix.clone(), "requested")
+        .map_err(|e| Failure::new(RAD_ERR_UNAVAILABLE, e.to_string()))?;
+    let name = match chosen.kind {
+        "gpu" => c"gpu",
+        "reference" => c"reference",
+        _ => c"cpu",
+    };
+    Ok(RadGather::new(chosen.gather, name))
 }
 
 /// Makes a gather over `scene`'s matrix on `backend`: "cpu" (the SIMD CPU gather), "gpu" (the
@@ -64,6 +74,10 @@ fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, F
 /// (the scalar oracle) or "auto" (as the command line chooses: a hardware GPU that can hold
 /// the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
 /// RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
+/// On a machine without a desktop session (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
+/// gather sets NODEVICE_SELECT=1 unless the host set it, so that Mesa's device-select layer
+/// keeps quiet on stderr; a host reading the environment from other threads at that moment
+/// sets it itself.
 /// The scene must outlive the gather.
 ///
 /// # Safety

@@ -1,7 +1,6 @@
 //! The report's pictures: the paper's figures at the middle size, the bake rendered beside the
 //! path tracer, and the summary plots over every configuration.
 
-use super::plots::{self, Chart, Series};
 use super::{Level, Plan, Sample, middle_samples, table};
 use crate::picture::LinearImage;
 use anyhow::Context;
@@ -11,6 +10,7 @@ use radiosity_bake::pipeline::BakeOutput;
 use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
 use radiosity_core::{DecodeMode, Format};
 use radiosity_pathtrace::PathTracer;
+use radiosity_perf::plots::{self, Chart, Series};
 use radiosity_perf::timing::ms;
 use radiosity_runtime::BakedScene;
 use std::path::Path;

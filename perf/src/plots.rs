@@ -1,4 +1,4 @@
-//! PNG charts with plotters (drawn into memory by its bitmap backend, encoded by `image`; text
+//! The charts of `radiosity report`: PNG charts with plotters (drawn into memory by its bitmap backend, encoded by `image`; text
 //! through `ab_glyph` with the bundled DejaVu Sans, so no system font library is needed) and
 //! matrix images with `image`.
 
@@ -27,7 +27,7 @@ fn pe<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 }
 
 /// Palette for series, distinguishable in print.
-pub(crate) const COLOURS: [RGBColor; 8] = [
+pub const COLOURS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -39,22 +39,22 @@ pub(crate) const COLOURS: [RGBColor; 8] = [
 ];
 
 /// A named set of points.
-pub(crate) struct Series {
-    pub(crate) name: String,
-    pub(crate) points: Vec<(f64, f64)>,
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
     /// Join the points with a line (sorted by x) as well as marking them.
-    pub(crate) line: bool,
+    pub line: bool,
 }
 
 /// A scatter/line chart on log-log (or lin-log) axes.
-pub(crate) struct Chart<'a> {
-    pub(crate) title: &'a str,
-    pub(crate) x_label: &'a str,
-    pub(crate) y_label: &'a str,
-    pub(crate) log_x: bool,
-    pub(crate) series: Vec<Series>,
+pub struct Chart<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    pub log_x: bool,
+    pub series: Vec<Series>,
     /// A polyline drawn in black over the points (the Pareto front), with its legend name.
-    pub(crate) front: Option<(String, Vec<(f64, f64)>)>,
+    pub front: Option<(String, Vec<(f64, f64)>)>,
 }
 
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
@@ -75,7 +75,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// Draws `chart` into `path` (960×640).
-pub(crate) fn chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
+pub fn chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
     register_font()?;
     let (w, h) = (960, 640);
     let mut buf = vec![0u8; w as usize * h as usize * 3];
@@ -170,7 +170,10 @@ where
 /// rest of the program uses encodes, so plotters needs no encoder of its own).
 fn save(path: &Path, w: u32, h: u32, buf: Vec<u8>) -> anyhow::Result<()> {
     let img = image::RgbImage::from_raw(w, h, buf).context("plot buffer size")?;
-    crate::picture::save_png_atomic(&img, path)
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
+        .with_context(|| format!("cannot encode {}", path.display()))?;
+    Ok(radiosity_bake::host::write_atomic(path, png.get_ref())?)
 }
 
 /// A tick label: `1e-3`-style for very small or large values, else at most 3 significant digits.
@@ -186,7 +189,7 @@ fn short(v: f64) -> String {
 
 /// A bar chart with a log value axis: one bar per `(label, value)`, optionally grouped by
 /// colour (`group` indexes [`COLOURS`]).
-pub(crate) fn bars(
+pub fn bars(
     path: &Path,
     title: &str,
     y_label: &str,
@@ -259,11 +262,7 @@ pub(crate) fn bars(
 /// Histograms side by side (the paper's Fig. 1): counts of `log10(value)` of the non-zero
 /// entries in bins of 0.1 decade, and of the values themselves on a linear axis (40 bins up
 /// to the largest), one colour per named data set.
-pub(crate) fn value_histograms(
-    path: &Path,
-    title: &str,
-    sets: &[(&str, &[f32])],
-) -> anyhow::Result<()> {
+pub fn value_histograms(path: &Path, title: &str, sets: &[(&str, &[f32])]) -> anyhow::Result<()> {
     register_font()?;
     let (w, h) = (1200, 520);
     let mut buf = vec![0u8; w as usize * h as usize * 3];
@@ -408,7 +407,7 @@ fn ramp(t: f32) -> image::Rgb<u8> {
 /// An image of an `n × n` grid of non-negative values (`value(r, c)`), `side` pixels square:
 /// each pixel shows the largest value of the entries it covers (or the one entry it samples
 /// when zoomed in), as `log10` over `decades` below `top`, through [`ramp`].
-pub(crate) fn matrix_image(
+pub fn matrix_image(
     n: usize,
     side: u32,
     value: &dyn Fn(usize, usize) -> f32,
@@ -446,7 +445,7 @@ pub(crate) fn matrix_image(
 }
 
 /// Puts images side by side with a gap, on white.
-pub(crate) fn side_by_side(images: &[&image::RgbImage], gap: u32) -> image::RgbImage {
+pub fn side_by_side(images: &[&image::RgbImage], gap: u32) -> image::RgbImage {
     let w: u32 = images.iter().map(|i| i.width()).sum::<u32>()
         + gap * (images.len() as u32).saturating_sub(1);
     let h = images.iter().map(|i| i.height()).max().unwrap_or(0);
