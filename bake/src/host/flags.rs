@@ -72,6 +72,23 @@ pub struct BakeFlags {
     pub probe_rank: Option<Word>,
 }
 
+/// The keys of [`BakeFlags`] in JSON.
+const KEYS: [&str; 13] = [
+    "patches",
+    "voxel",
+    "bounces",
+    "format",
+    "order",
+    "sparse",
+    "corrections",
+    "tile",
+    "form_factors",
+    "max_reflectance",
+    "direct_points",
+    "probes",
+    "probe_rank",
+];
+
 /// Refuses with a flag's message.
 fn refuse<T>(message: String) -> Result<T, BakeError> {
     Err(BakeError::Flag(message))
@@ -84,7 +101,24 @@ impl BakeFlags {
         if text.trim().is_empty() {
             return Ok(Self::default());
         }
-        serde_json::from_str(text).map_err(|e| BakeError::Flag(format!("bad bake options: {e}")))
+        let bad = |m: String| BakeError::Flag(format!("bad bake options: {m}"));
+        let value: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        let Some(object) = value.as_object() else {
+            return Err(bad(format!("expected a JSON object, not {value}")));
+        };
+        // Each key alone first, so that the message names the key at fault.
+        for (key, v) in object {
+            if !KEYS.contains(&key.as_str()) {
+                return Err(bad(format!(
+                    "unknown key `{key}` (the keys are {})",
+                    KEYS.join(", ")
+                )));
+            }
+            let one = serde_json::json!({ key: v });
+            serde_json::from_value::<Self>(one).map_err(|e| bad(format!("`{key}`: {e}")))?;
+        }
+        serde_json::from_value(value).map_err(|e| bad(e.to_string()))
     }
 
     /// The bake's parameters and the scene's loading options, every flag checked (a patch
