@@ -126,6 +126,9 @@ struct Report {
     ratios: Vec<Ratio>,
     /// The box's light probes at `--probes auto` and the CPU cost of their frame.
     probes: Option<ProbesOut>,
+    /// The direct light of a point light with shadow rays, as `solve --lights` and the C ABI's
+    /// `rad_scene_direct` compute it.
+    direct: Option<DirectOut>,
     /// The host-device frame on every adapter (gather, corner pass, probe pass), empty without
     /// one.
     host_frames: Vec<HostFrameOut>,
@@ -153,6 +156,86 @@ struct HostFrameOut {
     frames: usize,
 }
 
+/// One frame's direct light per patch with shadow rays (a point light under the ceiling):
+/// medians over [`HOST_FRAMES`] frames, ms.
+#[derive(Serialize)]
+struct DirectOut {
+    /// Shadow rays a frame (the mesh's direct-light points).
+    points: usize,
+    /// `BakedScene::direct`, what `solve --lights` runs.
+    cli_ms: f64,
+    /// The C ABI's `rad_scene_direct` on a scene opened from the same file's bytes.
+    c_ms: f64,
+}
+
+/// [`DirectOut`] for the file `rt` holds.
+fn bench_direct(rt: &radiosity_runtime::BakedScene) -> anyhow::Result<DirectOut> {
+    let lights = [radiosity_core::Light::Point {
+        position: glam::Vec3::new(0.0, 1.5, 0.0),
+        intensity: Rgb::splat(2.0),
+    }];
+    let n = rt.file.n();
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        t[t.len() / 2]
+    };
+    let cli = median(
+        (0..HOST_FRAMES)
+            .map(|_| {
+                let t = Instant::now();
+                std::hint::black_box(rt.direct(&lights)).map(|_| ms(t.elapsed()))
+            })
+            .collect::<Result<_, _>>()?,
+    );
+    let bytes = rt.file.to_bytes()?;
+    let light = radiosity_capi::RadLight {
+        kind: radiosity_capi::RAD_LIGHT_POINT,
+        position: [0.0, 1.5, 0.0],
+        value: radiosity_capi::RadRgb {
+            r: 2.0,
+            g: 2.0,
+            b: 2.0,
+        },
+        ..Default::default()
+    };
+    let mut scene = std::ptr::null_mut();
+    let mut out = vec![radiosity_capi::RadRgb::default(); n];
+    // SAFETY: `bytes` is a live slice of `len` bytes and `scene` a writable pointer; the
+    // scene is freed below and not used after.
+    let opened =
+        unsafe { radiosity_capi::rad_scene_from_bytes(bytes.as_ptr(), bytes.len(), &mut scene) };
+    anyhow::ensure!(
+        opened == radiosity_capi::RAD_OK,
+        "rad_scene_from_bytes failed"
+    );
+    let c: Vec<f64> = (0..HOST_FRAMES)
+        .map(|_| {
+            let t = Instant::now();
+            // SAFETY: a live scene, one light, `n` writable values.
+            let code =
+                unsafe { radiosity_capi::rad_scene_direct(scene, &light, 1, out.as_mut_ptr(), n) };
+            (code, ms(t.elapsed()))
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .map(|(code, t)| {
+            if code == radiosity_capi::RAD_OK {
+                t
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    // SAFETY: made by rad_scene_from_bytes above, freed once.
+    unsafe { radiosity_capi::rad_scene_free(scene) };
+    anyhow::ensure!(c.iter().all(|t| t.is_finite()), "rad_scene_direct failed");
+    Ok(DirectOut {
+        points: rt.file.mesh.as_ref().map_or(0, |m| m.samples.len()),
+        cli_ms: cli,
+        c_ms: median(c),
+    })
+}
+
 /// The box's probes (`bake --probes auto`) and one CPU frame of them, `P·(B − E)`.
 #[derive(Serialize)]
 struct ProbesOut {
@@ -176,6 +259,7 @@ fn bench_probes(
     radiosity_core::Probes<'static>,
     Vec<radiosity_core::Patch>,
     ProbesOut,
+    Option<DirectOut>,
 )> {
     use std::borrow::Cow;
     let patches = order::permute_rows(&sys.core_patches, perm);
@@ -197,6 +281,9 @@ fn bench_probes(
         probes: None,
     };
     let rt = radiosity_runtime::BakedScene::new(file);
+    let direct = bench_direct(&rt)
+        .map_err(|e| eprintln!("note: no direct-light frame: {e:#}"))
+        .ok();
     let (probes, report) = radiosity_bake::probes::bake(
         &rt,
         &radiosity_bake::probes::ProbeSpec::Auto,
@@ -222,7 +309,7 @@ fn bench_probes(
         bytes: report.bytes,
         cpu_ms: times[times.len() / 2],
     };
-    Ok((probes, patches, cpu))
+    Ok((probes, patches, cpu, direct))
 }
 
 /// Frames each host-device measurement runs (medians over them).
@@ -321,6 +408,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
     let (mesh, _) = file_mesh(&scene, &sys, &patch_source);
     let mut frames = Vec::new();
     let mut probes_out = None;
+    let mut direct_out = None;
     let mut rows = encoded_rows(
         n,
         channels,
@@ -339,9 +427,12 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
             stage("host-device frame");
             let pass = probes
                 .as_ref()
-                .map(|(p, patches, _)| (p, patches.as_slice()));
+                .map(|(p, patches, _, _)| (p, patches.as_slice()));
             frames = host_frames(matrix, &mesh, pass);
-            probes_out = probes.map(|(_, _, out)| out);
+            if let Some((_, _, out, direct)) = probes {
+                probes_out = Some(out);
+                direct_out = direct;
+            }
         },
     )?;
     timings.insert("encode", rows.iter().map(|r| r.setup_ms).sum());
@@ -378,6 +469,7 @@ pub(crate) fn run(patches: usize, json: bool, runs: Option<usize>) -> anyhow::Re
         rows: out_rows,
         ratios,
         probes: probes_out,
+        direct: direct_out,
         host_frames: frames,
         timings_ms: timings,
     };
@@ -696,6 +788,15 @@ fn print_text(r: &Report) {
         outln!("  {}: {}", row.method, row.note);
     }
     outln!("");
+    if let Some(d) = &r.direct {
+        outln!(
+            "direct light with shadows ({} points): solve --lights {:.3} ms, rad_scene_direct {:.3} ms",
+            d.points,
+            d.cli_ms,
+            d.c_ms
+        );
+        outln!("");
+    }
     if let Some(p) = &r.probes {
         outln!(
             "probes (bake --probes auto): {} probes, {} weights, {:.2} MB; P·(B − E) on the CPU {:.3} ms",

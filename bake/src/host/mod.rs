@@ -9,9 +9,10 @@
 //! weighs each stage by its usual share of a bake's time ([`STAGES`]) and moves within the
 //! stages that count their work (form-factor rows, transfer quarters, probes).
 //!
-//! Cancellation: the callback's `false` sets the bake's cancel flag ([`Hooks::cancel`]),
-//! which the bake checks between stages and between form-factor rows and probes; the bake
-//! then returns [`BakeError::Cancelled`] and the output path is left as it was. The file is
+//! Cancellation: the callback's `false` makes [`bake_file`] return [`BakeError::Cancelled`] at
+//! once, the output path as it was, and sets the bake's cancel flag ([`Hooks::cancel`]), which
+//! the worker checks between stages, form-factor rows and probes before it stops, writing
+//! nothing. The file is
 //! written to a temporary file beside the output and renamed over it only when the bake has
 //! finished and no cancellation came: a failed or cancelled bake leaves nothing behind.
 
@@ -24,8 +25,8 @@ pub use output::{check_output, temp_file_in, write_atomic};
 use crate::BakeError;
 use crate::pipeline::{BakeOutput, Hooks, bake};
 use std::path::Path;
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// How often [`bake_file`] calls the host's progress callback.
@@ -68,20 +69,16 @@ impl Standing {
     }
 }
 
-/// Unparks a thread when dropped.
-struct Wake<'a>(&'a std::thread::Thread);
-
-impl Drop for Wake<'_> {
-    fn drop(&mut self) {
-        self.0.unpark();
-    }
-}
-
 /// Bakes the scene at `scene` (OBJ or glTF) with `flags` into `output`, calling
 /// `progress(stage, fraction)` on this thread every [`PROGRESS_EVERY`] (module docs); a
 /// `false` from it cancels the bake ([`BakeError::Cancelled`], nothing written). Returns the
 /// bake's output (its report says what was done). `progress` ends with `("done", 1.0)` on
 /// success.
+///
+/// A cancelled call returns within [`PROGRESS_EVERY`] of the callback's `false`. The worker
+/// thread stops at its next check (the same stage, at most one form-factor row, probe, or
+/// for the stages that do not count their work, the rest of the stage: seconds at 4096
+/// patches) and writes nothing.
 pub fn bake_file(
     scene: &Path,
     output: &Path,
@@ -90,67 +87,76 @@ pub fn bake_file(
 ) -> Result<BakeOutput, BakeError> {
     let (params, load) = flags.params()?;
     check_output(output)?;
-    let cancel = AtomicBool::new(false);
-    let standing = Mutex::new(Standing {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let standing = Arc::new(Mutex::new(Standing {
         stage: "load",
         within: 0.0,
         probes: params.probes != crate::probes::ProbeSpec::None,
-    });
-    let set =
-        |f: &dyn Fn(&mut Standing)| f(&mut standing.lock().unwrap_or_else(|e| e.into_inner()));
-    let host = std::thread::current();
-    let result = std::thread::scope(|s| {
-        let worker = s.spawn(|| {
-            // Wakes the host's loop as soon as the bake ends, however it ends.
-            let _wake = Wake(&host);
-            let stage = |name: &str| {
-                let known = STAGES.iter().find(|s| s.0 == name).map(|s| s.0);
-                set(&|st| {
-                    if let Some(k) = known {
-                        st.stage = k;
-                        st.within = 0.0;
+    }));
+    let (done, result) = std::sync::mpsc::channel();
+    let worker = {
+        let (cancel, standing) = (Arc::clone(&cancel), Arc::clone(&standing));
+        let (scene, output) = (scene.to_owned(), output.to_owned());
+        std::thread::Builder::new()
+            .name("radiosity-bake".into())
+            .spawn(move || {
+                let set = |f: &dyn Fn(&mut Standing)| {
+                    f(&mut standing.lock().unwrap_or_else(|e| e.into_inner()))
+                };
+                let stage = |name: &str| {
+                    if let Some(&(known, _)) = STAGES.iter().find(|s| s.0 == name) {
+                        set(&|st| {
+                            st.stage = known;
+                            st.within = 0.0;
+                        });
                     }
-                });
-            };
-            let counted = |done: usize, total: usize| {
-                set(&|st| st.within = done as f64 / total.max(1) as f64);
-            };
-            let hooks = Hooks {
-                stage: Some(&stage),
-                progress: Some(&counted),
-                cancel: Some(&cancel),
-            };
-            let loaded = load_scene(scene, &load)?;
-            let out = bake(&loaded, &params, hooks)?;
-            hooks.start("write")?;
-            let bytes = out
-                .file
-                .to_bytes()
-                .map_err(|e| BakeError::Unbakeable(format!("internal: {e}")))?;
-            let temp = output::write_temp(output, &bytes)?;
-            Ok::<_, BakeError>((out, temp))
-        });
-        let mut last = 0.0f64;
-        while !worker.is_finished() {
-            let (stage, fraction) = {
-                let st = standing.lock().unwrap_or_else(|e| e.into_inner());
-                (st.stage, st.fraction())
-            };
-            last = last.max(fraction);
-            if !cancel.load(Ordering::Relaxed) && !progress(stage, last) {
-                cancel.store(true, Ordering::Relaxed);
+                };
+                let counted = |done: usize, total: usize| {
+                    set(&|st| st.within = done as f64 / total.max(1) as f64);
+                };
+                let hooks = Hooks {
+                    stage: Some(&stage),
+                    progress: Some(&counted),
+                    cancel: Some(&cancel),
+                };
+                let run = || {
+                    let loaded = load_scene(&scene, &load)?;
+                    let out = bake(&loaded, &params, hooks)?;
+                    hooks.start("write")?;
+                    let bytes = out
+                        .file
+                        .to_bytes()
+                        .map_err(|e| BakeError::Unbakeable(format!("internal: {e}")))?;
+                    let temp = output::write_temp(&output, &bytes)?;
+                    Ok::<_, BakeError>((out, temp))
+                };
+                // Nobody listens after a cancellation: the temporary file is then dropped.
+                let _ = done.send(run());
+            })
+            .map_err(|e| BakeError::Unbakeable(format!("cannot start the bake's thread: {e}")))?
+    };
+    let mut last = 0.0f64;
+    let finished = loop {
+        match result.recv_timeout(PROGRESS_EVERY) {
+            Ok(r) => break r,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                break Err(BakeError::Unbakeable("internal: the bake panicked".into()));
             }
-            std::thread::park_timeout(PROGRESS_EVERY);
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
         }
-        worker
-            .join()
-            .unwrap_or_else(|_| Err(BakeError::Unbakeable("internal: the bake panicked".into())))
-    });
-    // A cancellation that came after the last check still wins: the temporary file goes.
-    if cancel.load(Ordering::Relaxed) {
-        return Err(BakeError::Cancelled);
-    }
-    let (out, temp) = result?;
+        let (stage, fraction) = {
+            let st = standing.lock().unwrap_or_else(|e| e.into_inner());
+            (st.stage, st.fraction())
+        };
+        last = last.max(fraction);
+        if !progress(stage, last) {
+            // The worker stops at its next check; this call returns now.
+            cancel.store(true, Ordering::Relaxed);
+            return Err(BakeError::Cancelled);
+        }
+    };
+    let _ = worker.join();
+    let (out, temp) = finished?;
     output::persist(temp, output)?;
     progress("done", 1.0);
     Ok(out)
