@@ -68,6 +68,7 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
         "probes": file.probes.as_ref().map(|p| json!({
             "count": p.len(),
             "weights": p.weights.len(),
+            "rank": p.factors.as_ref().map(|f| f.rank),
             "bytes": p.to_bytes().len(),
             "spacing": p.spacing,
         })),
@@ -136,10 +137,13 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         outln!("  form factors {d}");
     }
     if let Some(p) = &file.probes {
+        let stored = match &p.factors {
+            Some(f) => format!("weights factored to rank {}", f.rank),
+            None => format!("{} patch weights", p.weights.len()),
+        };
         outln!(
-            "  probes       {} ({} patch weights, spacing {}, {:.3} MiB)",
+            "  probes       {} ({stored}, spacing {}, {:.3} MiB)",
             p.len(),
-            p.weights.len(),
             p.spacing,
             mib(&s["probes"]["bytes"])
         );
