@@ -525,6 +525,30 @@ fn malformed_json_and_glb() {
     assert!(e.contains("not a valid GLB file"), "{e}");
 }
 
+/// glTF 1.0 (maps where 2.0 has arrays) is refused by name, as JSON and as GLB (header
+/// version 1); a glTF 2.0 scene without `nodes` (optional) loads and is merely empty.
+#[test]
+fn gltf_1_is_named_and_a_scene_without_nodes_is_valid() {
+    let dir = tempfile::tempdir().unwrap();
+    let v1 = r#"{"asset":{"version":"1.0"},"meshes":{"m":{"primitives":[]}},"scene":"s","scenes":{"s":{"nodes":[]}}}"#;
+    let e = load_err(&write(dir.path(), "v1.gltf", v1));
+    assert!(e.contains("glTF 1.0 is not supported"), "{e}");
+    let mut glb = b"glTF".to_vec();
+    glb.extend(1u32.to_le_bytes());
+    glb.extend(20u32.to_le_bytes());
+    glb.extend([0u8; 8]);
+    let p = dir.path().join("v1.glb");
+    std::fs::write(&p, &glb).unwrap();
+    let e = load_err(&p);
+    assert!(e.contains("glTF 1.0 is not supported"), "{e}");
+    let e = load_err(&write(
+        dir.path(),
+        "empty.gltf",
+        r#"{"asset":{"version":"2.0"},"scenes":[{}],"scene":0}"#,
+    ));
+    assert!(e.contains("no non-degenerate triangle"), "{e}");
+}
+
 #[test]
 fn missing_and_short_buffers() {
     let dir = tempfile::tempdir().unwrap();

@@ -89,6 +89,45 @@ fn gltf_error(path: &Path, message: String) -> BakeError {
     }
 }
 
+/// Refuses a glTF 1.0 file by name (its maps where 2.0 has arrays would otherwise be a serde
+/// type error), and gives a scene without `nodes` (optional in glTF 2.0, required by the gltf
+/// crate) an empty list: `Some(bytes)` when the JSON was changed.
+fn normalised_json(path: &Path, bytes: &[u8]) -> Result<Option<Vec<u8>>, BakeError> {
+    let old = |version: &str| {
+        gltf_error(
+            path,
+            format!("glTF {version} is not supported (only glTF 2.0; convert the file first)"),
+        )
+    };
+    if bytes.starts_with(b"glTF") {
+        let version = bytes
+            .get(4..8)
+            .map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
+        return match version {
+            Some(1) => Err(old("1.0")),
+            _ => Ok(None),
+        };
+    }
+    let Ok(mut json) = serde_json::from_slice::<serde_json::Value>(bytes) else {
+        return Ok(None); // the gltf crate says what is wrong
+    };
+    if let Some(v) = json["asset"]["version"].as_str()
+        && !v.starts_with('2')
+    {
+        return Err(old(v));
+    }
+    let mut changed = false;
+    if let Some(scenes) = json.get_mut("scenes").and_then(|s| s.as_array_mut()) {
+        for scene in scenes.iter_mut().filter_map(|s| s.as_object_mut()) {
+            if !scene.contains_key("nodes") {
+                scene.insert("nodes".into(), serde_json::Value::Array(Vec::new()));
+                changed = true;
+            }
+        }
+    }
+    Ok(changed.then(|| serde_json::to_vec(&json).expect("a JSON value serialises")))
+}
+
 /// The document of a glTF JSON or GLB file, validated (but for accessor bounds), and its GLB
 /// binary chunk.
 fn parse(path: &Path, bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), BakeError> {
@@ -98,6 +137,8 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>
     } else {
         "glTF JSON"
     };
+    let patched = normalised_json(path, bytes)?;
+    let bytes = patched.as_deref().unwrap_or(bytes);
     let parsed = ::gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| gerr(format!("not a valid {what} file: {e}")))?;
     // Required extensions first: a Draco-compressed file fails validation for reasons that
