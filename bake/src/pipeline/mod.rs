@@ -212,11 +212,9 @@ pub fn discretise(
         )
     };
     effects.insert("dark_patches", dark_effect);
-    if zero.len() == n_all {
-        return Err(BakeError::Unbakeable(
-            "no patch sees any other patch, so no light can travel between surfaces (a single surface, or every surface facing away from the rest)".into(),
-        ));
-    }
+    // Where no patch sees another (one object, a convex one, a single sheet), no light travels
+    // between surfaces: the transfer is zero and the file carries everything else (patches,
+    // mesh, direct light, probes), so that one code path serves every asset.
     let f_live = live_rows(f, &live);
     let reflectance: Vec<[f64; 3]> = live
         .iter()

@@ -1,0 +1,89 @@
+//! Scenes where no patch sees another — a lone convex box, a single sheet — bake with an empty
+//! (zero) transfer, and everything else works: the direct light of a sun on each face is
+//! `E·cos θ` (within 1%: the shadow rays meet nothing on a convex object, so only f32 rounding
+//! is left; 1% leaves room for the area-weighted mean over each patch's points).
+
+use glam::Vec3;
+use radiosity_bake::pipeline::{BakeParams, Hooks, bake};
+use radiosity_bake::scene::Scene;
+use radiosity_bake::simplify::VoxelParams;
+use radiosity_core::{DecodeMode, Gather, Light, ReferenceGather, Rgb, finish_frame, first_exitance};
+use radiosity_runtime::BakedScene;
+use radiosity_tests::scenes::{Material, Quad, block, write_scene};
+
+/// Bakes `quads` and lights them with a sun travelling along `d` (irradiance 1 facing it);
+/// returns each object's mean irradiance (red channel) and its front normal.
+fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
+    let dir = tempfile::tempdir().unwrap();
+    let mats = [Material::new("grey", [0.5; 3], [0.0; 3])];
+    let path = write_scene(dir.path(), "lone", quads, &mats);
+    let scene = Scene::load_obj(&path).unwrap();
+    let params = BakeParams {
+        voxel: VoxelParams::with_patches(96),
+        ..BakeParams::default()
+    };
+    let out = bake(&scene, &params, Hooks::default()).expect("a lone object bakes");
+    let rt = BakedScene::new(out.file);
+    let file = &rt.file;
+    let n = file.n();
+    let lights = [Light::Directional {
+        direction: d,
+        irradiance: Rgb::splat(1.0),
+    }];
+    let (direct, at_samples) = rt.direct_with_samples(&lights).unwrap();
+    let mut x = vec![Rgb::ZERO; n];
+    first_exitance(&file.patches, &direct, &mut x);
+    let mut y = vec![Rgb::ZERO; n];
+    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
+        .gather(&x, &mut y)
+        .unwrap();
+    assert!(y.iter().all(|v| *v == Rgb::ZERO), "no light travels between surfaces");
+    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
+    finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
+    radiosity_runtime::objects::per_object(file, &h, &b, &direct, &at_samples)
+        .into_iter()
+        .map(|o| (o.name, o.irradiance[0]))
+        .collect()
+}
+
+/// The unit front normal of a quad (counter-clockwise corners).
+fn normal(q: &Quad) -> Vec3 {
+    let c = q.corners.map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+    (c[1] - c[0]).cross(c[2] - c[0]).normalize()
+}
+
+#[test]
+fn a_lone_box_bakes_and_each_face_gets_e_cos_theta() {
+    let mut quads = block([0.0; 3], [1.0, 2.0, 0.5], "box", "grey");
+    for (k, q) in quads.iter_mut().enumerate() {
+        q.object = format!("face{k}");
+    }
+    let d = Vec3::new(-1.0, -2.0, -3.0).normalize();
+    let got = sunlit(&quads, d);
+    for (q, (name, e)) in quads.iter().zip(&got) {
+        assert_eq!(&q.object, name);
+        let want = f64::from((-normal(q).dot(d)).max(0.0));
+        assert!((e - want).abs() <= 0.01 * want.max(1e-3), "{name}: {e} against {want}");
+    }
+    assert!(got.iter().filter(|o| o.1 > 0.0).count() == 3, "three faces lit: {got:?}");
+}
+
+#[test]
+fn a_single_sheet_bakes_and_its_front_gets_e_cos_theta() {
+    let sheet = Quad {
+        object: "sheet".into(),
+        material: "grey".into(),
+        corners: [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+        ],
+    };
+    let up = normal(&sheet);
+    assert!(up.y > 0.99, "the sheet faces up");
+    let d = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let got = sunlit(std::slice::from_ref(&sheet), d);
+    let want = f64::from(-up.dot(d));
+    assert!((got[0].1 - want).abs() <= 0.01 * want, "{got:?} against {want}");
+}
