@@ -58,7 +58,8 @@ pub(crate) struct PathtraceArgs {
     points: Option<std::path::PathBuf>,
 }
 
-pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
+/// Refuses flags that contradict each other or are out of range, before any work.
+fn check_args(args: &PathtraceArgs) -> anyhow::Result<()> {
     if args.samples < 2 {
         bail!(
             "--samples must be at least 2 (a standard error needs two), not {}",
@@ -79,6 +80,11 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     {
         bail!("--camera, --spp and --exposure describe the image: give -o IMAGE.png too");
     }
+    Ok(())
+}
+
+pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
+    check_args(args)?;
     crate::picture::check_exposure(args.exposure)?;
     if let Some(out) = &args.output {
         crate::output::check_file(out)?;

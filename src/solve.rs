@@ -153,34 +153,44 @@ pub(crate) fn run(
         }
     }
     if let (false, Some(answers)) = (json_out, &answers) {
-        outln!(
-            "{:<44} {:>36}",
-            "point (position; normal)",
-            "irradiance W/m² (r g b)"
-        );
-        for (p, a) in answers {
-            let q = p.position;
-            let n = p.given_normal;
-            let what = match a {
-                radiosity_runtime::points::Answer::Irradiance { total: e, .. } => {
-                    format!("{:>11.4} {:>11.4} {:>11.4}", e.r, e.g, e.b)
-                }
-                radiosity_runtime::points::Answer::Inside => "inside an object".into(),
-                radiosity_runtime::points::Answer::Outside => "outside the scene".into(),
-            };
-            outln!(
-                "{:<44} {:>36}",
-                format!(
-                    "[{:.3}, {:.3}, {:.3}]; [{:.2}, {:.2}, {:.2}]",
-                    q.x, q.y, q.z, n.x, n.y, n.z
-                ),
-                what
-            );
-        }
+        print_points(answers);
     }
     // After the results, as every warning: a failure stays the one `error:` line.
     crate::scene::warn_if_unlit(&runtime, &lights);
     Ok(())
+}
+
+/// The points' table of `solve`'s text output.
+fn print_points(
+    answers: &[(
+        &radiosity_runtime::points::Point,
+        radiosity_runtime::points::Answer,
+    )],
+) {
+    outln!(
+        "{:<44} {:>36}",
+        "point (position; normal)",
+        "irradiance W/m² (r g b)"
+    );
+    for (p, a) in answers {
+        let q = p.position;
+        let n = p.given_normal;
+        let what = match a {
+            radiosity_runtime::points::Answer::Irradiance { total: e, .. } => {
+                format!("{:>11.4} {:>11.4} {:>11.4}", e.r, e.g, e.b)
+            }
+            radiosity_runtime::points::Answer::Inside => "inside an object".into(),
+            radiosity_runtime::points::Answer::Outside => "outside the scene".into(),
+        };
+        outln!(
+            "{:<44} {:>36}",
+            format!(
+                "[{:.3}, {:.3}, {:.3}]; [{:.2}, {:.2}, {:.2}]",
+                q.x, q.y, q.z, n.x, n.y, n.z
+            ),
+            what
+        );
+    }
 }
 
 /// A point's entry in `solve --json`: `irradiance` null and `status` saying why for a point

@@ -77,7 +77,7 @@ pub enum BakeError {
         path: PathBuf,
     },
     /// The scene loaded but cannot be baked: its scale is outside what the file's f32 fields
-    /// hold, or no surface sees any other.
+    /// hold.
     #[error("{0}")]
     Unbakeable(String),
     /// A bake flag (or host option) is refused: out of range, unknown, contradicting another,

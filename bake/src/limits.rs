@@ -38,20 +38,20 @@ fn bytes_per_entry(bounces: BounceSpec) -> f64 {
 }
 
 /// Estimated peak memory in bytes of a bake aimed at `patches` patches under `bounces`.
-pub fn bake_peak_bytes(patches: usize, bounces: BounceSpec) -> f64 {
+pub(crate) fn bake_peak_bytes(patches: usize, bounces: BounceSpec) -> f64 {
     let n = patches as f64 * OVERSHOOT;
     bytes_per_entry(bounces) * n * n
 }
 
 /// The largest patch target whose estimated peak fits in `memory` bytes (at most
 /// [`MAX_PATCHES`]), rounded down to a hundred.
-pub fn largest_fitting(memory: u64, bounces: BounceSpec) -> usize {
+pub(crate) fn largest_fitting(memory: u64, bounces: BounceSpec) -> usize {
     let n = (memory as f64 / bytes_per_entry(bounces)).sqrt() / OVERSHOOT;
     ((n as usize) / 100 * 100).clamp(1, MAX_PATCHES)
 }
 
 /// The machine's physical memory in bytes (`MemTotal` of `/proc/meminfo`), where known.
-pub fn physical_memory() -> Option<u64> {
+pub(crate) fn physical_memory() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
     let kib: u64 = line
@@ -74,7 +74,7 @@ pub fn above_ceiling(patches: usize) -> Option<String> {
 }
 
 /// Refuses a patch target above [`MAX_PATCHES`].
-pub fn check_ceiling(patches: usize) -> Result<(), BakeError> {
+pub(crate) fn check_ceiling(patches: usize) -> Result<(), BakeError> {
     match above_ceiling(patches) {
         Some(why) => Err(BakeError::Flag(format!("--patches {patches} is {why}"))),
         None => Ok(()),
@@ -83,7 +83,7 @@ pub fn check_ceiling(patches: usize) -> Result<(), BakeError> {
 
 /// Refuses a patch target the bake cannot hold: above [`MAX_PATCHES`], or whose estimated
 /// peak ([`bake_peak_bytes`]) exceeds `memory` bytes of physical memory (when known).
-pub fn check_patches_in(
+pub(crate) fn check_patches_in(
     patches: usize,
     memory: Option<u64>,
     bounces: BounceSpec,

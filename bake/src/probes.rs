@@ -339,7 +339,7 @@ pub enum ProbeRank {
 /// The rank `auto` factors the probes' weights to over `patches` patches: a sixteenth of them,
 /// from 128 to 512 (468 probes in the Cornell box meet the bounds at rank 128 over
 /// 1008 patches and at 256 over 4098, not at 128: docs/decisions/probe-factors.md).
-pub fn auto_rank(patches: usize) -> usize {
+pub(crate) fn auto_rank(patches: usize) -> usize {
     (patches / 16).clamp(128, 512)
 }
 
@@ -533,7 +533,7 @@ fn factor(rows: &[Vec<ProbeWeight>], patches: usize, k: usize) -> Option<ProbeFa
 /// Places and weighs the probes of `spec` in a bake's file and stores its report again (its
 /// `probes`, the PROBES section's bytes, the file's new size and the `probes` and `total`
 /// timings). The output unchanged for [`ProbeSpec::None`].
-pub fn attach(
+pub(crate) fn attach(
     out: BakeOutput,
     spec: &ProbeSpec,
     rank: ProbeRank,

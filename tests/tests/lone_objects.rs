@@ -7,7 +7,9 @@ use glam::Vec3;
 use radiosity_bake::pipeline::{BakeParams, Hooks, bake};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
-use radiosity_core::{DecodeMode, Gather, Light, ReferenceGather, Rgb, finish_frame, first_exitance};
+use radiosity_core::{
+    DecodeMode, Gather, Light, ReferenceGather, Rgb, finish_frame, first_exitance,
+};
 use radiosity_runtime::BakedScene;
 use radiosity_tests::scenes::{Material, Quad, block, write_scene};
 
@@ -37,7 +39,10 @@ fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
     ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
         .gather(&x, &mut y)
         .unwrap();
-    assert!(y.iter().all(|v| *v == Rgb::ZERO), "no light travels between surfaces");
+    assert!(
+        y.iter().all(|v| *v == Rgb::ZERO),
+        "no light travels between surfaces"
+    );
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
     radiosity_runtime::objects::per_object(file, &h, &b, &direct, &at_samples)
@@ -48,7 +53,9 @@ fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
 
 /// The unit front normal of a quad (counter-clockwise corners).
 fn normal(q: &Quad) -> Vec3 {
-    let c = q.corners.map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+    let c = q
+        .corners
+        .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
     (c[1] - c[0]).cross(c[2] - c[0]).normalize()
 }
 
@@ -63,9 +70,15 @@ fn a_lone_box_bakes_and_each_face_gets_e_cos_theta() {
     for (q, (name, e)) in quads.iter().zip(&got) {
         assert_eq!(&q.object, name);
         let want = f64::from((-normal(q).dot(d)).max(0.0));
-        assert!((e - want).abs() <= 0.01 * want.max(1e-3), "{name}: {e} against {want}");
+        assert!(
+            (e - want).abs() <= 0.01 * want.max(1e-3),
+            "{name}: {e} against {want}"
+        );
     }
-    assert!(got.iter().filter(|o| o.1 > 0.0).count() == 3, "three faces lit: {got:?}");
+    assert!(
+        got.iter().filter(|o| o.1 > 0.0).count() == 3,
+        "three faces lit: {got:?}"
+    );
 }
 
 #[test]
@@ -85,5 +98,8 @@ fn a_single_sheet_bakes_and_its_front_gets_e_cos_theta() {
     let d = Vec3::new(0.3, -1.0, 0.2).normalize();
     let got = sunlit(std::slice::from_ref(&sheet), d);
     let want = f64::from(-up.dot(d));
-    assert!((got[0].1 - want).abs() <= 0.01 * want, "{got:?} against {want}");
+    assert!(
+        (got[0].1 - want).abs() <= 0.01 * want,
+        "{got:?} against {want}"
+    );
 }

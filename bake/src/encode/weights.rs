@@ -61,7 +61,7 @@ impl ErrorWeights {
     }
 
     /// Whether any column carries emission (the coupled pass then has work).
-    pub fn has_emitters(&self) -> bool {
+    pub(crate) fn has_emitters(&self) -> bool {
         self.emission.iter().any(|e| *e != [0.0; 3])
     }
 

@@ -20,7 +20,7 @@ mod flags;
 mod output;
 
 pub use flags::{BakeFlags, Word, capped_loading, form_factor_params, load_scene, voxel_params};
-pub use output::{check_output, temp_file_in, write_atomic};
+pub use output::{check_output, write_atomic};
 
 use crate::BakeError;
 use crate::pipeline::{BakeOutput, Hooks, bake};

@@ -28,7 +28,7 @@ fn cannot(path: &Path, why: impl std::fmt::Display) -> BakeError {
 
 /// A temporary file in `dir` named `.radiosity-…`, readable as a file created with the
 /// process's umask (mode 0666 before it) once renamed, not the 0600 of a private temporary.
-pub fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+pub(crate) fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let mut b = tempfile::Builder::new();
     b.prefix(".radiosity-");
     #[cfg(unix)]

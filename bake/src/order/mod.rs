@@ -364,7 +364,7 @@ pub fn permute(dense: &[f32], n: usize, channels: usize, perm: &[u32]) -> Vec<f3
 /// [`permute`] in `dense`'s own buffer: the same values, with one row of scratch per thread
 /// instead of a second matrix. Each row's columns are renumbered first, then the rows are
 /// moved along the cycles of `perm`.
-pub fn permute_in_place(dense: &mut [f32], n: usize, channels: usize, perm: &[u32]) {
+pub(crate) fn permute_in_place(dense: &mut [f32], n: usize, channels: usize, perm: &[u32]) {
     assert_eq!(dense.len(), n * n * channels, "dense matrix of side {n}");
     check_permutation(perm, n);
     let w = (n * channels).max(1);

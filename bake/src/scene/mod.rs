@@ -36,7 +36,7 @@ pub struct Material {
 
 impl Material {
     /// The fallback material: grey 0.5, no emission.
-    pub fn default_grey() -> Self {
+    pub(crate) fn default_grey() -> Self {
         Self {
             name: "default".into(),
             reflectance: Rgb::splat(DEFAULT_REFLECTANCE),
@@ -209,7 +209,7 @@ fn newmtl_line(text: &str, name: &str) -> Option<usize> {
 
 /// Whether `path` names a glTF file (`.gltf` or `.glb`, any case); anything else is read as
 /// OBJ.
-pub fn is_gltf_path(path: &Path) -> bool {
+pub(crate) fn is_gltf_path(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
@@ -239,7 +239,7 @@ impl Scene {
     /// or index out of range, NaN or infinite positions (also after the node transforms), a
     /// cycle in the node graph, an unsupported required extension, an invalid material, or a
     /// scene without any usable triangle.
-    pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
+    pub(crate) fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
         gltf::load(path, options)
     }
 
@@ -268,7 +268,7 @@ impl Scene {
     }
 
     /// [`Self::from_obj_str`] with options.
-    pub fn from_obj_str_with(
+    pub(crate) fn from_obj_str_with(
         path: &Path,
         text: &str,
         options: &LoadOptions,

@@ -96,7 +96,7 @@ impl Texture {
 
     /// Mean over the UV triangle `uv`, by a fixed barycentric lattice of `k(k+1)/2` points with
     /// `k` chosen from the triangle's texel footprint (at most 64 per side).
-    pub fn mean_over_triangle(&self, uv: [[f64; 2]; 3]) -> [f64; 3] {
+    pub(crate) fn mean_over_triangle(&self, uv: [[f64; 2]; 3]) -> [f64; 3] {
         let span = |i: usize| {
             let (a, b) = (uv[i], uv[(i + 1) % 3]);
             ((a[0] - b[0]) * self.width as f64).hypot((a[1] - b[1]) * self.height as f64)
