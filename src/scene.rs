@@ -10,7 +10,7 @@ use radiosity_runtime::BakedScene;
 pub(crate) fn warn_if_unlit(rt: &BakedScene, lights: &[Light]) {
     if rt.is_unlit(lights) {
         eprintln!(
-            "warning: nothing lights this scene (no emitting material, no --lights): everything is black; add lights with --lights LIGHTS.json (see docs/examples/lights.json) or give a material Ke in the MTL file"
+            "warning: nothing lights this scene (no emitting material, no --lights): everything is black; add lights with --lights LIGHTS.json (see docs/examples/lights.json) or give a material emission (MTL Ke, glTF emissiveFactor)"
         );
     }
 }

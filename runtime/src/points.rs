@@ -23,8 +23,10 @@
 //! rays' noise; it costs [`RAYS`] rays, and shadow rays and near hits' second gathers at each
 //! hit, a point, so it answers queries rather than lighting moving objects every frame.
 //!
-//! A point whose rays mostly meet the backs of faces is inside an object, and one outside the
-//! bounding box of the scene's mesh is outside it: both are answered as such, without a figure.
+//! A point whose rays mostly meet the backs of faces is inside an object, and one beyond the
+//! bounding box of the scene's mesh whose rays all miss it is outside it: both are answered as
+//! such, without a figure. A point beyond the box that sees the scene (in front of an open
+//! scene) is answered.
 
 use crate::BakedScene;
 use crate::render::{PatchGrid, triangle_normal};
@@ -103,7 +105,8 @@ pub enum Answer {
     },
     /// The point lies inside an object (most of its rays meet back faces).
     Inside,
-    /// The point lies outside the scene's bounding box.
+    /// The point lies outside the scene: beyond the bounds of its mesh, and none of its rays
+    /// meets a surface (a point just in front of an open scene, looking at it, is answered).
     Outside,
 }
 
@@ -473,19 +476,17 @@ pub fn answer(
         .enumerate()
         .map(|(k, q)| {
             let n = q.normal;
-            if q.position.cmplt(lo - slack).any() || q.position.cmpgt(hi + slack).any() {
-                return Answer::Outside;
-            }
+            let beyond = q.position.cmplt(lo - slack).any() || q.position.cmpgt(hi + slack).any();
             let p = off_the_surface(&surfaces, q.position, n, slack);
             let mut rng = SplitMix64(0x5eed ^ k as u64);
-            let (mut sum, mut backs) = (Rgb::ZERO, 0usize);
+            let (mut sum, mut backs, mut missed) = (Rgb::ZERO, 0usize, 0usize);
             let mut weights = Vec::new();
             for s in 0..side * side {
                 let u1 = ((s % side) as f64 + rng.next_f64()) / side as f64;
                 let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
                 let dir = cosine_direction(n, u1, u2);
                 match surfaces.occ.first_surface(p, dir, 0.0, f64::INFINITY) {
-                    None => {}                      // the sky sends nothing
+                    None => missed += 1,            // the sky sends nothing
                     Some((_, false)) => backs += 1, // the back of a one-sided surface: nothing
                     Some((hit, true)) => {
                         let samples = HIT_EMITTER_SAMPLES;
@@ -495,6 +496,9 @@ pub fn answer(
             }
             if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
                 return Answer::Inside;
+            }
+            if beyond && missed == side * side {
+                return Answer::Outside;
             }
             let direct = rt.direct_at(lights, p, n)
                 + (surfaces.emitters).irradiance_at(

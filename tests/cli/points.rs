@@ -103,9 +103,10 @@ fn point_irradiance_matches_the_path_tracer() {
     let rad = d.join("cb.rad");
     radiosity_ok(&["bake", &s(&cornell()), "-o", &s(&rad), "--patches", "1024"]);
     let mut points = POINTS.to_vec();
-    // Inside the short box (its top at y = 0.6) and beside the room.
+    // Inside the short box (its top at y = 0.6), and beside the room facing away from it (a
+    // point beyond the mesh's box none of whose rays meets a surface).
     points.push(([0.3, 0.3, 0.4], [0.0, 1.0, 0.0]));
-    points.push(([5.0, 1.0, 0.0], [0.0, 1.0, 0.0]));
+    points.push(([5.0, 1.0, 0.0], [1.0, 0.0, 0.0]));
     let file = d.join("points.json");
     write_points(&file, &points);
     let (ours, pt) = solve_and_trace(&rad, &file, "65536");

@@ -103,3 +103,99 @@ fn a_single_sheet_bakes_and_its_front_gets_e_cos_theta() {
         "{got:?} against {want}"
     );
 }
+
+/// A two-sided sheet in the open (two back-to-back sheets of the same corners, each side its
+/// own object): a sun from above lights the top with `E·|cos θ|` and not the bottom, a sun from
+/// below the bottom; neither side buries the other (both keep their whole area exposed).
+#[test]
+fn a_two_sided_sheet_in_the_open_is_lit_on_the_side_the_sun_reaches() {
+    let corners = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 0.0, -1.0],
+        [0.0, 0.0, -1.0],
+    ];
+    let top = Quad {
+        object: "top".into(),
+        material: "grey".into(),
+        corners,
+    };
+    let mut reversed = corners;
+    reversed.reverse();
+    let bottom = Quad {
+        object: "bottom".into(),
+        material: "grey".into(),
+        corners: reversed,
+    };
+    assert!(normal(&top).y > 0.99 && normal(&bottom).y < -0.99);
+    let quads = [top, bottom];
+    for d in [Vec3::new(0.3, -1.0, 0.2), Vec3::new(-0.2, 1.0, 0.4)] {
+        let d = d.normalize();
+        let got = sunlit(&quads, d);
+        for (q, (name, e)) in quads.iter().zip(&got) {
+            let want = f64::from((-normal(q).dot(d)).max(0.0));
+            assert!(
+                (e - want).abs() <= 0.01 * want.max(1e-3),
+                "{name} under {d}: {e} against {want}"
+            );
+        }
+    }
+}
+
+/// A point 1 cm above an open sheet, looking down at it, lies beyond the mesh's bounds but sees
+/// the scene: it is answered (the light the sheet reflects), not "outside the scene"; one
+/// looking away from everything is outside.
+#[test]
+fn a_point_in_front_of_an_open_scene_is_answered() {
+    use radiosity_runtime::points::{Answer, Point, answer};
+    let dir = tempfile::tempdir().unwrap();
+    let sheet = Quad {
+        object: "sheet".into(),
+        material: "grey".into(),
+        corners: [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+        ],
+    };
+    let path = write_scene(
+        dir.path(),
+        "sheet",
+        &[sheet],
+        &[Material::new("grey", [0.5; 3], [0.0; 3])],
+    );
+    let scene = Scene::load_obj(&path).unwrap();
+    let params = BakeParams {
+        voxel: VoxelParams::with_patches(16),
+        ..BakeParams::default()
+    };
+    let rt = BakedScene::new(bake(&scene, &params, Hooks::default()).unwrap().file);
+    let lights = [Light::Directional {
+        direction: Vec3::new(0.0, -1.0, 0.0),
+        irradiance: Rgb::splat(1.0),
+    }];
+    let n = rt.file.n();
+    let direct = rt.direct(&lights).unwrap();
+    let y = vec![Rgb::ZERO; n];
+    let h: Vec<Rgb> = direct.clone();
+    let at = |p: [f64; 3], d: [f64; 3]| Point {
+        position: glam::DVec3::from(p),
+        normal: glam::DVec3::from(d),
+        given_normal: glam::DVec3::from(d),
+    };
+    let points = [
+        at([0.5, 0.01, -0.5], [0.0, -1.0, 0.0]),
+        at([0.5, 5.0, -0.5], [0.0, 1.0, 0.0]),
+    ];
+    let got = answer(&rt, &y, &h, &lights, &points).unwrap();
+    // Looking down at a sheet of B = ρ·E = 0.5 from 1 cm: nearly all of the hemisphere is the
+    // sheet, so nearly 0.5 (the sheet's edge 0.5 away cuts off well under 1%).
+    match got[0] {
+        Answer::Irradiance { total, .. } => {
+            assert!((total.r - 0.5).abs() < 0.01, "{total:?}")
+        }
+        other => panic!("answered, not {other:?}"),
+    }
+    assert_eq!(got[1], Answer::Outside);
+}

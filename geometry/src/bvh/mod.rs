@@ -48,6 +48,11 @@ pub struct Occluders {
     /// The emitting triangles drawn in the plane of each non-emitting one they overlap, facing
     /// the same way (a light on the ceiling): they cover it ([`Self::covered`]).
     covers: std::collections::HashMap<u32, Vec<u32>>,
+    /// Whether each triangle (by its index in the list given) has a twin: a triangle of the
+    /// same three corners wound the other way, the back of a two-sided sheet (glTF
+    /// `doubleSided`, or two sheets modelled back to back). A twin never buries its sheet
+    /// ([`Self::buried`]).
+    twinned: Vec<bool>,
 }
 
 /// The extent of every scene in the BVH's f32 coordinates. obvhs's CWBVH skips every node
@@ -71,6 +76,35 @@ fn inside_by(t: &[DVec3; 3], p: DVec3, margin: f64) -> bool {
         let l = inward.length();
         l > 0.0 && (p - a).dot(inward) / l > margin
     })
+}
+
+/// Whether each triangle has a twin among `tris`: the same three corners (exactly) wound the
+/// other way.
+fn twins(tris: &[[DVec3; 3]]) -> Vec<bool> {
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    // Corners sorted, with the winding's parity: a twin has the same corners, the other parity.
+    let mut seen: std::collections::HashMap<[[u64; 3]; 3], [Vec<u32>; 2]> = Default::default();
+    for (i, t) in tris.iter().enumerate() {
+        let mut k = t.map(key);
+        // Rotating a triangle's corners keeps its winding; its smallest corner first, then the
+        // order of the other two is the winding.
+        let first = (0..3).min_by_key(|&c| k[c]).expect("three corners");
+        k.rotate_left(first);
+        let parity = usize::from(k[1] > k[2]);
+        if parity == 1 {
+            k.swap(1, 2);
+        }
+        seen.entry(k).or_default()[parity].push(i as u32);
+    }
+    let mut out = vec![false; tris.len()];
+    for [a, b] in seen.values() {
+        if !a.is_empty() && !b.is_empty() {
+            for &i in a.iter().chain(b) {
+                out[i as usize] = true;
+            }
+        }
+    }
+    out
 }
 
 /// `p` in the BVH's f32 coordinates: relative to `origin`, `scale` local units per scene unit.
@@ -291,6 +325,7 @@ impl Occluders {
             extent,
             emits: Vec::new(),
             covers: Default::default(),
+            twinned: twins(tris),
         }
     }
 
@@ -562,7 +597,9 @@ impl Occluders {
     /// 80° off it either all first meet back faces (the inside of a block that rests on the
     /// surface or stands through it), or meet no front face while a triangle lies against `x`
     /// face to face (a block's bottom on the floor of a closed room). A front face met by any
-    /// of the rays leaves `x` exposed (the sheets of a two-sided panel lie face to face).
+    /// of the rays leaves `x` exposed, and the twin of a two-sided sheet (the same corners
+    /// wound the other way) lies against it without burying it: a sheet in the open is lit on
+    /// both sides.
     pub fn buried(&self, x: DVec3, normal: DVec3) -> bool {
         if self.rt.is_empty() || !normal.is_finite() {
             return false;
@@ -596,7 +633,11 @@ impl Occluders {
         let lift = 1e-6 * LOCAL_EXTENT;
         let o = self.local(x) + Vec3A::from(normal.as_vec3()) * lift as f32;
         let ray = Ray::new(o, ray_direction(-normal), 0.0, 2.0 * lift as f32);
-        let against = |t: u32| !(self.holds(t, x) && self.front(t).dot(normal) < 0.0);
+        let against = |t: u32| {
+            !(self.holds(t, x)
+                && self.front(t).dot(normal) < 0.0
+                && !self.twinned.get(t as usize).copied().unwrap_or(false))
+        };
         self.first_hit(ray, &against).is_some()
     }
 

@@ -267,3 +267,28 @@ fn parts_in_contact_exchange_nothing() {
     assert!(front && (hit.distance - 1e-3).abs() < 1e-5, "{hit:?}");
     assert!(!occ.buried(x, DVec3::Y));
 }
+
+/// A two-sided sheet in the open (its triangles and their twins, the same corners wound the
+/// other way) is exposed on both sides; a plate lying face to face on it without being its
+/// twin still buries it (a block's bottom on a floor).
+#[test]
+fn a_two_sided_sheet_in_the_open_is_exposed_on_both_sides() {
+    let mut tris = quad(0.0, true);
+    tris.extend(quad(0.0, false));
+    let occ = Occluders::from_triangles(&tris);
+    let x = dvec3(0.3, 0.4, 0.0);
+    assert!(!occ.buried(x, DVec3::Z), "the front of the sheet");
+    assert!(!occ.buried(x, -DVec3::Z), "its back");
+    // The same sheet against a smaller plate facing it (not a twin): the sheet's front under
+    // the plate is buried, as a floor under a block.
+    let mut tris = quad(0.0, true);
+    let (a, b, c, d) = (
+        dvec3(0.2, 0.2, 0.0),
+        dvec3(0.8, 0.2, 0.0),
+        dvec3(0.8, 0.8, 0.0),
+        dvec3(0.2, 0.8, 0.0),
+    );
+    tris.extend([[a, c, b], [a, d, c]]);
+    let occ = Occluders::from_triangles(&tris);
+    assert!(occ.buried(dvec3(0.5, 0.5, 0.0), DVec3::Z));
+}
