@@ -266,6 +266,29 @@ fn strips_fans_and_non_indexed_lists() {
     let total: f64 = (0..6).map(|t| scene.triangle_area(t)).sum();
     assert!((total - 2.75).abs() < 1e-12, "{total}");
     assert_eq!(scene.objects, ["modes"]);
+    assert!(
+        !scene
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("TRIANGLES with")),
+        "{:?}",
+        scene.report.warnings
+    );
+
+    // A list of 5 indices: one triangle, and a warning for the 2 left over.
+    let mut d = Doc::default();
+    let p = d.positions(&[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]]);
+    let i = d.indices(&[0, 1, 2, 1, 3]);
+    let m = d.mesh(Some("short"), vec![prim(p, Some(i), 4)]);
+    let n = d.node(json!({"mesh": m}));
+    let scene = Scene::load(&d.write(dir.path(), "short.gltf", &[n])).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    let w = scene.report.warnings.join("\n");
+    assert!(
+        w.contains("TRIANGLES with 5 indices") && w.contains("last 2 ignored"),
+        "{w}"
+    );
 }
 
 #[test]

@@ -91,6 +91,14 @@ impl Loader<'_> {
         let world_pos = self.world_positions(&pos_acc, instance.world, &pwhat)?;
         let uv = self.texcoords(prim, material, world_pos.len(), &pwhat)?;
         let indices = self.indices(prim, world_pos.len(), &pwhat)?;
+        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
+            self.scene.report.warnings.push(format!(
+                "{}: {pwhat}: TRIANGLES with {} indices (not a multiple of 3): the last {} ignored",
+                self.path.display(),
+                indices.len(),
+                indices.len() % 3
+            ));
+        }
         let corners = triangle_corners(mode, &indices);
         self.add_triangles(instance, prim, material, &corners, &world_pos, uv);
         Ok(())
