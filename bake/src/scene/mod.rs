@@ -82,10 +82,27 @@ pub struct LoadOptions {
     /// `[0, 0.999]`, emission and texture dropped): for geometry-only uses such as view
     /// factors, where materials do not matter.
     pub validate_materials: bool,
-    /// A reflectance cap in `(0, 1)`: MTL `Kd` channels at or above it (1 included, as many
-    /// exporters write for white) are lowered to it with a warning instead of refused. `None`
-    /// (the default) refuses them.
+    /// A reflectance cap in `(0, 1)`: reflectance channels (MTL `Kd`, glTF `baseColorFactor`,
+    /// each times its texture's mean over a triangle) at or above it are lowered to it, with
+    /// one warning. `None` (the default) lowers those at or above 1 (a white the exporter did
+    /// not measure; no surface reflects all the light it receives) to
+    /// [`DEFAULT_MAX_REFLECTANCE`].
     pub max_reflectance: Option<f64>,
+}
+
+/// What a reflectance at or above 1 is lowered to when no cap is given: the reflectance of
+/// bright white paint (0.8–0.9 measured; 0.95 keeps a white exporter's intent and a closed
+/// room's bounces finite, docs/decisions/max-reflectance.md).
+pub const DEFAULT_MAX_REFLECTANCE: f64 = 0.95;
+
+impl LoadOptions {
+    /// `(threshold, cap)`: channels at or above `threshold` are lowered to `cap`.
+    pub fn reflectance_limit(&self) -> (f64, f64) {
+        match self.max_reflectance {
+            Some(r) => (r, r),
+            None => (1.0, DEFAULT_MAX_REFLECTANCE),
+        }
+    }
 }
 
 impl Default for LoadOptions {
@@ -126,6 +143,10 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// What the loader skipped or guessed.
     pub report: LoadReport,
+    /// `(threshold, cap)` of [`LoadOptions::reflectance_limit`]: the reflectance a triangle
+    /// shows ([`Self::reflectance_over`]) has each channel at or above `threshold` lowered to
+    /// `cap`. `None` for built scenes: reflectance as given.
+    pub reflectance_limit: Option<(f64, f64)>,
 }
 
 impl LoadReport {
@@ -366,6 +387,7 @@ impl Scene {
         if scene.triangles.is_empty() {
             return Err(BakeError::EmptyScene { path: path.into() });
         }
+        scene.limit_reflectance(options);
         Ok(scene)
     }
 
@@ -409,20 +431,10 @@ impl Scene {
                 .diffuse
                 .map(|d| d.map(f64::from))
                 .unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
-            if let Some(cap) = options.max_reflectance
-                && kd.iter().any(|c| c.is_finite() && *c >= cap)
-            {
-                let lowered = kd.map(|c| if c.is_finite() { c.min(cap) } else { c });
-                let said = bad(format!(
-                    "Kd {} {} {} lowered to {} {} {} (reflectance cap {cap})",
-                    kd[0], kd[1], kd[2], lowered[0], lowered[1], lowered[2]
-                ));
-                self.report.warnings.push(said.to_string());
-                kd = lowered;
-            }
-            if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
+            // At or above 1 is lowered where the triangle shows it (`limit_reflectance`).
+            if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
                 let e = bad(format!(
-                    "Kd {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",
+                    "Kd {} {} {} is not a reflectance (each channel finite and not negative)",
                     kd[0], kd[1], kd[2]
                 ));
                 if options.validate_materials {
@@ -533,6 +545,56 @@ impl Scene {
             .map(|i| self.positions[i as usize])
     }
 
+    /// Sets the reflectance limit of `options` and warns, in one line, where it lowers the
+    /// reflectance: the share of the surface and the materials (each triangle's whole mean,
+    /// texture included).
+    pub(crate) fn limit_reflectance(&mut self, options: &LoadOptions) {
+        let (threshold, cap) = options.reflectance_limit();
+        self.reflectance_limit = Some((threshold, cap));
+        let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let (mut lowered, mut total) = (0.0, 0.0);
+        let mut materials: std::collections::BTreeMap<u32, [f64; 3]> = Default::default();
+        for t in 0..self.triangles.len() {
+            let a = self.triangle_area(t);
+            total += a;
+            let raw = self.raw_reflectance_over(t, whole);
+            if raw.iter().any(|&c| c >= threshold) {
+                lowered += a;
+                let m = materials.entry(self.triangles[t].material).or_insert([0.0; 3]);
+                for k in 0..3 {
+                    m[k] = m[k].max(raw[k]);
+                }
+            }
+        }
+        if lowered == 0.0 {
+            return;
+        }
+        let names: Vec<String> = materials
+            .iter()
+            .take(8)
+            .map(|(&m, top)| {
+                let mat = &self.materials[m as usize];
+                let textured = if mat.texture.is_some() { " × texture" } else { "" };
+                format!(
+                    "`{}` (up to {:.3} {:.3} {:.3}{textured})",
+                    mat.name, top[0], top[1], top[2]
+                )
+            })
+            .collect();
+        let more = materials.len().saturating_sub(8);
+        let more = if more > 0 { format!(" and {more} more") } else { String::new() };
+        let how = match options.max_reflectance {
+            Some(_) => "--max-reflectance".to_owned(),
+            None => "--max-reflectance R lowers from R instead".to_owned(),
+        };
+        self.report.warnings.push(format!(
+            "{}: reflectance at or above {threshold} lowered to {cap} on {:.1}% of the surface ({lowered:.6} of {total:.6} scene units²): {}{more}; {how}",
+            self.path.display(),
+            100.0 * lowered / total.max(f64::MIN_POSITIVE),
+            names.join(", ")
+        ));
+    }
+
     /// The occlusion BVH over every triangle, with each triangle's emission flag (an emitter
     /// drawn on a surface covers it: [`Occluders::covered`]).
     pub fn occluders(&self) -> Occluders {
@@ -582,6 +644,20 @@ impl Scene {
     /// Mean reflectance of triangle `t` over the sub-region given by barycentric corners
     /// (`Kd` times the mean of `map_Kd` over that region; `Kd` alone without a texture).
     pub fn reflectance_over(&self, t: usize, bary: [[f64; 3]; 3]) -> [f64; 3] {
+        self.limited(self.raw_reflectance_over(t, bary))
+    }
+
+    /// A reflectance under [`Self::reflectance_limit`].
+    pub fn limited(&self, rho: [f64; 3]) -> [f64; 3] {
+        match self.reflectance_limit {
+            Some((threshold, cap)) => rho.map(|c| if c >= threshold { cap } else { c }),
+            None => rho,
+        }
+    }
+
+    /// [`Self::reflectance_over`] before the limit: `Kd` (or `baseColorFactor`) times the
+    /// texture's mean.
+    fn raw_reflectance_over(&self, t: usize, bary: [[f64; 3]; 3]) -> [f64; 3] {
         let tri = &self.triangles[t];
         let mat = &self.materials[tri.material as usize];
         let kd = mat.reflectance.to_array().map(f64::from);

@@ -200,7 +200,7 @@ fn piece_reflectance(scene: &Scene, piece: &Piece) -> [f64; 3] {
     let t = piece.triangle as usize;
     let mat = &scene.materials[scene.triangles[t].material as usize];
     if mat.texture.is_none() || scene.triangles[t].texcoords.is_none() {
-        return mat.reflectance.to_array().map(f64::from);
+        return scene.limited(mat.reflectance.to_array().map(f64::from));
     }
     let p = scene.corners(t);
     let n2 = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -223,7 +223,7 @@ fn piece_reflectance(scene: &Scene, piece: &Piece) -> [f64; 3] {
     if wsum > 0.0 {
         acc.map(|a| a / wsum)
     } else {
-        mat.reflectance.to_array().map(f64::from)
+        scene.limited(mat.reflectance.to_array().map(f64::from))
     }
 }
 

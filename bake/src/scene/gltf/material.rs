@@ -97,20 +97,11 @@ impl Loader<'_> {
         let pbr = m.pbr_metallic_roughness();
         let f = pbr.base_color_factor();
         let mut kd = [f[0], f[1], f[2]].map(f64::from);
-        if let Some(cap) = self.options.max_reflectance
-            && kd.iter().any(|c| c.is_finite() && *c >= cap)
-        {
-            let lowered = kd.map(|c| if c.is_finite() { c.min(cap) } else { c });
-            let said = bad(format!(
-                "baseColorFactor {} {} {} lowered to {} {} {} (reflectance cap {cap})",
-                kd[0], kd[1], kd[2], lowered[0], lowered[1], lowered[2]
-            ));
-            self.scene.report.warnings.push(said.to_string());
-            kd = lowered;
-        }
-        if kd.iter().any(|c| !c.is_finite() || *c < 0.0 || *c >= 1.0) {
+        // At or above 1 (× the texture) is lowered where the triangle shows it
+        // (`Scene::limit_reflectance`).
+        if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
             let e = bad(format!(
-                "baseColorFactor {} {} {} is not a reflectance in [0, 1) (a surface cannot reflect all the light it receives)",
+                "baseColorFactor {} {} {} is not a reflectance (each channel finite and not negative)",
                 kd[0], kd[1], kd[2]
             ));
             if self.options.validate_materials {

@@ -281,6 +281,8 @@ impl Loader<'_> {
         if self.scene.triangles.is_empty() {
             return Err(BakeError::EmptyScene { path: path.into() });
         }
+        let options = self.options;
+        self.scene.limit_reflectance(options);
         Ok(self.scene)
     }
 }
