@@ -42,8 +42,9 @@ pub(crate) struct BakeArgs {
         default_value = "default"
     )]
     pub(crate) form_factors: String,
-    /// Lower reflectances (MTL Kd, glTF baseColorFactor) at or above R, in (0, 1), to R with a
-    /// warning instead of refusing the scene (many exporters write Kd 1 1 1 for white)
+    /// Lower reflectances (MTL Kd, glTF baseColorFactor, times the texture) at or above R, in
+    /// (0, 1), to R, with one warning (default: those at or above 1, as many exporters write
+    /// for white, to 0.95)
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub(crate) max_reflectance: Option<f64>,
     /// Direct-light points a patch has at least in the file's mesh (1 to 64; default 4): where

@@ -46,9 +46,9 @@ pub(crate) struct PathtraceArgs {
     /// automatic, as `render`'s); give both the same value to compare their images.
     #[arg(long, allow_negative_numbers = true)]
     exposure: Option<f32>,
-    /// Lower reflectances (MTL Kd, glTF baseColorFactor) at or above R, in (0, 1), to R with a
-    /// warning instead of refusing the scene (as `bake --max-reflectance`, so both see the same
-    /// scene)
+    /// Lower reflectances (MTL Kd, glTF baseColorFactor, times the texture) at or above R, in
+    /// (0, 1), to R (default: those at or above 1 to 0.95), as `bake --max-reflectance`, so both
+    /// see the same scene
     #[arg(long, value_name = "R")]
     max_reflectance: Option<f64>,
     /// Points at which to estimate the irradiance, `--samples` paths each (JSON, as `solve

@@ -614,25 +614,35 @@ fn bad_flags_and_output_paths_fail_at_once() {
     }
 }
 
-/// A `Kd` at or above 1 is refused with the way out: `--max-reflectance`.
+/// A `Kd` at or above 1 (white as exporters write it, or above) is no bad input: it bakes,
+/// lowered to 0.95 with one warning saying how much of the surface it covers
+/// (`tests/data/kd-one.obj`, `kd-above-one.obj`).
 #[test]
-fn a_white_kd_names_max_reflectance() {
+fn a_white_kd_is_lowered_with_one_warning() {
     let work = tempfile::tempdir().unwrap();
-    for case in ["kd-one.obj", "kd-above-one.obj"] {
-        let file = corpus_dir().join("obj").join(case);
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    for (case, share) in [
+        ("kd-one.obj", "100.0% of the surface"),
+        ("kd-above-one.obj", "100.0% of the surface"),
+    ] {
         let out = run_limited(
             &[
                 "bake".into(),
-                file.into_os_string(),
+                data.join(case).into_os_string(),
                 "-o".into(),
                 work.path().join("x.rad").into_os_string(),
+                "--patches".into(),
+                "24".into(),
             ],
             work.path(),
         );
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            stderr.contains("is not a reflectance") && stderr.contains("--max-reflectance"),
-            "{case}: {stderr}"
-        );
+        assert!(out.status.success(), "{case}: {stderr}");
+        let lines: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.contains("lowered to 0.95"))
+            .collect();
+        assert_eq!(lines.len(), 1, "{case}: {stderr}");
+        assert!(lines[0].contains(share), "{case}: {stderr}");
     }
 }

@@ -121,10 +121,10 @@ fn bad_gltf_is_one_error_line_naming_the_file() {
     );
 }
 
-/// A white baseColorFactor is refused with the hint that names `--max-reflectance`, which
-/// then lowers it.
+/// A white baseColorFactor bakes by default, lowered to 0.95 with one warning that says how
+/// much of the surface it covers; `--max-reflectance` sets another maximum.
 #[test]
-fn white_base_colour_names_max_reflectance() {
+fn white_base_colour_is_lowered_with_one_warning() {
     let src =
         std::fs::read_to_string(repo("scenes/cornell-box-gltf/CornellBox-Original.gltf")).unwrap();
     let mut v: Value = serde_json::from_str(&src).unwrap();
@@ -145,23 +145,25 @@ fn white_base_colour_names_max_reflectance() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let out = radiosity(&["solve", p.to_str().unwrap(), "--patches", "64"]);
-    assert_one_line_error(
-        &out,
-        "--max-reflectance R (e.g. 0.95) lowers such baseColorFactor",
-    );
-    let out = radiosity(&[
-        "solve",
-        p.to_str().unwrap(),
-        "--patches",
-        "64",
-        "--max-reflectance",
-        "0.95",
-        "--json",
-    ]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("lowered to 0.95 0.95 0.95"), "{stderr}");
+    for (flags, to) in [
+        (&[][..], "lowered to 0.95"),
+        (&["--max-reflectance", "0.8"][..], "lowered to 0.8"),
+    ] {
+        let mut args = vec!["solve", p.to_str().unwrap(), "--patches", "64", "--json"];
+        args.extend(flags);
+        let out = radiosity(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        let lines: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.contains("lowered to"))
+            .collect();
+        assert_eq!(lines.len(), 1, "one warning: {stderr}");
+        assert!(
+            lines[0].contains(to) && lines[0].contains("% of the surface"),
+            "{stderr}"
+        );
+    }
 }
 
 /// A white furnace as glTF: a closed unit room and a free-standing sheet inside it, every

@@ -480,28 +480,29 @@ fn materials_textures_and_emission() {
             .any(|w| w.contains("without a material"))
     );
 
-    // White: refused, then lowered by the cap.
+    // White: lowered to 0.95 by default, to the cap when one is given, with one warning.
     d.materials[0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([1.0, 1.0, 1.0, 1.0]);
     let path = d.write(dir.path(), "white.gltf", &[n]);
-    let e = Scene::load(&path).unwrap_err();
-    assert!(matches!(e, BakeError::Material { .. }), "{e}");
-    assert!(
-        e.to_string()
-            .contains("baseColorFactor 1 1 1 is not a reflectance"),
-        "{e}"
-    );
-    let capped = LoadOptions {
-        max_reflectance: Some(0.9),
-        ..LoadOptions::default()
-    };
-    let s = Scene::load_with(&path, &capped).unwrap();
-    assert!((s.materials[1].reflectance.r - 0.9).abs() < 1e-7);
-    assert!(
-        s.report
-            .warnings
-            .iter()
-            .any(|w| w.contains("lowered to 0.9 0.9 0.9"))
-    );
+    let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for (cap, want) in [(None, 0.95), (Some(0.9), 0.9)] {
+        let options = LoadOptions {
+            max_reflectance: cap,
+            ..LoadOptions::default()
+        };
+        let s = Scene::load_with(&path, &options).unwrap();
+        let t = (0..s.triangles.len())
+            .find(|&t| s.triangles[t].material == 1)
+            .expect("a white triangle");
+        assert_eq!(s.reflectance_over(t, whole), [want; 3]);
+        assert!(
+            s.report
+                .warnings
+                .iter()
+                .any(|w| w.contains(&format!("lowered to {want} on"))),
+            "{:?}",
+            s.report.warnings
+        );
+    }
 }
 
 /// Ignored features give a warning only when present.

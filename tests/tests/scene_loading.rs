@@ -180,36 +180,37 @@ fn bad_input_is_a_clear_error() {
 #[test]
 fn a_reflectance_cap_lowers_white_instead_of_refusing_it() {
     let path = scenes().join("cornell-box/CornellBox-Empty-White.obj");
-    let capped = LoadOptions {
-        max_reflectance: Some(0.8),
-        ..LoadOptions::default()
-    };
-    let s = Scene::load_obj_with(&path, &capped).unwrap();
-    let plain = Scene::load_obj_with(&path, &LoadOptions::geometry_only()).unwrap();
-    assert!(
-        s.report
+    let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for (cap, threshold, lowered) in [(Some(0.8), 0.8, 0.8), (None, 1.0, 0.95)] {
+        let options = LoadOptions {
+            max_reflectance: cap,
+            ..LoadOptions::default()
+        };
+        let s = Scene::load_obj_with(&path, &options).unwrap();
+        let said: Vec<&String> = s
+            .report
             .warnings
             .iter()
-            .any(|w| w.contains("CornellBox-Empty-White.mtl:12") && w.contains("lowered to 0.8")),
-        "{:?}",
-        s.report.warnings
-    );
-    for (m, raw) in s.materials.iter().zip(&plain.materials) {
-        for (got, was) in [
-            (m.reflectance.r, raw.reflectance.r),
-            (m.reflectance.g, raw.reflectance.g),
-            (m.reflectance.b, raw.reflectance.b),
-        ] {
-            // Geometry-only loading clamps to 0.999, so `was` ≥ 0.999 means Kd was ≥ 1.
-            let want = if was >= 0.8 { 0.8 } else { was };
-            assert_eq!(got, want, "material {}", m.name);
+            .filter(|w| w.contains("lowered to"))
+            .collect();
+        assert_eq!(said.len(), 1, "one warning: {:?}", s.report.warnings);
+        assert!(
+            said[0].contains(&format!("lowered to {lowered} on")),
+            "{said:?}"
+        );
+        // Every triangle shows its material's Kd, each channel at or above the threshold
+        // lowered to the cap, the others as they are.
+        for t in 0..s.triangles.len() {
+            let kd = s.materials[s.triangles[t].material as usize].reflectance;
+            let got = s.reflectance_over(t, whole);
+            for k in 0..3 {
+                let was = f64::from(kd.channel(k));
+                let want = if was >= threshold { lowered } else { was };
+                assert_eq!(got[k], want, "triangle {t} channel {k}");
+            }
         }
+        assert!((0..s.triangles.len()).any(|t| s.reflectance_over(t, whole)[0] == lowered));
     }
-    assert!(
-        s.materials
-            .iter()
-            .any(|m| m.reflectance.max_channel() == 0.8)
-    );
 }
 
 #[test]

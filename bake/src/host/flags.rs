@@ -249,8 +249,7 @@ fn parse_bounces(s: &str) -> Result<BounceSpec, BakeError> {
 
 /// Loads a scene (`Scene::load_with`: glTF for `.gltf` and `.glb`, else OBJ), refusing first
 /// an OBJ that is not text (a PNG renamed `.obj` is "not an OBJ file", not a scene without
-/// triangles), and naming `--max-reflectance` when a `Kd` or `baseColorFactor` at or above 1
-/// is refused.
+/// triangles).
 pub fn load_scene(path: &Path, load: &LoadOptions) -> Result<Scene, BakeError> {
     if !crate::scene::is_gltf_path(path)
         && let Some(why) = binary_data(path)
@@ -260,47 +259,7 @@ pub fn load_scene(path: &Path, load: &LoadOptions) -> Result<Scene, BakeError> {
             message: why,
         });
     }
-    Scene::load_with(path, load).map_err(|e| match e {
-        BakeError::Material {
-            path,
-            line,
-            material,
-            message,
-        } if load.validate_materials
-            && load.max_reflectance.is_none()
-            && kd_at_or_above_one(&message) =>
-        {
-            let what = if message.starts_with("baseColorFactor ") {
-                "baseColorFactor"
-            } else {
-                "Kd"
-            };
-            BakeError::Material {
-                path,
-                line,
-                material,
-                message: format!(
-                    "{message}; --max-reflectance R (e.g. 0.95) lowers such {what} to R with a warning"
-                ),
-            }
-        }
-        e => e,
-    })
-}
-
-/// Whether a material message is about a `Kd` or `baseColorFactor` with a channel at or above
-/// 1 (`Kd 1 1 1 is not a reflectance …`), which `--max-reflectance` would lower.
-fn kd_at_or_above_one(message: &str) -> bool {
-    let Some(rest) = message
-        .strip_prefix("Kd ")
-        .or_else(|| message.strip_prefix("baseColorFactor "))
-    else {
-        return false;
-    };
-    rest.split_whitespace()
-        .take(3)
-        .filter_map(|c| c.parse::<f64>().ok())
-        .any(|c| c.is_finite() && c >= 1.0)
+    Scene::load_with(path, load)
 }
 
 /// Whether the first 64 KiB of `path` are binary data (`not an OBJ file: …`): a NUL byte, or

@@ -560,7 +560,9 @@ impl Scene {
             let raw = self.raw_reflectance_over(t, whole);
             if raw.iter().any(|&c| c >= threshold) {
                 lowered += a;
-                let m = materials.entry(self.triangles[t].material).or_insert([0.0; 3]);
+                let m = materials
+                    .entry(self.triangles[t].material)
+                    .or_insert([0.0; 3]);
                 for k in 0..3 {
                     m[k] = m[k].max(raw[k]);
                 }
@@ -574,7 +576,11 @@ impl Scene {
             .take(8)
             .map(|(&m, top)| {
                 let mat = &self.materials[m as usize];
-                let textured = if mat.texture.is_some() { " × texture" } else { "" };
+                let textured = if mat.texture.is_some() {
+                    " × texture"
+                } else {
+                    ""
+                };
                 format!(
                     "`{}` (up to {:.3} {:.3} {:.3}{textured})",
                     mat.name, top[0], top[1], top[2]
@@ -582,7 +588,11 @@ impl Scene {
             })
             .collect();
         let more = materials.len().saturating_sub(8);
-        let more = if more > 0 { format!(" and {more} more") } else { String::new() };
+        let more = if more > 0 {
+            format!(" and {more} more")
+        } else {
+            String::new()
+        };
         let how = match options.max_reflectance {
             Some(_) => "--max-reflectance".to_owned(),
             None => "--max-reflectance R lowers from R instead".to_owned(),
