@@ -122,12 +122,20 @@ fn bounds(rt: &BakedScene) -> Result<(DVec3, DVec3), BakeError> {
         .ok_or_else(|| BakeError::Flag("probes need a mesh with vertices".into()))
 }
 
-/// A lattice of step `h` over `[lo, hi]`, centred on the box: `round(size/h)` probes an axis
+/// A lattice of step `h` over `[lo, hi]`, centred on the box (two layers across a flat axis):
+/// `round(size/h)` probes an axis
 /// (at least one), so the outermost lie between a quarter and three quarters of a step inside
 /// the bounds (a scene's walls are on its bounds, and a probe on a wall sees nothing right).
 /// The step is `h` on every axis, so a point between probes takes trilinear weights.
 fn grid(lo: DVec3, hi: DVec3, h: f64) -> Result<Vec<DVec3>, BakeError> {
-    let cells = ((hi - lo) / h).round().max(DVec3::ONE);
+    // An axis along which the scene is flat (a sheet, a ground: under a thousandth of a step)
+    // gets two layers, half a step either side of it, not one in its plane.
+    let flat = (hi - lo).cmplt(DVec3::splat(1e-3 * h));
+    let cells = DVec3::select(
+        flat,
+        DVec3::splat(2.0),
+        ((hi - lo) / h).round().max(DVec3::ONE),
+    );
     let count = cells.x * cells.y * cells.z;
     if count > 1e6 {
         return refuse(format!(
@@ -145,6 +153,20 @@ fn grid(lo: DVec3, hi: DVec3, h: f64) -> Result<Vec<DVec3>, BakeError> {
         }
     }
     Ok(out)
+}
+
+/// The step of `auto`'s lattice over a box of `size`: about [`AUTO_PROBES`] cells over the axes
+/// that have extent (at least a thousandth of the largest); a flat scene (a sheet, a ground)
+/// gets its probes in one layer, a line of them along a thin one.
+fn auto_spacing(size: DVec3) -> f64 {
+    let largest = size.max_element().max(f64::MIN_POSITIVE);
+    let axes: Vec<f64> = size
+        .to_array()
+        .into_iter()
+        .filter(|&s| s >= 1e-3 * largest)
+        .collect();
+    let measure: f64 = axes.iter().product();
+    (measure / AUTO_PROBES).powf(1.0 / axes.len() as f64)
 }
 
 /// A uniform direction on the sphere from `(u1, u2)` in [0, 1)².
@@ -215,10 +237,7 @@ pub fn bake(
             let (lo, hi) = bounds(rt)?;
             let h = match spec {
                 ProbeSpec::Spacing(h) => *h,
-                _ => {
-                    let size = (hi - lo).max(DVec3::splat(1e-9 * (hi - lo).max_element()));
-                    (size.x * size.y * size.z / AUTO_PROBES).cbrt()
-                }
+                _ => auto_spacing(hi - lo),
             };
             (grid(lo, hi, h)?, Some(h))
         }
@@ -570,6 +589,22 @@ pub(crate) fn attach(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn auto_spacing_of_a_flat_scene_is_one_layer() {
+        use super::{AUTO_PROBES, auto_spacing};
+        use glam::DVec3;
+        let cube = auto_spacing(DVec3::splat(8.0));
+        assert!((cube - 8.0 / AUTO_PROBES.cbrt()).abs() < 1e-12);
+        // A 10 × 10 sheet: 512 probes over its area, not 512³ over a hair of thickness.
+        let sheet = auto_spacing(DVec3::new(10.0, 0.0, 10.0));
+        assert!(
+            (sheet - (100.0 / AUTO_PROBES).sqrt()).abs() < 1e-12,
+            "{sheet}"
+        );
+        let line = auto_spacing(DVec3::new(0.0, 0.0, 4.0));
+        assert!((line - 4.0 / AUTO_PROBES).abs() < 1e-12, "{line}");
+    }
+
     use super::*;
 
     #[test]

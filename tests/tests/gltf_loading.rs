@@ -480,27 +480,40 @@ fn materials_textures_and_emission() {
             .any(|w| w.contains("without a material"))
     );
 
-    // White: lowered to 0.95 by default, to the cap when one is given, with one warning.
+    // White as glTF writes it: baseColorFactor 1 over a texture is the texture, not refused and
+    // not lowered (its mean over the triangle is 0.636 here).
+    let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     d.materials[0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([1.0, 1.0, 1.0, 1.0]);
     let path = d.write(dir.path(), "white.gltf", &[n]);
-    let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let s = Scene::load(&path).unwrap();
+    let t = (0..s.triangles.len())
+        .find(|&t| s.triangles[t].material == 1)
+        .expect("a textured triangle");
+    let texture = s.reflectance_over(t, whole);
+    assert!(texture.iter().all(|&c| c > 0.5 && c < 1.0), "{texture:?}");
+    assert!(!s.report.warnings.iter().any(|w| w.contains("lowered")));
+    // A factor that takes the product to 1 or above: lowered to 0.95 by default, to the cap
+    // when one is given, with one warning.
+    let f = 1.0 / texture[0] as f32 + 0.05;
+    d.materials[0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([f, f, f, 1.0]);
+    let path = d.write(dir.path(), "bright.gltf", &[n]);
     for (cap, want) in [(None, 0.95), (Some(0.9), 0.9)] {
         let options = LoadOptions {
             max_reflectance: cap,
             ..LoadOptions::default()
         };
         let s = Scene::load_with(&path, &options).unwrap();
-        let t = (0..s.triangles.len())
-            .find(|&t| s.triangles[t].material == 1)
-            .expect("a white triangle");
         assert_eq!(s.reflectance_over(t, whole), [want; 3]);
+        let said: Vec<&String> = s
+            .report
+            .warnings
+            .iter()
+            .filter(|w| w.contains("lowered"))
+            .collect();
+        assert_eq!(said.len(), 1, "{said:?}");
         assert!(
-            s.report
-                .warnings
-                .iter()
-                .any(|w| w.contains(&format!("lowered to {want} on"))),
-            "{:?}",
-            s.report.warnings
+            said[0].contains(&format!("lowered to {want} on")) && said[0].contains("× texture"),
+            "{said:?}"
         );
     }
 }
