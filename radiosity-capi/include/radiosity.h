@@ -275,7 +275,7 @@ const char *rad_last_error(void);
  (the scalar oracle) or "auto" (as the command line chooses: a hardware GPU that can hold
  the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
  RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
- On a machine without a desktop session (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
+ On a machine without a desktop login (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
  gather sets NODEVICE_SELECT=1 unless the host set it, so that Mesa's device-select layer
  keeps quiet on stderr; a host reading the environment from other threads at that moment
  sets it itself.

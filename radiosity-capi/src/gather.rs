@@ -29,7 +29,7 @@ impl RadGather {
 }
 
 /// Turns Mesa's Vulkan device-select layer off on a headless machine, once, before the
-/// library lists GPU adapters: without a desktop session (`XDG_RUNTIME_DIR` unset or not a
+/// library lists GPU adapters: without a desktop login (`XDG_RUNTIME_DIR` unset or not a
 /// directory) the layer prints "XDG_RUNTIME_DIR is invalid" on the host's stderr for every
 /// instance, and all it would do is reorder GPUs, which the backend choice ranks itself
 /// (docs/decisions/nodevice-select.md). A host that set `NODEVICE_SELECT` keeps its value.
@@ -74,7 +74,7 @@ fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, F
 /// (the scalar oracle) or "auto" (as the command line chooses: a hardware GPU that can hold
 /// the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
 /// RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
-/// On a machine without a desktop session (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
+/// On a machine without a desktop login (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
 /// gather sets NODEVICE_SELECT=1 unless the host set it, so that Mesa's device-select layer
 /// keeps quiet on stderr; a host reading the environment from other threads at that moment
 /// sets it itself.
