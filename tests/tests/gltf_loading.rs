@@ -765,3 +765,62 @@ fn load_time_100k_triangles() {
         assert_eq!(s.triangles.len(), 2 * k * k);
     }
 }
+
+/// `COLOR_0` multiplies the base colour, linearly over each triangle (float VEC3 and
+/// normalised u8 VEC4 alike); a primitive without it beside one with it stays white; a
+/// negative colour is refused.
+#[test]
+fn vertex_colours_multiply_the_base_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = Doc::default();
+    d.materials
+        .push(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0]}}));
+    let p = d.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let colours: Vec<u8> = [[1.0f32, 0.5, 0.0], [1.0, 0.5, 0.0], [1.0, 0.5, 0.75]]
+        .iter()
+        .flatten()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    let v = d.view(&colours);
+    d.accessors
+        .push(json!({"bufferView": v, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    let c = d.accessors.len() - 1;
+    let q = d.positions(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]);
+    let u8s = d.view(&[255, 0, 0, 255, 255, 0, 0, 255, 255, 0, 0, 255]);
+    d.accessors.push(json!({"bufferView": u8s, "componentType": 5121, "normalized": true, "count": 3, "type": "VEC4"}));
+    let c8 = d.accessors.len() - 1;
+    let r = d.positions(&[[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 1.0, 2.0]]);
+    let mut coloured = prim(p, None, 4);
+    coloured["attributes"]["COLOR_0"] = json!(c);
+    coloured["material"] = json!(0);
+    let mut red = prim(q, None, 4);
+    red["attributes"]["COLOR_0"] = json!(c8);
+    red["material"] = json!(0);
+    let mut plain = prim(r, None, 4);
+    plain["material"] = json!(0);
+    let m = d.mesh(Some("coloured"), vec![coloured, red, plain]);
+    let n = d.node(json!({"mesh": m}));
+    let s = Scene::load(&d.write(dir.path(), "colours.gltf", &[n])).unwrap();
+    let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-6);
+    // The mean of a linear colour over a triangle is the mean of its corners: 1, 0.5, 0.25.
+    let got = s.reflectance_over(0, whole);
+    assert!(close(got, [0.8, 0.4, 0.2]), "{got:?}");
+    let got = s.reflectance_over(1, whole);
+    assert!(close(got, [0.8, 0.0, 0.0]), "{got:?}");
+    let got = s.reflectance_over(2, whole);
+    assert!(close(got, [0.8, 0.8, 0.8]), "{got:?}");
+
+    // Negative: refused, naming COLOR_0.
+    let neg: Vec<u8> = [[-1.0f32, 0.5, 0.0]; 3]
+        .iter()
+        .flatten()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    let v = d.view(&neg);
+    d.accessors
+        .push(json!({"bufferView": v, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    d.meshes[m]["primitives"][0]["attributes"]["COLOR_0"] = json!(d.accessors.len() - 1);
+    let e = load_err(&d.write(dir.path(), "negative.gltf", &[n]));
+    assert!(e.contains("COLOR_0 of vertex 0"), "{e}");
+}

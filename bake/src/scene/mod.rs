@@ -143,6 +143,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// What the loader skipped or guessed.
     pub report: LoadReport,
+    /// Per-vertex colour (glTF `COLOR_0`), aligned with `positions`, multiplying the
+    /// reflectance; empty when no vertex has one.
+    pub vertex_colours: Vec<[f64; 3]>,
     /// `(threshold, cap)` of [`LoadOptions::reflectance_limit`]: the reflectance a triangle
     /// shows ([`Self::reflectance_over`]) has each channel at or above `threshold` lowered to
     /// `cap`. `None` for built scenes: reflectance as given.
@@ -666,8 +669,31 @@ impl Scene {
     }
 
     /// [`Self::reflectance_over`] before the limit: `Kd` (or `baseColorFactor`) times the
-    /// texture's mean.
+    /// texture's mean, times the vertex colours' mean.
     fn raw_reflectance_over(&self, t: usize, bary: [[f64; 3]; 3]) -> [f64; 3] {
+        let rho = self.material_reflectance_over(t, bary);
+        if self.vertex_colours.is_empty() {
+            return rho;
+        }
+        // Linear over the triangle: its mean over the sub-triangle is the mean at its corners.
+        let v = self.triangles[t].vertices;
+        let c = v.map(|i| {
+            self.vertex_colours
+                .get(i as usize)
+                .copied()
+                .unwrap_or([1.0; 3])
+        });
+        let mut mean = [0.0; 3];
+        for b in bary {
+            for k in 0..3 {
+                mean[k] += (b[0] * c[0][k] + b[1] * c[1][k] + b[2] * c[2][k]) / 3.0;
+            }
+        }
+        [rho[0] * mean[0], rho[1] * mean[1], rho[2] * mean[2]]
+    }
+
+    /// The material's reflectance over a sub-triangle: `Kd` times the texture's mean.
+    fn material_reflectance_over(&self, t: usize, bary: [[f64; 3]; 3]) -> [f64; 3] {
         let tri = &self.triangles[t];
         let mat = &self.materials[tri.material as usize];
         let kd = mat.reflectance.to_array().map(f64::from);

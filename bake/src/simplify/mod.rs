@@ -199,7 +199,9 @@ impl Patches {
 fn piece_reflectance(scene: &Scene, piece: &Piece) -> [f64; 3] {
     let t = piece.triangle as usize;
     let mat = &scene.materials[scene.triangles[t].material as usize];
-    if mat.texture.is_none() || scene.triangles[t].texcoords.is_none() {
+    if (mat.texture.is_none() || scene.triangles[t].texcoords.is_none())
+        && scene.vertex_colours.is_empty()
+    {
         return scene.limited(mat.reflectance.to_array().map(f64::from));
     }
     let p = scene.corners(t);

@@ -90,6 +90,7 @@ impl Loader<'_> {
         let material = self.material(&prim.material())?;
         let world_pos = self.world_positions(&pos_acc, instance.world, &pwhat)?;
         let uv = self.texcoords(prim, material, world_pos.len(), &pwhat)?;
+        let colours = self.colours(prim, world_pos.len(), &pwhat)?;
         let indices = self.indices(prim, world_pos.len(), &pwhat)?;
         if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
             self.scene.report.warnings.push(format!(
@@ -100,6 +101,7 @@ impl Loader<'_> {
             ));
         }
         let corners = triangle_corners(mode, &indices);
+        self.add_colours(world_pos.len(), colours);
         self.add_triangles(instance, prim, material, &corners, &world_pos, uv);
         Ok(())
     }
@@ -176,6 +178,64 @@ impl Loader<'_> {
                 .map(|v| [e.get(v, 0, norm), 1.0 - e.get(v, 1, norm)])
                 .collect(),
         ))
+    }
+
+    /// The primitive's `COLOR_0` (RGB; the alpha of a VEC4 is not a reflectance), which
+    /// multiplies the base colour, or `None` without one. Each channel finite and not negative.
+    fn colours(
+        &mut self,
+        prim: &::gltf::Primitive<'_>,
+        nverts: usize,
+        pwhat: &str,
+    ) -> Result<Option<Vec<[f64; 3]>>, BakeError> {
+        let Some(acc) = prim.get(&Semantic::Colors(0)) else {
+            return Ok(None);
+        };
+        let dims = match acc.dimensions() {
+            Dimensions::Vec4 => Dimensions::Vec4,
+            _ => Dimensions::Vec3,
+        };
+        let e = self.elements(
+            &acc,
+            "COLOR_0",
+            &[DataType::F32, DataType::U8, DataType::U16],
+            dims,
+        )?;
+        if e.count != nverts {
+            return Err(self.err(format!(
+                "{pwhat}: COLOR_0 has {} elements for {} vertices",
+                e.count, nverts
+            )));
+        }
+        let norm = acc.normalized() || acc.data_type() != DataType::F32;
+        let mut out = Vec::with_capacity(e.count);
+        for v in 0..e.count {
+            let c = [0, 1, 2].map(|k| e.get(v, k, norm));
+            if c.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(self.err(format!(
+                    "{pwhat}: COLOR_0 of vertex {v} is {} {} {}, not a colour (finite, not negative)",
+                    c[0], c[1], c[2]
+                )));
+            }
+            out.push(c);
+        }
+        Ok(Some(out))
+    }
+
+    /// Keeps `Scene::vertex_colours` aligned with the positions once any primitive has colours:
+    /// this primitive's `nverts` colours, or white.
+    fn add_colours(&mut self, nverts: usize, colours: Option<Vec<[f64; 3]>>) {
+        let scene = &mut self.scene;
+        if colours.is_none() && scene.vertex_colours.is_empty() {
+            return;
+        }
+        scene.vertex_colours.resize(scene.positions.len(), [1.0; 3]);
+        match colours {
+            Some(c) => scene.vertex_colours.extend(c),
+            None => scene
+                .vertex_colours
+                .resize(scene.positions.len() + nverts, [1.0; 3]),
+        }
     }
 
     /// The primitive's vertex indices (each checked to be below `nverts`), or `0..nverts`
