@@ -824,3 +824,74 @@ fn vertex_colours_multiply_the_base_colour() {
     let e = load_err(&d.write(dir.path(), "negative.gltf", &[n]));
     assert!(e.contains("COLOR_0 of vertex 0"), "{e}");
 }
+
+/// `KHR_texture_transform` moves the UVs before the texture is sampled (offset, rotation,
+/// scale as the extension's specification composes them; its `texCoord` picks the set); a
+/// non-finite one is refused.
+#[test]
+fn texture_transform_moves_the_uvs() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 2×1 PNG: black on the left half (u < 0.5), white on the right.
+    let mut png = Vec::new();
+    image::RgbImage::from_raw(2, 1, vec![0, 0, 0, 255, 255, 255])
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let build = |transform: Value| {
+        let mut d = Doc::default();
+        d.materials.push(
+            json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": transform}}}}),
+        );
+        d.extra.insert(
+            "images".into(),
+            json!([{"uri": format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png))}]),
+        );
+        d.extra.insert("textures".into(), json!([{"source": 0}]));
+        d.extra
+            .insert("extensionsUsed".into(), json!(["KHR_texture_transform"]));
+        let p = d.positions(&[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]]);
+        // Every corner at (0.25, 0.5): the black texel's centre.
+        let uv = d.texcoords(&[[0.25, 0.5]; 3]);
+        let uv1 = d.texcoords(&[[0.75, 0.5]; 3]);
+        let mut t = prim(p, None, 4);
+        t["attributes"]["TEXCOORD_0"] = json!(uv);
+        t["attributes"]["TEXCOORD_1"] = json!(uv1);
+        t["material"] = json!(0);
+        let m = d.mesh(None, vec![t]);
+        let n = d.node(json!({"mesh": m}));
+        d.json(&[n]).to_string()
+    };
+    let whole = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let red = |transform: Value, name: &str| {
+        let s = Scene::load(&write(dir.path(), name, &build(transform))).unwrap();
+        assert!(
+            !s.report
+                .warnings
+                .iter()
+                .any(|w| w.contains("KHR_texture_transform")),
+            "{:?}",
+            s.report.warnings
+        );
+        s.reflectance_over(0, whole)[0]
+    };
+    assert!(
+        red(json!({}), "none.gltf") < 1e-3,
+        "the black texel as given"
+    );
+    assert!((red(json!({"offset": [0.5, 0.0]}), "offset.gltf") - 0.8).abs() < 1e-3);
+    // A half turn about the origin: (0.25, 0.5) to (-0.25, -0.5), wrapped to (0.75, 0.5).
+    let half = json!({"rotation": std::f64::consts::PI});
+    assert!((red(half, "rotation.gltf") - 0.8).abs() < 1e-3);
+    // Scale 3 in u: 0.75, white; texCoord 1 picks the set at u = 0.75, white too. At a
+    // texel's centre the bilinear sample is that texel alone; 1e-3 covers f32 UVs.
+    assert!((red(json!({"scale": [3.0, 1.0]}), "scale.gltf") - 0.8).abs() < 1e-3);
+    assert!((red(json!({"texCoord": 1}), "set.gltf") - 0.8).abs() < 1e-3);
+    // Malformed: the file is refused, naming it.
+    let e = load_err(&write(
+        dir.path(),
+        "bad.gltf",
+        &build(json!({"offset": "left"})),
+    ));
+    assert!(e.contains("bad.gltf"), "{e}");
+}

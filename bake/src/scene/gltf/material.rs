@@ -139,6 +139,7 @@ impl Loader<'_> {
                 .push(format!("{e}; emission dropped"));
             ke = [0.0; 3];
         }
+        let mut transform = None;
         let texture = match pbr.base_color_texture() {
             Some(info) => {
                 let t = self.texture(&info.texture().source())?;
@@ -149,7 +150,24 @@ impl Loader<'_> {
                     self.ignored
                         .insert("texture wrap modes other than REPEAT (read as REPEAT)");
                 }
-                t.map(|t| (t, info.tex_coord()))
+                let mut set = info.tex_coord();
+                if let Some(tt) = info.texture_transform() {
+                    let (o, r, sc) = (tt.offset(), tt.rotation(), tt.scale());
+                    if !o.iter().chain(&sc).chain([&r]).all(|v| v.is_finite()) {
+                        return Err(bad(format!(
+                            "KHR_texture_transform offset {o:?}, rotation {r}, scale {sc:?} must be finite"
+                        )));
+                    }
+                    set = tt.tex_coord().unwrap_or(set);
+                    // offset + R·S·uv, R the spec's rotation (counter-clockwise in UV space).
+                    let (c, s) = (f64::from(r).cos(), f64::from(r).sin());
+                    let (sx, sy) = (f64::from(sc[0]), f64::from(sc[1]));
+                    transform = Some([
+                        [c * sx, -s * sy, f64::from(o[0])],
+                        [s * sx, c * sy, f64::from(o[1])],
+                    ]);
+                }
+                t.map(|t| (t, set))
             }
             None => None,
         };
@@ -183,6 +201,9 @@ impl Loader<'_> {
         });
         let i = (self.scene.materials.len() - 1) as u32;
         self.tex_coord_of.insert(i, texture.map_or(0, |(_, c)| c));
+        if let Some(m) = transform {
+            self.tex_transform_of.insert(i, m);
+        }
         self.materials[index] = Some(i);
         Ok(i)
     }

@@ -172,10 +172,22 @@ impl Loader<'_> {
             )));
         }
         let norm = acc.normalized();
-        // glTF's v runs down the image, OBJ's (and Texture's) up.
+        let m = self.tex_transform_of.get(&material).copied();
+        // `KHR_texture_transform` in glTF's UV space; then glTF's v, which runs down the image,
+        // to OBJ's (and Texture's), which runs up.
         Ok(Some(
             (0..e.count)
-                .map(|v| [e.get(v, 0, norm), 1.0 - e.get(v, 1, norm)])
+                .map(|v| {
+                    let (u, w) = (e.get(v, 0, norm), e.get(v, 1, norm));
+                    let (u, w) = match m {
+                        Some(m) => (
+                            m[0][0] * u + m[0][1] * w + m[0][2],
+                            m[1][0] * u + m[1][1] * w + m[1][2],
+                        ),
+                        None => (u, w),
+                    };
+                    [u, 1.0 - w]
+                })
                 .collect(),
         ))
     }

@@ -19,7 +19,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// Extensions read by this loader: a file that requires any other is refused.
-const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength", "KHR_texture_transform"];
 
 /// Everything the loader needs while walking the nodes.
 struct Loader<'a> {
@@ -37,6 +37,9 @@ struct Loader<'a> {
     images: HashMap<usize, Option<u32>>,
     /// The TEXCOORD_n set of each scene material's texture.
     tex_coord_of: HashMap<u32, u32>,
+    /// Each textured material's `KHR_texture_transform` as the rows of a 2 × 3 affine map of
+    /// glTF UVs (`offset + R·S·uv`), absent for none.
+    tex_transform_of: HashMap<u32, [[f64; 3]; 2]>,
     /// Object names used so far, for `name#2`.
     names: HashSet<String>,
     ignored: BTreeSet<&'static str>,
@@ -71,6 +74,7 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
         no_material: None,
         images: HashMap::new(),
         tex_coord_of: HashMap::new(),
+        tex_transform_of: HashMap::new(),
         names: HashSet::new(),
         ignored: BTreeSet::new(),
         skipped_primitives: 0,
