@@ -6,64 +6,17 @@
 //! names the path the user gave, never the temporary one.
 
 use anyhow::{Context, anyhow, bail};
+use radiosity_bake::host::output::{
+    check_output, io_message as plain, parent_dir, temp_file_in as temp_in,
+};
 use std::io::Write;
 use std::path::Path;
 
-/// The directory a file path lands in (`.` for a bare file name).
-fn parent_dir(path: &Path) -> &Path {
-    path.parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."))
-}
-
-/// An I/O error without the temporary file's name, which `tempfile` appends as
-/// `… at path "/dir/.radiosity-XXXX"`: the user never asked for that path.
-fn plain(e: &std::io::Error) -> String {
-    let s = e.to_string();
-    match s.find(" at path \"") {
-        Some(at) => s[..at].to_owned(),
-        None => s,
-    }
-}
-
-/// A temporary file in `dir`, created with mode `0666` so that the umask alone decides its
-/// permissions, as for any file the user creates (`tempfile`'s own default is `0600`).
-fn temp_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
-    let mut b = tempfile::Builder::new();
-    b.prefix(".radiosity-");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        b.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    b.tempfile_in(dir)
-}
-
 /// Refuses, before any work, an output file that could not be written: a path that is a
 /// directory, a directory that does not exist or is not one, or one that takes no new file
-/// (checked by creating and removing a temporary file there).
+/// (the bake's own check, `radiosity_bake::host::output::check_output`).
 pub(crate) fn check_file(path: &Path) -> anyhow::Result<()> {
-    if path.is_dir() {
-        bail!("cannot write {}: it is a directory", path.display());
-    }
-    let dir = parent_dir(path);
-    if !dir.exists() {
-        bail!(
-            "cannot write {}: directory {} does not exist",
-            path.display(),
-            dir.display()
-        );
-    }
-    if !dir.is_dir() {
-        bail!(
-            "cannot write {}: {} is not a directory",
-            path.display(),
-            dir.display()
-        );
-    }
-    temp_in(dir)
-        .map(drop)
-        .map_err(|e| anyhow!("cannot write {}: {}", path.display(), plain(&e)))
+    Ok(check_output(path)?)
 }
 
 /// Refuses, before any work, an output directory that exists as something else.

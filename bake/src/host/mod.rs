@@ -17,7 +17,7 @@
 //! finished and no cancellation came: a failed or cancelled bake leaves nothing behind.
 
 mod flags;
-mod output;
+pub mod output;
 
 pub use flags::{BakeFlags, Word, capped_loading, form_factor_params, load_scene, voxel_params};
 pub use output::{check_output, write_atomic};

@@ -6,14 +6,15 @@ use std::io::Write;
 use std::path::Path;
 
 /// The directory a file goes to (`.` for a bare name).
-fn parent_dir(path: &Path) -> &Path {
+pub fn parent_dir(path: &Path) -> &Path {
     path.parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."))
 }
 
-/// An I/O error's message without the path the tempfile crate appends (the caller names it).
-fn plain(e: &std::io::Error) -> String {
+/// An I/O error's message without the temporary file's path, which the tempfile crate appends
+/// (`… at path "/dir/.radiosity-XXXX"`): the caller names the path the user gave.
+pub fn io_message(e: &std::io::Error) -> String {
     let s = e.to_string();
     match s.find(" at path \"") {
         Some(at) => s[..at].to_owned(),
@@ -26,9 +27,10 @@ fn cannot(path: &Path, why: impl std::fmt::Display) -> BakeError {
     BakeError::Flag(format!("cannot write {}: {why}", path.display()))
 }
 
-/// A temporary file in `dir` named `.radiosity-…`, readable as a file created with the
-/// process's umask (mode 0666 before it) once renamed, not the 0600 of a private temporary.
-pub(crate) fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+/// A temporary file in `dir` named `.radiosity-…`, created with mode 0666 so that the umask
+/// alone decides its permissions, as for any file the user creates (not the tempfile crate's
+/// 0600).
+pub fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let mut b = tempfile::Builder::new();
     b.prefix(".radiosity-");
     #[cfg(unix)]
@@ -61,13 +63,14 @@ pub fn check_output(path: &Path) -> Result<(), BakeError> {
     }
     temp_file_in(dir)
         .map(drop)
-        .map_err(|e| cannot(path, plain(&e)))
+        .map_err(|e| cannot(path, io_message(&e)))
 }
 
 /// `bytes` in a temporary file beside `path`, flushed to disk, not yet renamed ([`persist`]).
 pub(super) fn write_temp(path: &Path, bytes: &[u8]) -> Result<tempfile::NamedTempFile, BakeError> {
-    let mut tmp = temp_file_in(parent_dir(path)).map_err(|e| cannot(path, plain(&e)))?;
-    tmp.write_all(bytes).map_err(|e| cannot(path, plain(&e)))?;
+    let mut tmp = temp_file_in(parent_dir(path)).map_err(|e| cannot(path, io_message(&e)))?;
+    tmp.write_all(bytes)
+        .map_err(|e| cannot(path, io_message(&e)))?;
     tmp.as_file().sync_all().ok();
     Ok(tmp)
 }
@@ -75,7 +78,7 @@ pub(super) fn write_temp(path: &Path, bytes: &[u8]) -> Result<tempfile::NamedTem
 /// Renames a temporary file from [`write_temp`] to `path`.
 pub(super) fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), BakeError> {
     tmp.persist(path)
-        .map_err(|e| cannot(path, plain(&e.error)))?;
+        .map_err(|e| cannot(path, io_message(&e.error)))?;
     Ok(())
 }
 
