@@ -95,6 +95,37 @@ pub struct LoadOptions {
 /// room's bounces finite, docs/decisions/max-reflectance.md).
 pub const DEFAULT_MAX_REFLECTANCE: f64 = 0.95;
 
+/// A material's reflectance factor (`what`: `Kd`, `baseColorFactor`), each channel finite and
+/// not negative: refused with `bad`'s error, or under geometry-only loading repaired (clamped
+/// to [0, 0.999], non-finite to grey) with that error as a warning. At or above 1 is left to
+/// [`Scene::limit_reflectance`], which sees it times the texture.
+pub(crate) fn checked_reflectance(
+    what: &str,
+    kd: [f64; 3],
+    options: &LoadOptions,
+    report: &mut LoadReport,
+    bad: impl Fn(String) -> BakeError,
+) -> Result<[f64; 3], BakeError> {
+    if kd.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return Ok(kd);
+    }
+    let e = bad(format!(
+        "{what} {} {} {} is not a reflectance (each channel finite and not negative)",
+        kd[0], kd[1], kd[2]
+    ));
+    if options.validate_materials {
+        return Err(e);
+    }
+    report.warnings.push(format!("{e}; clamped to [0, 0.999]"));
+    Ok(kd.map(|c| {
+        if c.is_finite() {
+            c.clamp(0.0, 0.999)
+        } else {
+            f64::from(DEFAULT_REFLECTANCE)
+        }
+    }))
+}
+
 impl LoadOptions {
     /// `(threshold, cap)`: channels at or above `threshold` are lowered to `cap`.
     pub fn reflectance_limit(&self) -> (f64, f64) {
@@ -430,30 +461,12 @@ impl Scene {
                 material: m.name.clone(),
                 message,
             };
-            let mut kd = m
+            let kd = m
                 .diffuse
                 .map(|d| d.map(f64::from))
                 .unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
             // At or above 1 is lowered where the triangle shows it (`limit_reflectance`).
-            if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
-                let e = bad(format!(
-                    "Kd {} {} {} is not a reflectance (each channel finite and not negative)",
-                    kd[0], kd[1], kd[2]
-                ));
-                if options.validate_materials {
-                    return Err(e);
-                }
-                self.report
-                    .warnings
-                    .push(format!("{e}; clamped to [0, 0.999]"));
-                kd = kd.map(|c| {
-                    if c.is_finite() {
-                        c.clamp(0.0, 0.999)
-                    } else {
-                        DEFAULT_REFLECTANCE as f64
-                    }
-                });
-            }
+            let kd = checked_reflectance("Kd", kd, options, &mut self.report, bad)?;
             let mut ke = m.emissive.map(|d| d.map(f64::from)).unwrap_or([0.0; 3]);
             // The stored exitance π·Ke is f32: a radiance whose exitance overflows it would
             // reach the file as infinity.

@@ -96,29 +96,16 @@ impl Loader<'_> {
         };
         let pbr = m.pbr_metallic_roughness();
         let f = pbr.base_color_factor();
-        let mut kd = [f[0], f[1], f[2]].map(f64::from);
+        let kd = [f[0], f[1], f[2]].map(f64::from);
         // At or above 1 (× the texture) is lowered where the triangle shows it
         // (`Scene::limit_reflectance`).
-        if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
-            let e = bad(format!(
-                "baseColorFactor {} {} {} is not a reflectance (each channel finite and not negative)",
-                kd[0], kd[1], kd[2]
-            ));
-            if self.options.validate_materials {
-                return Err(e);
-            }
-            self.scene
-                .report
-                .warnings
-                .push(format!("{e}; clamped to [0, 0.999]"));
-            kd = kd.map(|c| {
-                if c.is_finite() {
-                    c.clamp(0.0, 0.999)
-                } else {
-                    f64::from(DEFAULT_REFLECTANCE)
-                }
-            });
-        }
+        let kd = crate::scene::checked_reflectance(
+            "baseColorFactor",
+            kd,
+            self.options,
+            &mut self.scene.report,
+            bad,
+        )?;
         let strength = m.emissive_strength().map_or(1.0, f64::from);
         let mut ke = m.emissive_factor().map(|c| f64::from(c) * strength);
         let exitance_fits = |c: f64| ((std::f64::consts::PI * c) as f32).is_finite();
