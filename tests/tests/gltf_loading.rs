@@ -128,6 +128,16 @@ fn one_triangle(d: &mut Doc) -> usize {
     d.node(json!({"mesh": m}))
 }
 
+/// A 2×1 PNG: a black texel, then a white one.
+fn black_white_png() -> Vec<u8> {
+    let mut png = Vec::new();
+    image::RgbImage::from_raw(2, 1, vec![0, 0, 0, 255, 255, 255])
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    png
+}
+
 fn load_err(path: &Path) -> String {
     let e = Scene::load(path).unwrap_err();
     let s = e.to_string();
@@ -408,12 +418,8 @@ fn double_sided_open_surfaces_get_a_back_closed_ones_do_not() {
 #[test]
 fn materials_textures_and_emission() {
     let dir = tempfile::tempdir().unwrap();
-    // A 2×1 PNG: sRGB 0 and 255, whose linear mean is 0.5.
-    let mut png = Vec::new();
-    image::RgbImage::from_raw(2, 1, vec![0, 0, 0, 255, 255, 255])
-        .unwrap()
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .unwrap();
+    // sRGB 0 and 255, whose linear mean is 0.5.
+    let png = black_white_png();
     let mut d = Doc::default();
     d.materials.push(json!({"name": "tex",
         "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1.0], "metallicFactor": 0.0,
@@ -831,12 +837,8 @@ fn vertex_colours_multiply_the_base_colour() {
 #[test]
 fn texture_transform_moves_the_uvs() {
     let dir = tempfile::tempdir().unwrap();
-    // A 2×1 PNG: black on the left half (u < 0.5), white on the right.
-    let mut png = Vec::new();
-    image::RgbImage::from_raw(2, 1, vec![0, 0, 0, 255, 255, 255])
-        .unwrap()
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .unwrap();
+    // Black on the left half (u < 0.5), white on the right.
+    let png = black_white_png();
     let build = |transform: Value| {
         let mut d = Doc::default();
         d.materials.push(
