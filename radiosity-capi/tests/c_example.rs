@@ -191,17 +191,10 @@ fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
         );
         return;
     }
-    let output = Command::new(&cli)
-        .args(["solve", "--json", "--backend", "reference"])
-        .arg(path)
-        .output()
-        .expect("radiosity runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let json = solve_json(
+        &cli,
+        &["--backend".as_ref(), "reference".as_ref(), path.as_os_str()],
     );
-    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     let objects = json["objects"].as_array().expect("objects");
     assert_eq!(objects.len(), power.len());
     let scale = power
@@ -221,6 +214,21 @@ fn compare_with_solve(path: &Path, power: &[(String, [f64; 3])]) {
             );
         }
     }
+}
+
+/// `radiosity solve --json ARGS` with the CLI at `cli`, its JSON output (the run must succeed).
+fn solve_json(cli: &Path, args: &[&std::ffi::OsStr]) -> serde_json::Value {
+    let output = Command::new(cli)
+        .args(["solve", "--json"])
+        .args(args)
+        .output()
+        .expect("radiosity runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).unwrap()
 }
 
 /// The example's `probes` line against the core: the reflected irradiance facing +z at the
@@ -389,20 +397,18 @@ fn c_engine_loop_bakes_lights_and_answers_points_as_the_library_and_the_cli() {
         r#"{"points": [{"position": [0, 0.5, 0], "normal": [0, 1, 0]}, {"position": [100, 100, 100], "normal": [0, 1, 0]}]}"#,
     )
     .unwrap();
-    let output = Command::new(&cli)
-        .args(["solve", "--json", "--backend", "cpu", "--lights"])
-        .arg(&lights)
-        .arg("--points")
-        .arg(&points)
-        .arg(&rad)
-        .output()
-        .expect("radiosity runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let json = solve_json(
+        &cli,
+        &[
+            "--backend".as_ref(),
+            "cpu".as_ref(),
+            "--lights".as_ref(),
+            lights.as_os_str(),
+            "--points".as_ref(),
+            points.as_os_str(),
+            rad.as_os_str(),
+        ],
     );
-    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     let answers = json["points"].as_array().unwrap();
     let got = lines_of(&stdout, "point");
     assert_eq!(got[0][1], "0");

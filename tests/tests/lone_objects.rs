@@ -51,6 +51,23 @@ fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
         .collect()
 }
 
+/// The unit square in y = 0 from (0, 0, 0) to (1, 0, −1), facing up, object `object`.
+fn unit_sheet(object: &str) -> Quad {
+    Quad {
+        object: object.into(),
+        material: "grey".into(),
+        corners: UNIT_SHEET,
+    }
+}
+
+/// [`unit_sheet`]'s corners, counter-clockwise seen from above.
+const UNIT_SHEET: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [1.0, 0.0, -1.0],
+    [0.0, 0.0, -1.0],
+];
+
 /// The unit front normal of a quad (counter-clockwise corners).
 fn normal(q: &Quad) -> Vec3 {
     let c = q
@@ -83,16 +100,7 @@ fn a_lone_box_bakes_and_each_face_gets_e_cos_theta() {
 
 #[test]
 fn a_single_sheet_bakes_and_its_front_gets_e_cos_theta() {
-    let sheet = Quad {
-        object: "sheet".into(),
-        material: "grey".into(),
-        corners: [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 0.0, -1.0],
-            [0.0, 0.0, -1.0],
-        ],
-    };
+    let sheet = unit_sheet("sheet");
     let up = normal(&sheet);
     assert!(up.y > 0.99, "the sheet faces up");
     let d = Vec3::new(0.3, -1.0, 0.2).normalize();
@@ -109,18 +117,8 @@ fn a_single_sheet_bakes_and_its_front_gets_e_cos_theta() {
 /// below the bottom; neither side buries the other (both keep their whole area exposed).
 #[test]
 fn a_two_sided_sheet_in_the_open_is_lit_on_the_side_the_sun_reaches() {
-    let corners = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [1.0, 0.0, -1.0],
-        [0.0, 0.0, -1.0],
-    ];
-    let top = Quad {
-        object: "top".into(),
-        material: "grey".into(),
-        corners,
-    };
-    let mut reversed = corners;
+    let top = unit_sheet("top");
+    let mut reversed = UNIT_SHEET;
     reversed.reverse();
     let bottom = Quad {
         object: "bottom".into(),
@@ -149,16 +147,7 @@ fn a_two_sided_sheet_in_the_open_is_lit_on_the_side_the_sun_reaches() {
 fn a_point_in_front_of_an_open_scene_is_answered() {
     use radiosity_runtime::points::{Answer, Point, answer};
     let dir = tempfile::tempdir().unwrap();
-    let sheet = Quad {
-        object: "sheet".into(),
-        material: "grey".into(),
-        corners: [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 0.0, -1.0],
-            [0.0, 0.0, -1.0],
-        ],
-    };
+    let sheet = unit_sheet("sheet");
     let path = write_scene(
         dir.path(),
         "sheet",
