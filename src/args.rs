@@ -57,6 +57,10 @@ pub(crate) struct BakeArgs {
         allow_negative_numbers = true
     )]
     pub(crate) direct_points: Option<u32>,
+    /// Measure each patch's sky visibility so that a sky or environment light can light the
+    /// file: on, off
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub(crate) sky: String,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.
     #[arg(skip)]

@@ -25,6 +25,7 @@ pub(crate) fn flags(args: &BakeArgs) -> BakeFlags {
         direct_points: args.direct_points,
         probes: Some("none".into()),
         probe_rank: None,
+        sky: Some(args.sky.clone()),
     }
 }
 

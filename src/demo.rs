@@ -30,6 +30,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         form_factors: "default".into(),
         max_reflectance: None,
         direct_points: None,
+        sky: "on".into(),
         given: Vec::new(),
     };
     let params = radiosity_bake::pipeline::BakeParams {
@@ -128,7 +129,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         frames_ms.push(t.elapsed().as_secs_f64() * 1e3);
         gathers.push(g);
         let t = Instant::now();
-        let sh = radiosity_runtime::probes::frame_sh(&rt, &frame.irradiance);
+        let sh = radiosity_runtime::probes::frame_sh(&rt, &frame.irradiance, &lights)?;
         probes_ms.push(t.elapsed().as_secs_f64() * 1e3);
         let b = -2.0 * a;
         let centre = DVec3::new(

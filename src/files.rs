@@ -14,10 +14,11 @@ fn read(path: &Path, kind: &str) -> anyhow::Result<String> {
         .with_context(|| format!("cannot read {kind} file {}", path.display()))
 }
 
-/// Reads, parses and validates a lights file.
+/// Reads, parses and validates a lights file (an environment image's path relative to it).
 pub(crate) fn lights(path: &Path) -> anyhow::Result<Vec<Light>> {
     let text = read(path, "lights")?;
-    radiosity_runtime::lights::parse(&text)
+    let base = path.parent().unwrap_or(Path::new(""));
+    radiosity_runtime::lights::parse_in(&text, base)
         .with_context(|| format!("bad lights file {}", path.display()))
 }
 

@@ -61,6 +61,8 @@ pub mod pipeline;
 
 pub mod probes;
 
+pub mod sky;
+
 // Beside the pipeline.
 pub mod check;
 pub mod error;

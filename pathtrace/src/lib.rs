@@ -23,7 +23,10 @@
 //!   there the bounce ray's pdf dominates and the weight removes the spike.
 //! - **Indirect light**: the cosine-weighted bounce ray (pdf `cosθ/π`) meets the surface `y`;
 //!   its radiance `ρ(y)·H(y)/π` (emission handled above) turns the estimator of `H(x)` into
-//!   `ρ(y)·Ĥ(y)`, so the path carries a throughput `β = Πρ`. A back face or a miss ends it.
+//!   `ρ(y)·Ĥ(y)`, so the path carries a throughput `β = Πρ`. A back face ends it.
+//! - **Sky and environment lights**: a bounce ray that leaves the scene meets the sky, whose
+//!   radiance `L(ω)` (the environment image itself, not its SH) gives `β·π·L(ω)`; a path
+//!   without a sky ends there with nothing. A camera ray that leaves sees the sky.
 //! - **Russian roulette** after every bounce, surviving with probability `max_c β_c` and then
 //!   dividing `β` by it: unbiased, and every path's contribution stays bounded (the largest
 //!   channel of `β` is 1), so the standard errors are honest even in a furnace. Paths are also
@@ -267,9 +270,12 @@ impl PathTracer {
                 Light::Point { position, .. } | Light::Spot { position, .. } => {
                     Target::At(position.as_dvec3())
                 }
-                Light::Directional { .. } => Target::Infinity,
+                // A sky has no shadow ray: a path that leaves the scene meets it.
+                Light::Directional { .. } | Light::Sky { .. } | Light::Environment(_) => {
+                    Target::Infinity
+                }
             };
-            checked.push((*light, target));
+            checked.push((light.clone(), target));
         }
 
         let occ = scene.occluders();
@@ -423,7 +429,7 @@ impl PathTracer {
     /// Radiance arriving at `origin` from direction `dir` (one path).
     fn radiance(&self, origin: DVec3, dir: DVec3, rng: &mut SplitMix64) -> [f64; 3] {
         let Some((hit, front)) = self.occ.first_surface(origin, dir, 0.0, f64::INFINITY) else {
-            return [0.0; 3];
+            return self.sky(dir);
         };
         if !front {
             return [0.0; 3]; // a back face: neither emits nor reflects
@@ -481,6 +487,9 @@ impl PathTracer {
             let dir = cosine_direction(n, rng);
             // A panel's two sheets modelled a hair out of order show the near one's front.
             let Some((hit, front)) = self.occ.first_surface(origin, dir, 0.0, f64::INFINITY) else {
+                // Out of the scene: the sky's radiance, whose estimate of H is π·L (the
+                // direction was drawn with pdf cosθ/π).
+                add_scaled(&mut h, beta, self.sky(dir).map(|l| PI * l));
                 break;
             };
             let t = &self.tris[hit.triangle as usize];
@@ -510,6 +519,19 @@ impl PathTracer {
             n = t.normal;
         }
         h
+    }
+
+    /// Radiance from every sky and environment light in direction `dir` (towards the sky).
+    fn sky(&self, dir: DVec3) -> [f64; 3] {
+        let mut l = [0.0; 3];
+        for (light, _) in &self.lights {
+            if let Some(r) = light.sky_radiance(dir.as_vec3()) {
+                for (c, v) in l.iter_mut().enumerate() {
+                    *v += f64::from(r.channel(c));
+                }
+            }
+        }
+        l
     }
 
     /// Direct irradiance at `x` (normal `n`, rays from `origin`): analytic lights with shadow

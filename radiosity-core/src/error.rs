@@ -39,11 +39,13 @@ pub enum SectionKind {
     CorrectionCodes = 15,
     /// Optional light probes ([`crate::probes::Probes`]).
     Probes = 16,
+    /// Optional sky visibility ([`crate::sky::SkyVisibility`]).
+    Sky = 17,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 16] = [
+    pub const ALL: [SectionKind; 17] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -60,6 +62,7 @@ impl SectionKind {
         SectionKind::CorrectionExponents,
         SectionKind::CorrectionCodes,
         SectionKind::Probes,
+        SectionKind::Sky,
     ];
 
     /// The kind with this code.
@@ -78,6 +81,7 @@ impl SectionKind {
                 | SectionKind::CorrectionExponents
                 | SectionKind::CorrectionCodes
                 | SectionKind::Probes
+                | SectionKind::Sky
         )
     }
 
@@ -100,6 +104,7 @@ impl SectionKind {
             SectionKind::CorrectionExponents => "CORRECTION_EXPONENTS",
             SectionKind::CorrectionCodes => "CORRECTION_CODES",
             SectionKind::Probes => "PROBES",
+            SectionKind::Sky => "SKY",
         }
     }
 }

@@ -51,6 +51,7 @@
 //!     report: None,
 //!     mesh: None,
 //!     probes: None,
+//!     sky: None,
 //! };
 //! let bytes = file.to_bytes().unwrap();
 //! let parsed = RadFile::parse(&bytes).unwrap();
@@ -86,6 +87,7 @@ pub mod mesh;
 mod patch;
 pub mod probes;
 mod quantise;
+pub mod sky;
 mod sparse;
 mod transfer;
 
@@ -105,13 +107,16 @@ pub use edit::{EditError, EditedGather, ReflectanceEdit};
 pub use error::{RadError, SectionKind};
 pub use gather::{Gather, GatherError, ReferenceGather, check_gather_args};
 pub use layout::{DEFAULT_MAX_TILE, Format, LayoutError, MatrixLayout, Tile};
-pub use light::{Light, LightError, ShadowRay, finish_frame, first_exitance};
+pub use light::{
+    Light, LightError, ShadowRay, finish_frame, first_exitance, sky_radiance_of, sky_sh_of,
+};
 pub use mesh::{CornerLengthError, CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
 pub use patch::Patch;
 pub use probes::{
     DecodedProbes, ProbeFactors, ProbeModes, ProbeWeight, Probes, SH_COEFFICIENTS, sh_irradiance,
 };
 pub use quantise::{DEFAULT_SHIFT, LogScale};
+pub use sky::{EnvMap, SkySh, SkyVisibility, sky_irradiance, uniform_sky_sh};
 pub use sparse::SparseRows;
 pub use transfer::{BlockDecoder, BlockValues, TransferMatrix};
 

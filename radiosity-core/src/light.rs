@@ -3,12 +3,15 @@
 //! Visibility (shadow rays) belongs to whoever owns the geometry; this module gives the
 //! unoccluded irradiance and the segment a shadow ray must test.
 
-use crate::{Patch, Rgb, math};
+use crate::sky::{EnvMap, SkySh, uniform_sky_sh};
+use crate::{Patch, Rgb, SH_COEFFICIENTS, math};
+use alloc::sync::Arc;
 use core::fmt;
 use glam::Vec3;
 
-/// A light of the lights file (`docs/contract.md`): intensities in W/sr, irradiance in W/m².
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A light of the lights file (`docs/contract.md`): intensities in W/sr, irradiance in W/m²,
+/// radiance in W·sr⁻¹·m⁻².
+#[derive(Clone, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light.
     Point {
@@ -35,6 +38,13 @@ pub enum Light {
         /// Irradiance (W/m²) on a surface facing the light.
         irradiance: Rgb,
     },
+    /// A uniform sky: the same radiance from every direction, from infinitely far away.
+    Sky {
+        /// Radiance (W·sr⁻¹·m⁻²) per channel.
+        radiance: Rgb,
+    },
+    /// An environment image around the scene ([`EnvMap`]: its direction convention).
+    Environment(Arc<EnvMap>),
 }
 
 /// Why a light is unusable.
@@ -48,6 +58,8 @@ pub enum LightError {
     ZeroDirection,
     /// A spot cone angle outside (0, 180] degrees.
     ConeAngle,
+    /// An environment image with no texels, or not `width × height` of them.
+    EnvironmentSize,
 }
 
 impl fmt::Display for LightError {
@@ -57,6 +69,9 @@ impl fmt::Display for LightError {
             LightError::Negative => "light intensity is negative",
             LightError::ZeroDirection => "light direction is zero",
             LightError::ConeAngle => "spot cone_deg must be in (0, 180]",
+            LightError::EnvironmentSize => {
+                "environment image is empty or not width × height texels"
+            }
         })
     }
 }
@@ -100,6 +115,9 @@ impl Light {
                 direction,
                 irradiance,
             } => ([Vec3::ZERO, direction], irradiance),
+            Light::Sky { radiance } => ([Vec3::ZERO, Vec3::X], radiance),
+            // Checked when it was made (`EnvMap::new`).
+            Light::Environment(_) => return Ok(()),
         };
         if !vectors.iter().all(|v| v.is_finite()) || !colour.is_finite() {
             return Err(LightError::NonFinite);
@@ -113,8 +131,34 @@ impl Light {
         Ok(())
     }
 
+    /// The radiance SH of a sky or environment light, `None` for the other lights.
+    pub fn sky_sh(&self) -> Option<SkySh> {
+        match self {
+            Light::Sky { radiance } => Some(uniform_sky_sh(*radiance)),
+            Light::Environment(map) => Some(*map.sh()),
+            _ => None,
+        }
+    }
+
+    /// The radiance a sky or environment light sends from direction `d` (towards the sky),
+    /// `None` for the other lights.
+    pub fn sky_radiance(&self, d: Vec3) -> Option<Rgb> {
+        match self {
+            Light::Sky { radiance } => Some(*radiance),
+            Light::Environment(map) => Some(map.radiance(d)),
+            _ => None,
+        }
+    }
+
+    /// Whether the light is a sky or an environment (light from every direction, with no
+    /// shadow ray of its own: the file's sky visibility carries its occlusion).
+    pub fn is_sky(&self) -> bool {
+        matches!(self, Light::Sky { .. } | Light::Environment(_))
+    }
+
     /// Irradiance at `point` on a surface with unit `normal`, ignoring occluders, and the shadow
-    /// ray to test. `None` when the light cannot reach the front of the surface at all.
+    /// ray to test. `None` when the light cannot reach the front of the surface at all, and for
+    /// a sky (its light comes from every direction: [`Light::sky_sh`]).
     pub fn irradiance_at(&self, point: Vec3, normal: Vec3) -> Option<(Rgb, ShadowRay)> {
         match *self {
             Light::Point {
@@ -149,8 +193,32 @@ impl Light {
                     )
                 })
             }
+            Light::Sky { .. } | Light::Environment(_) => None,
         }
     }
+}
+
+/// The summed radiance SH of every sky and environment among `lights`, `None` when there is
+/// none.
+pub fn sky_sh_of(lights: &[Light]) -> Option<SkySh> {
+    let mut any = false;
+    let mut sum = [Rgb::ZERO; SH_COEFFICIENTS];
+    for sh in lights.iter().filter_map(Light::sky_sh) {
+        any = true;
+        for (s, c) in sum.iter_mut().zip(sh) {
+            *s += c;
+        }
+    }
+    any.then_some(sum)
+}
+
+/// The summed radiance every sky and environment among `lights` sends from direction `d`.
+pub fn sky_radiance_of(lights: &[Light], d: Vec3) -> Rgb {
+    let mut sum = Rgb::ZERO;
+    for l in lights.iter().filter_map(|l| l.sky_radiance(d)) {
+        sum += l;
+    }
+    sum
 }
 
 fn point_light(

@@ -23,6 +23,22 @@ mod imp {
     pub(crate) fn cos(x: f32) -> f32 {
         x.cos()
     }
+    #[inline]
+    pub(crate) fn sin(x: f32) -> f32 {
+        x.sin()
+    }
+    #[inline]
+    pub(crate) fn floor(x: f32) -> f32 {
+        x.floor()
+    }
+    #[inline]
+    pub(crate) fn acos(x: f32) -> f32 {
+        x.acos()
+    }
+    #[inline]
+    pub(crate) fn atan2(y: f32, x: f32) -> f32 {
+        y.atan2(x)
+    }
 }
 
 #[cfg(not(feature = "std"))]
@@ -46,6 +62,22 @@ mod imp {
     #[inline]
     pub(crate) fn cos(x: f32) -> f32 {
         libm::cosf(x)
+    }
+    #[inline]
+    pub(crate) fn sin(x: f32) -> f32 {
+        libm::sinf(x)
+    }
+    #[inline]
+    pub(crate) fn floor(x: f32) -> f32 {
+        libm::floorf(x)
+    }
+    #[inline]
+    pub(crate) fn acos(x: f32) -> f32 {
+        libm::acosf(x)
+    }
+    #[inline]
+    pub(crate) fn atan2(y: f32, x: f32) -> f32 {
+        libm::atan2f(y, x)
     }
 }
 

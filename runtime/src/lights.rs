@@ -4,8 +4,15 @@
 //! ```json
 //! {"lights":[{"type":"point","position":[x,y,z],"intensity":[r,g,b]},
 //!            {"type":"spot","position":[..],"direction":[..],"cone_deg":a,"intensity":[..]},
-//!            {"type":"directional","direction":[..],"irradiance":[r,g,b]}]}
+//!            {"type":"directional","direction":[..],"irradiance":[r,g,b]},
+//!            {"type":"sky","radiance":[r,g,b]},
+//!            {"type":"environment","path":"sky.hdr","intensity":1.0,"rotation_deg":0}]}
 //! ```
+//!
+//! A sky is uniform radiance (W·sr⁻¹·m⁻²) from every direction; an environment an
+//! equirectangular Radiance `.hdr` or OpenEXR image of radiance (`radiosity_core::EnvMap` has
+//! its direction convention), its path relative to the lights file, scaled by `intensity` and
+//! turned `rotation_deg` about +Y.
 //!
 //! Every field is required; none has a default. Positions in scene units; intensity in W/sr,
 //! irradiance in W/m² on a surface facing the light, all finite and non-negative; directions
@@ -15,8 +22,10 @@
 //! misspelt `"intensty"` must not silently become a black light).
 
 use glam::Vec3;
-use radiosity_core::{Light, Rgb};
+use radiosity_core::{EnvMap, Light, Rgb};
 use serde::Deserialize;
+use std::path::Path;
+use std::sync::Arc;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -41,12 +50,21 @@ enum LightEntry {
         direction: [f32; 3],
         irradiance: [f32; 3],
     },
+    Sky {
+        radiance: [f32; 3],
+    },
+    Environment {
+        path: String,
+        intensity: f32,
+        rotation_deg: f32,
+    },
 }
 
-impl From<&LightEntry> for Light {
-    fn from(e: &LightEntry) -> Self {
+impl LightEntry {
+    /// The light, an environment's image read from its path (relative to `base`).
+    fn light(&self, base: &Path) -> crate::Result<Light> {
         let rgb = |c: [f32; 3]| Rgb::new(c[0], c[1], c[2]);
-        match *e {
+        Ok(match *self {
             LightEntry::Point {
                 position,
                 intensity,
@@ -72,8 +90,50 @@ impl From<&LightEntry> for Light {
                 direction: Vec3::from(direction),
                 irradiance: rgb(irradiance),
             },
-        }
+            LightEntry::Sky { radiance } => Light::Sky {
+                radiance: rgb(radiance),
+            },
+            LightEntry::Environment {
+                ref path,
+                intensity,
+                rotation_deg,
+            } => Light::Environment(Arc::new(environment(
+                &base.join(path),
+                intensity,
+                rotation_deg,
+            )?)),
+        })
     }
+}
+
+/// Reads an equirectangular environment image: Radiance `.hdr` or OpenEXR (linear radiance;
+/// an 8-bit PNG or JPEG holds display values, not radiance, and is refused), scaled by
+/// `intensity` and turned `rotation_deg` about +Y.
+pub fn environment(path: &Path, intensity: f32, rotation_deg: f32) -> crate::Result<EnvMap> {
+    let shown = path.display();
+    let reader = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| crate::Error::Invalid(format!("cannot read environment {shown}: {e}")))?;
+    match reader.format() {
+        Some(image::ImageFormat::Hdr | image::ImageFormat::OpenExr) => {}
+        other => invalid!(
+            "environment {shown} is {}, not a Radiance .hdr or OpenEXR image of radiance",
+            other.map_or("not an image format known here".to_owned(), |f| format!(
+                "{f:?}"
+            ))
+        ),
+    }
+    let img = reader
+        .decode()
+        .map_err(|e| crate::Error::Invalid(format!("cannot decode environment {shown}: {e}")))?
+        .to_rgb32f();
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let texels = img
+        .pixels()
+        .map(|p| Rgb::new(p.0[0], p.0[1], p.0[2]))
+        .collect();
+    EnvMap::new(w, h, texels, intensity, rotation_deg)
+        .map_err(|why| crate::Error::Invalid(format!("environment {shown}: {why}")))
 }
 
 /// serde_json's message on one line (it carries the line and column), with the types it
@@ -88,7 +148,7 @@ pub fn json_error(e: &serde_json::Error) -> crate::Error {
         )
         .replace(
             "expected internally tagged enum LightEntry",
-            r#"expected a light object {"type": "point", "spot" or "directional", ...}"#,
+            r#"expected a light object {"type": "point", "spot", "directional", "sky" or "environment", ...}"#,
         )
         .replace(
             "expected struct CameraFile",
@@ -106,8 +166,22 @@ pub fn refuse_bare_array(text: &str, expected: &str) -> crate::Result<()> {
     Ok(())
 }
 
-/// Parses and validates a lights file's text.
+/// Reads, parses and validates a lights file (an environment's path relative to it).
+pub fn load(path: &Path) -> crate::Result<Vec<Light>> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        crate::Error::Invalid(format!("cannot read lights file {}: {e}", path.display()))
+    })?;
+    parse_in(&text, path.parent().unwrap_or(Path::new("")))
+}
+
+/// Parses and validates a lights file's text (an environment's path relative to the working
+/// directory).
 pub fn parse(text: &str) -> crate::Result<Vec<Light>> {
+    parse_in(text, Path::new(""))
+}
+
+/// Parses and validates a lights file's text, an environment's path relative to `base`.
+pub fn parse_in(text: &str, base: &Path) -> crate::Result<Vec<Light>> {
     refuse_bare_array(text, r#"{"lights": [...]} (see docs/examples/lights.json)"#)?;
     // A light given as an array would be read as its fields in order (the first one its
     // type): say what a light is instead.
@@ -116,14 +190,16 @@ pub fn parse(text: &str) -> crate::Result<Vec<Light>> {
         && let Some(i) = lights.iter().position(|l| !l.is_object())
     {
         invalid!(
-            r#"light {i}: expected a light object {{"type": "point", "spot" or "directional", ...}}, not {}"#,
+            r#"light {i}: expected a light object {{"type": "point", "spot", "directional", "sky" or "environment", ...}}, not {}"#,
             lights[i]
         );
     }
     let file: LightsFile = serde_json::from_str(text).map_err(|e| json_error(&e))?;
     let mut lights = Vec::with_capacity(file.lights.len());
     for (i, e) in file.lights.iter().enumerate() {
-        let light = Light::from(e);
+        let light = e
+            .light(base)
+            .map_err(|why| crate::Error::Invalid(format!("light {i}: {why}")))?;
         // f32 fields of huge JSON numbers (1e39) become infinite here; validate catches them.
         if let Err(why) = light.validate() {
             invalid!("light {i}: {why}");

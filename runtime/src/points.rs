@@ -23,10 +23,14 @@
 //! rays' noise; it costs [`RAYS`] rays, and shadow rays and near hits' second gathers at each
 //! hit, a point, so it answers queries rather than lighting moving objects every frame.
 //!
+//! Under a sky or environment light, a ray that leaves the scene brings the sky's radiance
+//! itself (the image, not its SH), and a hit's reflected radiosity includes its patch's sky
+//! light, interpolated with `y − y_e`.
+//!
 //! A point whose rays mostly meet the backs of faces is inside an object, and one beyond the
 //! bounding box of the scene's mesh whose rays all miss it is outside it: both are answered as
-//! such, without a figure. A point beyond the box that sees the scene (in front of an open
-//! scene) is answered.
+//! such, without a figure, except under a sky, which lights a point anywhere. A point beyond
+//! the box that sees the scene (in front of an open scene) is answered.
 
 use crate::BakedScene;
 use crate::render::{PatchGrid, triangle_normal};
@@ -345,7 +349,14 @@ impl<'a> Surfaces<'a> {
         let grid = PatchGrid::new(&rt.file.patches);
         let emitters = Emitters::new(mesh);
         let first = emitters.per_patch(rt, mesh, gathered.len());
-        let indirect = gathered.iter().zip(&first).map(|(&y, &d)| y - d).collect();
+        // The sky's light at a hit is its patch's, interpolated with the gathered light.
+        let sky = rt.sky_irradiance(lights)?;
+        let indirect = gathered
+            .iter()
+            .zip(&first)
+            .enumerate()
+            .map(|(p, (&y, &d))| y - d + sky.as_ref().map_or(Rgb::ZERO, |s| s[p]))
+            .collect();
         Ok(Self {
             rt,
             mesh,
@@ -398,6 +409,12 @@ impl<'a> Surfaces<'a> {
             * (self.rt.direct_at(self.lights, at, normal) + emitted + indirect)
     }
 
+    /// The irradiance estimate `π·L(ω)` of a cosine-weighted ray that leaves the scene in
+    /// direction `dir`: the sky's, zero without one.
+    fn sky(&self, dir: DVec3) -> Rgb {
+        radiosity_core::sky_radiance_of(self.lights, dir.as_vec3()) * std::f32::consts::PI
+    }
+
     /// `y − y_e` at `at` (on a surface with unit `normal`) by [`SECOND_RAYS`] cosine-weighted
     /// rays, stratified, each hit's reflected radiosity with one shadow ray to the emitters
     /// and the rest interpolated: the light the surfaces reflect onto `at`.
@@ -414,8 +431,10 @@ impl<'a> Surfaces<'a> {
             let u1 = ((s % side) as f64 + rng.next_f64()) / side as f64;
             let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
             let dir = cosine_direction(normal, u1, u2);
-            if let Some((hit, true)) = self.occ.first_surface_from_surface(at, dir, f64::INFINITY) {
-                sum += self.reflected(&hit, 1, false, rng, weights);
+            match self.occ.first_surface_from_surface(at, dir, f64::INFINITY) {
+                Some((hit, true)) => sum += self.reflected(&hit, 1, false, rng, weights),
+                Some((_, false)) => {}
+                None => sum += self.sky(dir),
             }
         }
         sum * (1.0 / (side * side) as f32)
@@ -457,8 +476,9 @@ pub fn answer(
     lights: &[Light],
     points: &[Point],
 ) -> crate::Result<Vec<Answer>> {
-    let probe_sh = crate::probes::frame_sh(rt, irradiance);
+    let probe_sh = crate::probes::frame_sh(rt, irradiance, lights)?;
     let surfaces = Surfaces::new(rt, lights, gathered)?;
+    let has_sky = lights.iter().any(Light::is_sky);
     // A mesh without vertices holds every point outside it.
     let (lo, hi) = rt
         .mesh_bounds()
@@ -486,7 +506,10 @@ pub fn answer(
                 let u2 = ((s / side) as f64 + rng.next_f64()) / side as f64;
                 let dir = cosine_direction(n, u1, u2);
                 match surfaces.occ.first_surface(p, dir, 0.0, f64::INFINITY) {
-                    None => missed += 1,            // the sky sends nothing
+                    None => {
+                        missed += 1;
+                        sum += surfaces.sky(dir);
+                    }
                     Some((_, false)) => backs += 1, // the back of a one-sided surface: nothing
                     Some((hit, true)) => {
                         let samples = HIT_EMITTER_SAMPLES;
@@ -497,7 +520,8 @@ pub fn answer(
             if backs as f64 > INSIDE_SHARE * (side * side) as f64 {
                 return Answer::Inside;
             }
-            if beyond && missed == side * side {
+            // Under a sky a point out in the open still has its light.
+            if beyond && missed == side * side && !has_sky {
                 return Answer::Outside;
             }
             let direct = rt.direct_at(lights, p, n)

@@ -10,22 +10,50 @@
 
 use crate::BakedScene;
 use glam::{DVec3, Vec3};
-use radiosity_core::{DecodedProbes, Rgb, SH_COEFFICIENTS, sh_irradiance};
+use radiosity_core::{DecodedProbes, Light, Rgb, SH_COEFFICIENTS, sh_irradiance};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
-/// The probes' radiance SH for a frame of total irradiance `h` (file numbering): `P·(B − E)`,
-/// with `B − E = ρ∘H` whatever the frame's emission scale.
-pub fn frame_sh(rt: &BakedScene, h: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {
+/// The probes' radiance SH for a frame of total irradiance `h` (file numbering) under
+/// `lights`: `P·(B − E)`, with `B − E = ρ∘H` whatever the frame's emission scale, plus the
+/// sky's radiance as each probe sees it (the order-2 product of the sky's SH and the probe's
+/// sky visibility, `radiosity_core::sky`). An error for a sky on a file without sky
+/// visibility ([`BakedScene::sky_irradiance`]).
+pub fn frame_sh(
+    rt: &BakedScene,
+    h: &[Rgb],
+    lights: &[Light],
+) -> crate::Result<Vec<[Rgb; SH_COEFFICIENTS]>> {
     let Some(probes) = rt.decoded_probes() else {
-        return Vec::new();
+        return Ok(Vec::new());
     };
     let reflected: Vec<Rgb> = h
         .iter()
         .zip(rt.file.patches.iter())
         .map(|(h, p)| p.reflectance * *h)
         .collect();
-    gather_all(probes, &reflected)
+    let mut sh = gather_all(probes, &reflected);
+    if let Some(sky) = radiosity_core::sky_sh_of(lights) {
+        let Some(vis) = &rt.file.sky else {
+            // The same refusal as the patches'.
+            rt.sky_irradiance(lights)?;
+            return Ok(sh);
+        };
+        static GAMMA: OnceLock<SkyTensor> = OnceLock::new();
+        let gamma = GAMMA.get_or_init(radiosity_core::sky::sh_triple);
+        let n = rt.n();
+        sh.par_iter_mut().enumerate().for_each(|(j, c)| {
+            let add = radiosity_core::sky::sh_product(gamma, &sky, &vis.entry(n + j));
+            for (c, a) in c.iter_mut().zip(add) {
+                *c += a;
+            }
+        });
+    }
+    Ok(sh)
 }
+
+/// [`radiosity_core::sky::sh_triple`]'s tensor.
+type SkyTensor = [[[f32; SH_COEFFICIENTS]; SH_COEFFICIENTS]; SH_COEFFICIENTS];
 
 /// Every probe's SH from the patches' reflected radiosity, the probes spread over the threads.
 pub fn gather_all(probes: &DecodedProbes, reflected: &[Rgb]) -> Vec<[Rgb; SH_COEFFICIENTS]> {

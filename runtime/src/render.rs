@@ -283,7 +283,8 @@ pub fn primary(rt: &BakedScene, cam: &Camera, spp_side: u32) -> crate::Result<Pr
 }
 
 /// Shades a frame: radiance `(s·E + ρ∘(H_d + y))/π` per sample, averaged per pixel; where
-/// `sphere` is in front of the mesh, the sphere's radiance instead.
+/// `sphere` is in front of the mesh, the sphere's radiance instead; where the ray leaves the
+/// scene, the sky's radiance (black without a sky).
 pub fn shade(
     rt: &BakedScene,
     primary: &Primary,
@@ -293,6 +294,9 @@ pub fn shade(
     sphere: Option<&Sphere>,
 ) -> crate::Result<LinearImage> {
     let mesh = rt.mesh("rendering")?;
+    // The sky lights each surface as baked (interpolated like the gathered light) and shows
+    // where a camera ray leaves the scene.
+    let sky = rt.sky_irradiance(lights)?;
     let mut img = LinearImage::new(primary.width, primary.height);
     let inv = 1.0 / primary.per_pixel as f32;
     let cam = &primary.camera;
@@ -313,12 +317,22 @@ pub fn shade(
                         continue;
                     }
                 }
-                let Some(s) = s else { continue };
+                let Some(s) = s else {
+                    if sky.is_some() {
+                        let dir =
+                            sample_ray(cam, &basis, primary.width, primary.side, pixel, k as u32);
+                        acc += radiosity_core::sky_radiance_of(lights, dir.as_vec3());
+                    }
+                    continue;
+                };
                 let row = pixel * primary.per_pixel + k;
                 let range = primary.rows[row] as usize..primary.rows[row + 1] as usize;
                 let mut indirect = Rgb::ZERO;
                 for &(p, w) in &primary.weights[range] {
                     indirect += frame.gathered[p as usize] * w;
+                    if let Some(sky) = &sky {
+                        indirect += sky[p as usize] * w;
+                    }
                 }
                 let tri = &mesh.triangles[s.triangle as usize];
                 let direct = rt.direct_at(lights, s.point, s.normal);

@@ -111,15 +111,35 @@ impl BakedScene {
         h
     }
 
+    /// The sky's irradiance per patch (file numbering) from the sky and environment lights
+    /// among `lights` and the file's sky visibility (`radiosity_core::sky`), `None` when
+    /// there is no such light. An error when there is one and the file holds no sky
+    /// visibility (baked with `--sky off`): lighting it would leave the sky out silently.
+    pub fn sky_irradiance(&self, lights: &[Light]) -> crate::Result<Option<Vec<Rgb>>> {
+        let Some(sh) = radiosity_core::sky_sh_of(lights) else {
+            return Ok(None);
+        };
+        let Some(vis) = &self.file.sky else {
+            invalid!(
+                "the file holds no sky visibility (baked with --sky off), so a sky or environment light cannot light it: bake it again with --sky on"
+            );
+        };
+        Ok(Some(
+            (0..self.n())
+                .map(|p| radiosity_core::sky_irradiance(&vis.entry(p), &sh))
+                .collect(),
+        ))
+    }
+
     /// Direct irradiance per patch: the area-weighted mean over the patch's samples (one per
     /// piece of the full-detail surface inside the patch), so that a shadow edge crossing a
-    /// patch dims it in proportion.
+    /// patch dims it in proportion; plus the sky's ([`BakedScene::sky_irradiance`]).
     pub fn direct(&self, lights: &[Light]) -> crate::Result<Vec<Rgb>> {
         Ok(self.direct_with_samples(lights)?.0)
     }
 
     /// [`BakedScene::direct`], with the direct irradiance at every sample of the mesh (its sample
-    /// order; empty without lights).
+    /// order; empty without lights). A sample's sky light is its patch's.
     pub fn direct_with_samples(&self, lights: &[Light]) -> crate::Result<(Vec<Rgb>, Vec<Rgb>)> {
         let n = self.n();
         if lights.is_empty() {
@@ -127,7 +147,7 @@ impl BakedScene {
         }
         let mesh = self.mesh("lighting from a lights file")?;
         use rayon::prelude::*;
-        let at: Vec<Rgb> = mesh
+        let mut at: Vec<Rgb> = mesh
             .samples
             .par_iter()
             .map(|s| {
@@ -136,6 +156,14 @@ impl BakedScene {
                 self.direct_at(lights, pos, nrm)
             })
             .collect();
+        if let Some(sky) = &self.sky_irradiance(lights)? {
+            for (p, s) in sky.iter().enumerate() {
+                let rows = mesh.sample_rows[p] as usize..mesh.sample_rows[p + 1] as usize;
+                for a in &mut at[rows] {
+                    *a += *s;
+                }
+            }
+        }
         let direct: Vec<Rgb> = (0..n)
             .into_par_iter()
             .map(|p| {
@@ -334,6 +362,7 @@ mod tests {
             report: None,
             mesh: Some(mesh),
             probes: None,
+            sky: None,
         };
         file.validate().unwrap();
         BakedScene::new(file)

@@ -155,6 +155,7 @@ pub(super) fn bench_probes(
         report: None,
         mesh: Some(mesh.clone()),
         probes: None,
+        sky: None,
     };
     let rt = radiosity_runtime::BakedScene::new(file);
     let direct = bench_direct(&rt)

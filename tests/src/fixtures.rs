@@ -89,7 +89,25 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         report: Some(Cow::Borrowed("{\"note\":\"sample\"}")),
         mesh: Some(sample_mesh(n)),
         probes: Some(sample_probes(n)),
+        sky: Some(sample_sky(n, 2)),
     }
+}
+
+/// Sky visibility for `n` patches and `m` probes: patch `i` sees a share `i/n` of its lobe,
+/// the probes half the sphere.
+pub fn sample_sky(n: usize, m: usize) -> radiosity_core::SkyVisibility<'static> {
+    use radiosity_core::sky::Y0;
+    use std::f32::consts::PI;
+    let patches: Vec<[f32; 9]> = (0..n)
+        .map(|i| {
+            let mut t = [0.01 * i as f32 / n as f32; 9];
+            t[0] = PI * Y0 * i as f32 / n as f32;
+            t
+        })
+        .collect();
+    let mut probe = [0.1; 9];
+    probe[0] = 2.0 * PI * Y0;
+    radiosity_core::SkyVisibility::new(&patches, &vec![probe; m])
 }
 
 /// Two valid probes for a file of `n ≥ 1` patches: the first weighs patches 0 and `n − 1`,

@@ -70,10 +70,12 @@ pub struct BakeFlags {
     pub probes: Option<Word>,
     /// What the probes store: `auto` (the default), `full` or a rank.
     pub probe_rank: Option<Word>,
+    /// Sky visibility: `on` (the default) or `off`.
+    pub sky: Option<String>,
 }
 
 /// The keys of [`BakeFlags`] in JSON.
-const KEYS: [&str; 13] = [
+const KEYS: [&str; 14] = [
     "patches",
     "voxel",
     "bounces",
@@ -87,6 +89,7 @@ const KEYS: [&str; 13] = [
     "direct_points",
     "probes",
     "probe_rank",
+    "sky",
 ];
 
 /// Refuses with a flag's message.
@@ -180,6 +183,11 @@ impl BakeFlags {
         p.probes = ProbeSpec::parse(&self.probes.as_ref().map_or("auto".into(), Word::text))?;
         p.probe_rank =
             ProbeRank::parse(&self.probe_rank.as_ref().map_or("auto".into(), Word::text))?;
+        p.sky = match self.sky.as_deref().unwrap_or("on") {
+            "on" => true,
+            "off" => false,
+            other => return refuse(format!("--sky must be on or off, not {other:?}")),
+        };
         Ok((p, capped_loading(self.max_reflectance)?))
     }
 }

@@ -34,7 +34,7 @@ pub const PROGRESS_EVERY: Duration = Duration::from_millis(100);
 
 /// The stages of a bake in order, with their usual share of its time (a Cornell box at 1024
 /// to 4096 patches on a 2-core machine: the form factors dominate, the transfer grows as n³).
-pub const STAGES: [(&str, f64); 9] = [
+pub const STAGES: [(&str, f64); 10] = [
     ("load", 0.02),
     ("simplify", 0.04),
     ("form factors", 0.50),
@@ -43,6 +43,7 @@ pub const STAGES: [(&str, f64); 9] = [
     ("encode", 0.10),
     ("measure", 0.04),
     ("probes", 0.05),
+    ("sky", 0.02),
     ("write", 0.02),
 ];
 

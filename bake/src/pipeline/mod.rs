@@ -386,6 +386,7 @@ fn second_half(
         report: None,
         mesh: None,
         probes: None,
+        sky: None,
     };
     let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
     file.mesh = Some(mesh);
@@ -407,7 +408,8 @@ fn second_half(
         report,
         patch_source,
     };
-    crate::probes::attach(out, &params.probes, params.probe_rank, hooks)
+    let out = crate::probes::attach(out, &params.probes, params.probe_rank, hooks)?;
+    crate::sky::attach(out, params.sky, hooks)
 }
 
 /// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,

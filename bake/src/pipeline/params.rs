@@ -57,6 +57,9 @@ pub struct BakeParams {
     pub probes: ProbeSpec,
     /// What the probes store: rows of weights or factors ([`ProbeRank`]).
     pub probe_rank: ProbeRank,
+    /// Measure and store each patch's and probe's sky visibility ([`crate::sky`]), so that a
+    /// sky or environment light can light the file. On by default.
+    pub sky: bool,
 }
 
 impl Default for BakeParams {
@@ -75,6 +78,7 @@ impl Default for BakeParams {
             direct_points: crate::simplify::runtime_mesh::DIRECT_POINTS,
             probes: ProbeSpec::None,
             probe_rank: ProbeRank::Auto,
+            sky: true,
         }
     }
 }

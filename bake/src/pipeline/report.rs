@@ -30,6 +30,8 @@ pub struct Bytes {
     pub corrected_blocks: usize,
     /// The PROBES section (0 without probes).
     pub probes: usize,
+    /// The SKY section (0 without one, or where nothing sees the sky).
+    pub sky: usize,
 }
 
 /// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
@@ -89,6 +91,8 @@ pub struct BakeReport {
     pub shared_patches: Vec<SharedPatch>,
     /// The light probes' placement and storage (`None` without probes).
     pub probes: Option<crate::probes::ProbeReport>,
+    /// The sky visibility's measurement (`None` under `--sky off`).
+    pub sky: Option<crate::sky::SkyReport>,
 }
 
 /// Closure measurements.
@@ -266,6 +270,7 @@ pub(super) fn report(
             corrections: file.matrix.corrections.bytes(),
             corrected_blocks: file.matrix.corrections.count(),
             probes: file.probes.as_ref().map_or(0, |p| p.to_bytes().len()),
+            sky: file.sky.as_ref().map_or(0, |s| s.to_bytes().len()),
         },
         rays_cast: system.rays_cast,
         form_factors: system.form_factors,
@@ -310,6 +315,7 @@ pub(super) fn report(
             })
             .collect(),
         probes: None,
+        sky: None,
     }
 }
 

@@ -33,6 +33,7 @@ pub use write::reseal;
 use crate::checksum::Crc32;
 use crate::mesh::Mesh;
 use crate::probes::Probes;
+use crate::sky::SkyVisibility;
 use crate::{Patch, RadError, SectionKind, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
@@ -206,6 +207,9 @@ pub struct RadFile<'a> {
     pub mesh: Option<Mesh<'a>>,
     /// Light probes, if the bake stored them.
     pub probes: Option<Probes<'a>>,
+    /// Sky visibility per patch and probe, if the bake measured it (`None`: a sky cannot
+    /// light this file).
+    pub sky: Option<SkyVisibility<'a>>,
 }
 
 fn align(x: u64) -> u64 {
@@ -320,6 +324,9 @@ impl<'a> RadFile<'a> {
         if let Some(mesh) = &self.mesh {
             mesh.validate(n, self.objects.len())?;
         }
+        if let Some(sky) = &self.sky {
+            sky.validate(n, self.probes.as_ref().map_or(0, |p| p.positions.len()))?;
+        }
         self.matrix.validate()
     }
 
@@ -341,6 +348,9 @@ impl<'a> RadFile<'a> {
             report: self.report.map(|r| Cow::Owned(r.into_owned())),
             mesh: self.mesh.map(Mesh::into_owned),
             probes: self.probes.map(Probes::into_owned),
+            sky: self.sky.map(|s| SkyVisibility {
+                values: Cow::Owned(s.values.into_owned()),
+            }),
         }
     }
 }

@@ -10,6 +10,7 @@ use crate::checksum::crc32;
 use crate::layout::{Format, MatrixLayout};
 use crate::mesh::Mesh;
 use crate::probes::Probes;
+use crate::sky::SkyVisibility;
 use crate::{BlockCorrections, Patch, RadError, SectionKind, SparseRows, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
@@ -120,6 +121,9 @@ impl<'a> RadFile<'a> {
                 .transpose()?,
             probes: sec(SectionKind::Probes)
                 .map(Probes::from_bytes)
+                .transpose()?,
+            sky: sec(SectionKind::Sky)
+                .map(SkyVisibility::from_bytes)
                 .transpose()?,
         };
         file.validate()?;

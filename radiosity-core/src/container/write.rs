@@ -79,6 +79,9 @@ impl RadFile<'_> {
         if let Some(p) = &probes {
             sections.push((SectionKind::Probes, p));
         }
+        if let Some(sky) = &self.sky {
+            sections.push((SectionKind::Sky, sky.to_bytes()));
+        }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());
         let mut pos = table_end;

@@ -157,6 +157,7 @@ pub fn rad_file_around(
         report: report.then_some(Cow::Borrowed("{\"fuzz\":true}")),
         mesh: None,
         probes: None,
+        sky: None,
     }
 }
 
