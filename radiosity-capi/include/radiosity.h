@@ -94,6 +94,13 @@
 #define RAD_LIGHT_DIRECTIONAL 2
 
 /*
+ A uniform sky: `value` = radiance in W/(m^2 sr), the same from every direction of the
+ sphere; it reaches each patch and point through the file's sky visibility (a file baked
+ with `--sky off` refuses it with RAD_ERR_VALUE). Position, direction and cone unused.
+ */
+#define RAD_LIGHT_SKY 3
+
+/*
  Point status of rad_scene_point_irradiance: the point is answered.
  */
 #define RAD_POINT_OK 0
@@ -161,7 +168,7 @@ typedef bool (*RadProbeVisible)(void *user, const float *from, const float *to);
  */
 typedef struct RadLight {
   /*
-   RAD_LIGHT_POINT, RAD_LIGHT_SPOT or RAD_LIGHT_DIRECTIONAL.
+   RAD_LIGHT_POINT, RAD_LIGHT_SPOT, RAD_LIGHT_DIRECTIONAL or RAD_LIGHT_SKY.
    */
   uint32_t kind;
   /*
@@ -178,7 +185,8 @@ typedef struct RadLight {
    */
   float cone_deg;
   /*
-   Point, spot: intensity in W/sr; directional: irradiance in W/m^2. Finite, not negative.
+   Point, spot: intensity in W/sr; directional: irradiance in W/m^2; sky: radiance in
+   W/(m^2 sr). Finite, not negative.
    */
   struct RadRgb value;
 } RadLight;

@@ -46,8 +46,8 @@ pub use probes::{
     rad_scene_probes_frame,
 };
 pub use runtime::{
-    RAD_LIGHT_DIRECTIONAL, RAD_LIGHT_POINT, RAD_LIGHT_SPOT, RAD_POINT_INSIDE, RAD_POINT_OK,
-    RAD_POINT_OUTSIDE, RadLight, rad_scene_direct, rad_scene_point_irradiance,
+    RAD_LIGHT_DIRECTIONAL, RAD_LIGHT_POINT, RAD_LIGHT_SKY, RAD_LIGHT_SPOT, RAD_POINT_INSIDE,
+    RAD_POINT_OK, RAD_POINT_OUTSIDE, RadLight, rad_scene_direct, rad_scene_point_irradiance,
 };
 pub use scene::{
     RadScene, rad_first_exitance, rad_scene_corner_indirect, rad_scene_free, rad_scene_from_bytes,

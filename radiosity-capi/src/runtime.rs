@@ -18,6 +18,10 @@ pub const RAD_LIGHT_SPOT: u32 = 1;
 /// A directional light (a sun): `direction` (the way the light travels), `value` =
 /// irradiance in W/m^2 on a surface facing it.
 pub const RAD_LIGHT_DIRECTIONAL: u32 = 2;
+/// A uniform sky: `value` = radiance in W/(m^2 sr), the same from every direction of the
+/// sphere; it reaches each patch and point through the file's sky visibility (a file baked
+/// with `--sky off` refuses it with RAD_ERR_VALUE). Position, direction and cone unused.
+pub const RAD_LIGHT_SKY: u32 = 3;
 
 /// Point status of rad_scene_point_irradiance: the point is answered.
 pub const RAD_POINT_OK: i32 = 0;
@@ -32,7 +36,7 @@ pub const RAD_POINT_OUTSIDE: i32 = 2;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RadLight {
-    /// RAD_LIGHT_POINT, RAD_LIGHT_SPOT or RAD_LIGHT_DIRECTIONAL.
+    /// RAD_LIGHT_POINT, RAD_LIGHT_SPOT, RAD_LIGHT_DIRECTIONAL or RAD_LIGHT_SKY.
     pub kind: u32,
     /// Point, spot: where the light is, in scene units.
     pub position: [f32; 3],
@@ -41,7 +45,8 @@ pub struct RadLight {
     pub direction: [f32; 3],
     /// Spot: the cone's half-angle in degrees, in (0, 180].
     pub cone_deg: f32,
-    /// Point, spot: intensity in W/sr; directional: irradiance in W/m^2. Finite, not negative.
+    /// Point, spot: intensity in W/sr; directional: irradiance in W/m^2; sky: radiance in
+    /// W/(m^2 sr). Finite, not negative.
     pub value: RadRgb,
 }
 
@@ -64,11 +69,12 @@ fn light(i: usize, l: &RadLight) -> Result<Light, Failure> {
             direction: Vec3::from(l.direction),
             irradiance: value,
         },
+        RAD_LIGHT_SKY => Light::Sky { radiance: value },
         k => {
             return Err(Failure::new(
                 RAD_ERR_VALUE,
                 format!(
-                    "light {i}: unknown kind {k} (RAD_LIGHT_POINT 0, RAD_LIGHT_SPOT 1, RAD_LIGHT_DIRECTIONAL 2)"
+                    "light {i}: unknown kind {k} (RAD_LIGHT_POINT 0, RAD_LIGHT_SPOT 1, RAD_LIGHT_DIRECTIONAL 2, RAD_LIGHT_SKY 3)"
                 ),
             ));
         }

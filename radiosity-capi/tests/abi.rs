@@ -495,3 +495,49 @@ fn bad_probe_calls_are_refused_with_a_message() {
         rad_scene_free(scene);
     }
 }
+
+#[test]
+fn sky_light_through_the_abi_equals_the_runtime() {
+    let file = sample_file(64, 3, Format::Bc1, 16);
+    let n = file.n();
+    let radiance = RadRgb {
+        r: 0.5,
+        g: 1.0,
+        b: 2.0,
+    };
+    let sky = RadLight {
+        kind: RAD_LIGHT_SKY,
+        value: radiance,
+        ..RadLight::default()
+    };
+    let rt = radiosity_runtime::BakedScene::new(file.clone().into_owned());
+    let want = rt
+        .direct(&[radiosity_core::Light::Sky {
+            radiance: Rgb::new(0.5, 1.0, 2.0),
+        }])
+        .unwrap();
+    // The sample's sky visibility grows with the patch index: the last patch is lit.
+    assert!(want[n - 1].g > 0.0);
+    let scene = scene_of(&file);
+    let mut got = vec![Rgb::ZERO; n];
+    // SAFETY: `scene` is live until freed below; `sky` is one light; `got` holds n values.
+    let code = unsafe { rad_scene_direct(scene, &sky, 1, as_rad_mut(&mut got).as_mut_ptr(), n) };
+    assert_eq!(code, RAD_OK, "{}", last_error());
+    assert_eq!(got, want);
+    // SAFETY: freed once, not used after.
+    unsafe { rad_scene_free(scene) };
+
+    // A file baked without sky visibility refuses the sky rather than leaving it out.
+    let mut bare = sample_file(64, 3, Format::Bc1, 16);
+    bare.sky = None;
+    let scene = scene_of(&bare);
+    let mut untouched = vec![Rgb::ONE; n];
+    // SAFETY: as above.
+    let code =
+        unsafe { rad_scene_direct(scene, &sky, 1, as_rad_mut(&mut untouched).as_mut_ptr(), n) };
+    assert_eq!(code, RAD_ERR_VALUE);
+    assert!(last_error().contains("--sky on"), "{}", last_error());
+    assert_eq!(untouched, vec![Rgb::ONE; n], "nothing written when refused");
+    // SAFETY: freed once, not used after.
+    unsafe { rad_scene_free(scene) };
+}
