@@ -276,4 +276,70 @@ mod tests {
             assert!(!err.contains('\n'), "{err}");
         }
     }
+
+    /// Writes a `w × h` Radiance `.hdr` whose texel (x, y) is `f(x, y)` in every channel.
+    fn write_hdr(path: &Path, w: u32, h: u32, f: impl Fn(u32, u32) -> f32) {
+        let img = image::Rgb32FImage::from_fn(w, h, |x, y| image::Rgb([f(x, y); 3]));
+        img.save(path).unwrap();
+    }
+
+    #[test]
+    fn parses_a_sky_and_an_environment_relative_to_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        // Left half of the image 1, right half 3: u < 0.5 is the −Z..+X..+Z side.
+        write_hdr(&dir.path().join("sky.hdr"), 8, 4, |x, _| {
+            if x < 4 { 1.0 } else { 3.0 }
+        });
+        let lights_path = dir.path().join("lights.json");
+        std::fs::write(
+            &lights_path,
+            r#"{"lights":[{"type":"sky","radiance":[0.5,1,2]},
+                {"type":"environment","path":"sky.hdr","intensity":2.0,"rotation_deg":0}]}"#,
+        )
+        .unwrap();
+        let l = load(&lights_path).unwrap();
+        assert!(matches!(l[0], Light::Sky { radiance } if radiance == Rgb::new(0.5, 1.0, 2.0)));
+        let Light::Environment(env) = &l[1] else {
+            panic!("an environment light")
+        };
+        assert_eq!(env.size(), (8, 4));
+        // +X is at u = 0.25 (left half), −X at u = 0.75 (right half); intensity 2 scales both.
+        assert!((env.radiance(Vec3::X).r - 2.0).abs() < 1e-5);
+        assert!((env.radiance(-Vec3::X).r - 6.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn refuses_bad_skies_and_environments() {
+        let dir = tempfile::tempdir().unwrap();
+        image::RgbImage::new(4, 2)
+            .save(dir.path().join("sky.png"))
+            .unwrap();
+        write_hdr(&dir.path().join("neg.hdr"), 4, 2, |_, _| 1.0);
+        for (text, needle) in [
+            (
+                r#"{"lights":[{"type":"sky","radiance":[-1,0,0]}]}"#,
+                "negative",
+            ),
+            (
+                r#"{"lights":[{"type":"environment","path":"none.hdr","intensity":1,"rotation_deg":0}]}"#,
+                "cannot read environment",
+            ),
+            (
+                r#"{"lights":[{"type":"environment","path":"sky.png","intensity":1,"rotation_deg":0}]}"#,
+                "not a Radiance .hdr or OpenEXR",
+            ),
+            (
+                r#"{"lights":[{"type":"environment","path":"neg.hdr","intensity":-1,"rotation_deg":0}]}"#,
+                "intensity",
+            ),
+            (
+                r#"{"lights":[{"type":"environment","path":"neg.hdr","intensity":1}]}"#,
+                "rotation_deg",
+            ),
+        ] {
+            let err = format!("{:#}", parse_in(text, dir.path()).unwrap_err());
+            assert!(err.contains(needle), "{text}: {err}");
+            assert!(!err.contains('\n'), "{err}");
+        }
+    }
 }
