@@ -81,7 +81,13 @@ fn floor_irradiance(sheet_material: serde_json::Value) -> f64 {
     let (direct, at_samples) = rt.direct_with_samples(&lights).unwrap();
     let n = rt.file.n();
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
-    radiosity_core::finish_frame(&rt.file.patches, &direct, &vec![Rgb::ZERO; n], &mut h, &mut b);
+    radiosity_core::finish_frame(
+        &rt.file.patches,
+        &direct,
+        &vec![Rgb::ZERO; n],
+        &mut h,
+        &mut b,
+    );
     radiosity_runtime::objects::per_object(&rt.file, &h, &b, &direct, &at_samples)
         .into_iter()
         .find(|o| o.name == "floor")
@@ -91,8 +97,10 @@ fn floor_irradiance(sheet_material: serde_json::Value) -> f64 {
 
 #[test]
 fn a_wholly_cut_out_sheet_lets_the_sun_through_an_opaque_one_does_not() {
-    let cut = floor_irradiance(json!({"name": "leaf", "alphaMode": "MASK", "alphaCutoff": 0.5,
-        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 0.2], "metallicFactor": 0.0}}));
+    let cut = floor_irradiance(
+        json!({"name": "leaf", "alphaMode": "MASK", "alphaCutoff": 0.5,
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 0.2], "metallicFactor": 0.0}}),
+    );
     assert!((cut - 1.0).abs() < 0.01, "cut out: {cut}");
     let opaque = floor_irradiance(json!({"name": "leaf",
         "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 0.2], "metallicFactor": 0.0}}));

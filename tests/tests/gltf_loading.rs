@@ -939,10 +939,16 @@ fn alpha_mask_and_blend_coverage() {
     // The right half of the square is kept: 3/4 of the lower-right triangle, 1/4 of the other,
     // a half in all, to the sampling lattice's resolution (64 per side, 3%).
     let (a, b) = (f64::from(s.coverage[0]), f64::from(s.coverage[1]));
-    assert!((a - 0.75).abs() < 0.03 && (b - 0.25).abs() < 0.03, "{a} {b}");
+    assert!(
+        (a - 0.75).abs() < 0.03 && (b - 0.25).abs() < 0.03,
+        "{a} {b}"
+    );
     assert_eq!(s.coverage[2], 1.0, "the opaque triangle");
     assert!(
-        s.report.warnings.iter().any(|w| w.contains("2 triangle(s) partly cut out")),
+        s.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("2 triangle(s) partly cut out")),
         "{:?}",
         s.report.warnings
     );

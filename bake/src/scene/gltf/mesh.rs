@@ -334,6 +334,12 @@ impl Loader<'_> {
             }
         }
         for c in all {
+            let texcoords = has_uv.then(|| c.map(|v| uv_base + v));
+            let coverage = self.coverage(material, texcoords);
+            if coverage <= 0.0 {
+                self.cut_out_triangles += 1;
+                continue;
+            }
             let obj = match instance.object {
                 Some(o) => o,
                 None => {
@@ -344,12 +350,6 @@ impl Loader<'_> {
                     o
                 }
             };
-            let texcoords = has_uv.then(|| c.map(|v| uv_base + v));
-            let coverage = self.coverage(material, texcoords);
-            if coverage <= 0.0 {
-                self.cut_out_triangles += 1;
-                continue;
-            }
             if coverage < 1.0 && self.scene.coverage.is_empty() {
                 self.scene.coverage = vec![1.0; self.scene.triangles.len()];
             }
