@@ -134,8 +134,8 @@ impl Texture {
         let mut out = [0.0; 3];
         for (x, y, w) in self.taps(u, v) {
             let t = self.texels[y * self.width + x];
-            for c in 0..3 {
-                out[c] += f64::from(t[c]) * w;
+            for (o, &c) in out.iter_mut().zip(&t) {
+                *o += f64::from(c) * w;
             }
         }
         out
