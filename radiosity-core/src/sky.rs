@@ -306,7 +306,7 @@ impl<'a> SkyVisibility<'a> {
 
     /// The section from its bytes (whole `f32`s; [`SkyVisibility::validate`] checks the rest).
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, RadError> {
-        if bytes.len() % (4 * SH_COEFFICIENTS) != 0 {
+        if !bytes.len().is_multiple_of(4 * SH_COEFFICIENTS) {
             return Err(RadError::Invalid {
                 section: SectionKind::Sky,
                 index: 0,

@@ -897,3 +897,93 @@ fn texture_transform_moves_the_uvs() {
     ));
     assert!(e.contains("bad.gltf"), "{e}");
 }
+
+/// `alphaMode`: MASK keeps the fraction of each triangle at or above `alphaCutoff`, BLEND its
+/// mean alpha; a triangle of coverage 0 is left out with one warning; an opaque scene has no
+/// coverage at all; a bad `alphaCutoff` is one error line.
+#[test]
+fn alpha_mask_and_blend_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 2×1 RGBA PNG: white, alpha 0 on the left texel, 1 on the right.
+    let mut png = Vec::new();
+    image::RgbaImage::from_raw(2, 1, vec![255, 255, 255, 0, 255, 255, 255, 255])
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let mut d = Doc::default();
+    d.materials.push(json!({"name": "leaf", "alphaMode": "MASK",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0,
+            "baseColorTexture": {"index": 0}}}));
+    d.materials.push(json!({"name": "solid",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0}}));
+    d.extra.insert(
+        "images".into(),
+        json!([{"uri": format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png))}]),
+    );
+    d.extra.insert("textures".into(), json!([{"source": 0}]));
+    let p = d.positions(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]);
+    let i = d.indices(&[0, 1, 2, 0, 2, 3]);
+    let uv = d.texcoords(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]]);
+    let mut sheet = prim(p, Some(i), 4);
+    sheet["attributes"]["TEXCOORD_0"] = json!(uv);
+    sheet["material"] = json!(0);
+    let solid_p = d.positions(&[[0., 0., 2.], [1., 0., 2.], [0., 1., 2.]]);
+    let mut solid = prim(solid_p, None, 4);
+    solid["material"] = json!(1);
+    let m = d.mesh(None, vec![sheet, solid]);
+    let n = d.node(json!({"mesh": m}));
+
+    let s = Scene::load(&d.write(dir.path(), "mask.gltf", &[n])).unwrap();
+    assert_eq!(s.triangles.len(), 3);
+    assert_eq!(s.coverage.len(), 3, "aligned with the triangles");
+    // The right half of the square is kept: 3/4 of the lower-right triangle, 1/4 of the other,
+    // a half in all, to the sampling lattice's resolution (64 per side, 3%).
+    let (a, b) = (f64::from(s.coverage[0]), f64::from(s.coverage[1]));
+    assert!(
+        (a - 0.75).abs() < 0.03 && (b - 0.25).abs() < 0.03,
+        "{a} {b}"
+    );
+    assert_eq!(s.coverage[2], 1.0, "the opaque triangle");
+    assert!(
+        s.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("2 triangle(s) partly cut out")),
+        "{:?}",
+        s.report.warnings
+    );
+
+    // BLEND: the mean alpha, a half over the square (bilinear alpha, symmetric about u = ½).
+    d.materials[0]["alphaMode"] = json!("BLEND");
+    let s = Scene::load(&d.write(dir.path(), "blend.gltf", &[n])).unwrap();
+    let mean = 0.5 * f64::from(s.coverage[0] + s.coverage[1]);
+    assert!((mean - 0.5).abs() < 0.03, "{mean}");
+
+    // MASK with a factor alpha under the cutoff: the whole sheet is cut out and left out.
+    d.materials[0]["alphaMode"] = json!("MASK");
+    d.materials[0]["alphaCutoff"] = json!(0.8);
+    d.materials[0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.5, 0.5, 0.5, 0.7]);
+    let s = Scene::load(&d.write(dir.path(), "gone.gltf", &[n])).unwrap();
+    assert_eq!(s.triangles.len(), 1, "only the opaque triangle");
+    assert!(s.coverage.is_empty(), "what is left is opaque");
+    let said: Vec<&String> = s
+        .report
+        .warnings
+        .iter()
+        .filter(|w| w.contains("cut out"))
+        .collect();
+    assert_eq!(said.len(), 1, "{said:?}");
+    assert!(said[0].contains("2 triangle(s) wholly cut out"), "{said:?}");
+
+    // OPAQUE (the default): no coverage, as before.
+    d.materials[0].as_object_mut().unwrap().remove("alphaMode");
+    let s = Scene::load(&d.write(dir.path(), "opaque.gltf", &[n])).unwrap();
+    assert_eq!(s.triangles.len(), 3);
+    assert!(s.coverage.is_empty());
+
+    // A negative alphaCutoff: one error line naming it.
+    d.materials[0]["alphaMode"] = json!("MASK");
+    d.materials[0]["alphaCutoff"] = json!(-1.0);
+    let e = load_err(&d.write(dir.path(), "bad.gltf", &[n]));
+    assert!(e.contains("alphaCutoff -1"), "{e}");
+}

@@ -181,6 +181,11 @@ pub struct Scene {
     /// shows ([`Self::reflectance_over`]) has each channel at or above `threshold` lowered to
     /// `cap`. `None` for built scenes: reflectance as given.
     pub reflectance_limit: Option<(f64, f64)>,
+    /// Per-triangle alpha coverage in `[0, 1]` (glTF `alphaMode` MASK: the fraction of the
+    /// triangle at or above `alphaCutoff`; BLEND: its mean alpha), aligned with `triangles`;
+    /// empty when every triangle is opaque (coverage 1). Triangles of coverage 0 are not
+    /// loaded (see docs/decisions/alpha-coverage.md).
+    pub coverage: Vec<f32>,
 }
 
 impl LoadReport {

@@ -9,6 +9,9 @@ pub struct Texture {
     width: usize,
     height: usize,
     texels: Vec<[f32; 3]>,
+    /// Linear alpha per texel, row-major like `texels`; empty when the image has none
+    /// (alpha 1 everywhere).
+    alpha: Vec<f32>,
 }
 
 /// sRGB transfer function inverse: 8-bit albedo maps are sRGB-encoded by convention.
@@ -37,6 +40,14 @@ impl Texture {
             path: path.into(),
             message: format!("{what}{e}"),
         })?;
+        let alpha: Vec<f32> = if img.color().has_alpha() {
+            img.to_rgba32f()
+                .pixels()
+                .map(|p| p[3].clamp(0.0, 1.0))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let rgb = img.to_rgb32f();
         let (width, height) = (rgb.width() as usize, rgb.height() as usize);
         if width == 0 || height == 0 {
@@ -60,6 +71,7 @@ impl Texture {
             width,
             height,
             texels,
+            alpha,
         })
     }
 
@@ -71,11 +83,25 @@ impl Texture {
             width,
             height,
             texels,
+            alpha: Vec::new(),
         }
     }
 
-    /// Bilinear sample with wrap-around (`repeat`) addressing at texture coordinate `(u, v)`.
-    pub fn sample(&self, u: f64, v: f64) -> [f64; 3] {
+    /// The texture with linear alpha `alpha` per texel (row-major, as `texels`).
+    pub fn with_alpha(mut self, alpha: Vec<f32>) -> Self {
+        assert_eq!(alpha.len(), self.width * self.height, "alpha count");
+        self.alpha = alpha.into_iter().map(|a| a.clamp(0.0, 1.0)).collect();
+        self
+    }
+
+    /// Whether the image carries an alpha channel.
+    pub fn has_alpha(&self) -> bool {
+        !self.alpha.is_empty()
+    }
+
+    /// The texel row and column of texture coordinate `(u, v)` (wrap-around) and the
+    /// bilinear weights: `[(x, y, weight); 4]`.
+    fn taps(&self, u: f64, v: f64) -> [(usize, usize, f64); 4] {
         // OBJ's v runs up, image rows run down.
         let x = u.rem_euclid(1.0) * self.width as f64 - 0.5;
         let y = (1.0 - v.rem_euclid(1.0)) * self.height as f64 - 0.5;
@@ -84,12 +110,33 @@ impl Texture {
         let wrap = |i: f64, n: usize| (i as i64).rem_euclid(n as i64) as usize;
         let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
         let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
-        let t = |x: usize, y: usize| self.texels[y * self.width + x];
+        [
+            (xa, ya, (1.0 - fx) * (1.0 - fy)),
+            (xb, ya, fx * (1.0 - fy)),
+            (xa, yb, (1.0 - fx) * fy),
+            (xb, yb, fx * fy),
+        ]
+    }
+
+    /// Bilinear alpha at texture coordinate `(u, v)` (1 without an alpha channel).
+    pub fn sample_alpha(&self, u: f64, v: f64) -> f64 {
+        if self.alpha.is_empty() {
+            return 1.0;
+        }
+        self.taps(u, v)
+            .iter()
+            .map(|&(x, y, w)| f64::from(self.alpha[y * self.width + x]) * w)
+            .sum()
+    }
+
+    /// Bilinear sample with wrap-around (`repeat`) addressing at texture coordinate `(u, v)`.
+    pub fn sample(&self, u: f64, v: f64) -> [f64; 3] {
         let mut out = [0.0; 3];
-        for c in 0..3 {
-            let top = t(xa, ya)[c] as f64 * (1.0 - fx) + t(xb, ya)[c] as f64 * fx;
-            let bot = t(xa, yb)[c] as f64 * (1.0 - fx) + t(xb, yb)[c] as f64 * fx;
-            out[c] = top * (1.0 - fy) + bot * fy;
+        for (x, y, w) in self.taps(u, v) {
+            let t = self.texels[y * self.width + x];
+            for (o, &c) in out.iter_mut().zip(&t) {
+                *o += f64::from(c) * w;
+            }
         }
         out
     }
@@ -97,43 +144,64 @@ impl Texture {
     /// Mean over the UV triangle `uv`, by a fixed barycentric lattice of `k(k+1)/2` points with
     /// `k` chosen from the triangle's texel footprint (at most 64 per side).
     pub(crate) fn mean_over_triangle(&self, uv: [[f64; 2]; 3]) -> [f64; 3] {
+        let mut acc = [0.0; 3];
+        let mut n = 0.0;
+        self.lattice(uv, |u, v| {
+            let s = self.sample(u, v);
+            for ch in 0..3 {
+                acc[ch] += s[ch];
+            }
+            n += 1.0;
+        });
+        acc.map(|x| x / n)
+    }
+
+    /// The alpha coverage of the UV triangle `uv` (same lattice as
+    /// [`Self::mean_over_triangle`]), alpha being the texel's times `factor`: with
+    /// `cutoff` (glTF MASK) the fraction of points at or above it, without (BLEND) the mean.
+    pub(crate) fn coverage_over_triangle(
+        &self,
+        uv: [[f64; 2]; 3],
+        factor: f64,
+        cutoff: Option<f64>,
+    ) -> f64 {
+        let (mut acc, mut n) = (0.0, 0.0);
+        self.lattice(uv, |u, v| {
+            let a = self.sample_alpha(u, v) * factor;
+            acc += match cutoff {
+                Some(c) => f64::from(u8::from(a >= c)),
+                None => a,
+            };
+            n += 1.0;
+        });
+        acc / n
+    }
+
+    /// Calls `f(u, v)` at the centroids of the k² sub-triangles of a regular subdivision of
+    /// the UV triangle `uv` (equal weights), `k` from its texel footprint (1 to 64).
+    fn lattice(&self, uv: [[f64; 2]; 3], mut f: impl FnMut(f64, f64)) {
         let span = |i: usize| {
             let (a, b) = (uv[i], uv[(i + 1) % 3]);
             ((a[0] - b[0]) * self.width as f64).hypot((a[1] - b[1]) * self.height as f64)
         };
         let k = (span(0).max(span(1)).max(span(2)).ceil() as usize).clamp(1, 64);
-        let mut acc = [0.0; 3];
-        let mut n = 0.0;
-        // Centroids of the k² sub-triangles of a regular subdivision: equal weights.
         for i in 0..k {
             for j in 0..k - i {
                 for up in [true, false] {
                     if !up && i + j + 1 >= k {
                         continue;
                     }
-                    let (a, b) = if up {
-                        (
-                            (i as f64 + 1.0 / 3.0) / k as f64,
-                            (j as f64 + 1.0 / 3.0) / k as f64,
-                        )
-                    } else {
-                        (
-                            (i as f64 + 2.0 / 3.0) / k as f64,
-                            (j as f64 + 2.0 / 3.0) / k as f64,
-                        )
-                    };
+                    let off = if up { 1.0 / 3.0 } else { 2.0 / 3.0 };
+                    let a = (i as f64 + off) / k as f64;
+                    let b = (j as f64 + off) / k as f64;
                     let c = 1.0 - a - b;
-                    let u = a * uv[0][0] + b * uv[1][0] + c * uv[2][0];
-                    let v = a * uv[0][1] + b * uv[1][1] + c * uv[2][1];
-                    let s = self.sample(u, v);
-                    for ch in 0..3 {
-                        acc[ch] += s[ch];
-                    }
-                    n += 1.0;
+                    f(
+                        a * uv[0][0] + b * uv[1][0] + c * uv[2][0],
+                        a * uv[0][1] + b * uv[1][1] + c * uv[2][1],
+                    );
                 }
             }
         }
-        acc.map(|x| x / n)
     }
 }
 
@@ -151,6 +219,27 @@ mod tests {
         // Bilinear filtering with wrap blurs the edge symmetrically: the mean is exact to the
         // lattice resolution.
         assert!((m - 0.5).abs() < 0.02, "mean {m}");
+    }
+
+    #[test]
+    fn mask_coverage_of_half_cut_texture() {
+        // Alpha 0 on the left half, 1 on the right: under MASK (cutoff 0.5) half the square
+        // is kept; under BLEND the mean alpha is a half too; factor 0.4 under MASK keeps none.
+        let t = Texture::from_texels(2, 1, vec![[1.0; 3]; 2]).with_alpha(vec![0.0, 1.0]);
+        let tris = [
+            [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
+            [[0.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+        ];
+        let both = |factor, cutoff| {
+            0.5 * tris
+                .iter()
+                .map(|&uv| t.coverage_over_triangle(uv, factor, cutoff))
+                .sum::<f64>()
+        };
+        // The lattice has 64 points per side: the edge is resolved to about 1/64.
+        assert!((both(1.0, Some(0.5)) - 0.5).abs() < 0.03);
+        assert!((both(1.0, None) - 0.5).abs() < 0.03);
+        assert_eq!(both(0.4, Some(0.5)), 0.0);
     }
 
     #[test]

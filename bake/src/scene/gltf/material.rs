@@ -172,8 +172,23 @@ impl Loader<'_> {
         if m.normal_texture().is_some() || m.occlusion_texture().is_some() {
             self.ignored.insert("normal and occlusion textures");
         }
-        if m.alpha_mode() != ::gltf::material::AlphaMode::Opaque {
-            self.ignored.insert("alphaMode (surfaces are opaque)");
+        let alpha = match m.alpha_mode() {
+            ::gltf::material::AlphaMode::Opaque => None,
+            ::gltf::material::AlphaMode::Blend => Some((f64::from(f[3]), None)),
+            ::gltf::material::AlphaMode::Mask => {
+                let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+                if !cutoff.is_finite() || cutoff < 0.0 {
+                    return Err(bad(format!(
+                        "alphaCutoff {cutoff} must be finite and not negative"
+                    )));
+                }
+                Some((f64::from(f[3]), Some(f64::from(cutoff))))
+            }
+        };
+        if let Some((a, _)) = alpha
+            && !(a.is_finite() && (0.0..=1.0).contains(&a))
+        {
+            return Err(bad(format!("baseColorFactor alpha {a} must be in [0, 1]")));
         }
         let pi = std::f64::consts::PI;
         self.scene.materials.push(Material {
@@ -188,6 +203,9 @@ impl Loader<'_> {
         });
         let i = (self.scene.materials.len() - 1) as u32;
         self.tex_coord_of.insert(i, texture.map_or(0, |(_, c)| c));
+        if let Some(a) = alpha {
+            self.alpha_of.insert(i, a);
+        }
         if let Some(m) = transform {
             self.tex_transform_of.insert(i, m);
         }

@@ -334,6 +334,12 @@ impl Loader<'_> {
             }
         }
         for c in all {
+            let texcoords = has_uv.then(|| c.map(|v| uv_base + v));
+            let coverage = self.coverage(material, texcoords);
+            if coverage <= 0.0 {
+                self.cut_out_triangles += 1;
+                continue;
+            }
             let obj = match instance.object {
                 Some(o) => o,
                 None => {
@@ -344,13 +350,42 @@ impl Loader<'_> {
                     o
                 }
             };
+            if coverage < 1.0 && self.scene.coverage.is_empty() {
+                self.scene.coverage = vec![1.0; self.scene.triangles.len()];
+            }
+            if coverage < 1.0 || !self.scene.coverage.is_empty() {
+                self.scene.coverage.push(coverage as f32);
+            }
             self.scene.triangles.push(Triangle {
                 vertices: c.map(|v| base + v),
-                texcoords: has_uv.then(|| c.map(|v| uv_base + v)),
+                texcoords,
                 object: obj,
                 material,
                 line: 0,
             });
+        }
+    }
+
+    /// The alpha coverage of a triangle of `material` with texture coordinates `texcoords`
+    /// (indices into the scene's): 1 for an opaque material; for MASK the fraction of the
+    /// triangle whose alpha (texture × `baseColorFactor` alpha) is at or above `alphaCutoff`;
+    /// for BLEND its mean alpha.
+    fn coverage(&self, material: u32, texcoords: Option<[u32; 3]>) -> f64 {
+        let Some(&(factor, cutoff)) = self.alpha_of.get(&material) else {
+            return 1.0;
+        };
+        let texture = self.scene.materials[material as usize]
+            .texture
+            .map(|t| &self.scene.textures[t as usize]);
+        match (texture, texcoords) {
+            (Some(t), Some(tc)) if t.has_alpha() => {
+                let uv = tc.map(|i| self.scene.texcoords[i as usize]);
+                t.coverage_over_triangle(uv, factor, cutoff)
+            }
+            _ => match cutoff {
+                Some(c) => f64::from(u8::from(factor >= c)),
+                None => factor,
+            },
         }
     }
 

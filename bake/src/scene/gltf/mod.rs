@@ -40,6 +40,11 @@ struct Loader<'a> {
     /// Each textured material's `KHR_texture_transform` as the rows of a 2 × 3 affine map of
     /// glTF UVs (`offset + R·S·uv`), absent for none.
     tex_transform_of: HashMap<u32, [[f64; 3]; 2]>,
+    /// Each scene material with `alphaMode` MASK or BLEND: `(baseColorFactor` alpha,
+    /// `alphaCutoff` for MASK`)`.
+    alpha_of: HashMap<u32, (f64, Option<f64>)>,
+    /// Triangles left out because their alpha coverage is 0 (wholly cut out or transparent).
+    cut_out_triangles: usize,
     /// Object names used so far, for `name#2`.
     names: HashSet<String>,
     ignored: BTreeSet<&'static str>,
@@ -75,6 +80,8 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
         images: HashMap::new(),
         tex_coord_of: HashMap::new(),
         tex_transform_of: HashMap::new(),
+        alpha_of: HashMap::new(),
+        cut_out_triangles: 0,
         names: HashSet::new(),
         ignored: BTreeSet::new(),
         skipped_primitives: 0,
@@ -255,6 +262,20 @@ impl Loader<'_> {
                 "{}: {} primitive(s) lack the TEXCOORD set their material's baseColorTexture uses; their reflectance is baseColorFactor alone",
                 path.display(),
                 self.missing_texcoords
+            ));
+        }
+        if self.cut_out_triangles > 0 {
+            report.warnings.push(format!(
+                "{}: {} triangle(s) wholly cut out or transparent (alphaMode, coverage 0) left out",
+                path.display(),
+                self.cut_out_triangles
+            ));
+        }
+        let partial = self.scene.coverage.iter().filter(|&&c| c < 1.0).count();
+        if partial > 0 {
+            report.warnings.push(format!(
+                "{}: {partial} triangle(s) partly cut out or transparent (alphaMode) are baked opaque",
+                path.display()
             ));
         }
         if self.closed_double_sided > 0 {
