@@ -184,10 +184,8 @@ pub const MAX_DIRECT_POINTS: u32 = 64;
 /// equal share: the centred Hammersley set `((k + ½)/K, φ₂(k) + ½/K)` mapped through the
 /// pieces' areas (`hemisphere::patch_point_at`), the first coordinate picking the piece by
 /// area. A patch of `K` pieces or more gives each piece points in proportion to its area,
-/// `max(1, ⌈K·a/A⌉)` for a piece of area `a` in a patch of area `A` (the same set through the
-/// piece; the pieces of one point take one point each of one set over all of them, so that
-/// together they cover the patch and not only their centroids, which on a column's sides are
-/// a third and two thirds up): where the small parts of several objects share a patch
+/// `max(1, ⌈K·a/A⌉)` for a piece of area `a` in a patch of area `A` (its centroid for one, else
+/// the same set through the piece): where the small parts of several objects share a patch
 /// with a large surface (the tops of boxes in a yard with the ground around them), each part
 /// keeps a point of its own and the large surface about `K`, where one centroid a piece left
 /// the ground of a cell full of boxes' shadows one point. No randomness: the same patch gets
@@ -206,7 +204,8 @@ pub(crate) fn direct_points(
         |within: &[crate::simplify::Piece], area: f64, n: u32, out: &mut Vec<DirectPoint>| {
             let nf = f64::from(n);
             for k in 0..n {
-                let (u, v) = hammersley_uv(k, n);
+                let u = (f64::from(k) + 0.5) / nf;
+                let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
                 let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
                 out.push(DirectPoint {
                     position: x,
@@ -222,26 +221,13 @@ pub(crate) fn direct_points(
         return points;
     }
     let k_all = f64::from(min_points);
-    // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
-    let counts: Vec<u32> = live
-        .iter()
-        .map(|q| (k_all * q.area / total - 1e-9).ceil().max(1.0) as u32)
-        .collect();
-    // The pieces of one point take the points of one stratified set over their number, each
-    // its own: the side triangles of a column sample many heights between them, where their
-    // centroids sampled two (a third and two thirds up), both lit or both dark under an
-    // overhang's shadow.
-    let singles = counts.iter().filter(|&&n| n == 1).count() as u32;
-    let mut single = 0u32;
-    for (q, &n) in live.iter().zip(&counts) {
+    for q in &live {
+        // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
+        let n = (k_all * q.area / total - 1e-9).ceil().max(1.0) as u32;
         if n == 1 {
-            let (u, v) = hammersley_uv(single, singles);
-            single += 1;
-            let (_, position, normal) =
-                crate::hemisphere::patch_point_on(core::slice::from_ref(q), q.area, u, v);
             points.push(DirectPoint {
-                position,
-                normal,
+                position: q.polygon.centroid(),
+                normal: q.normal,
                 area: q.area,
                 object: q.object,
             });
@@ -250,15 +236,6 @@ pub(crate) fn direct_points(
         }
     }
     points
-}
-
-/// Point `k` of the centred Hammersley set of `n` in the unit square,
-/// `((k + ½)/n, φ₂(k) + ½/n)` (the second coordinate wrapped into `[0, 1)`).
-fn hammersley_uv(k: u32, n: u32) -> (f64, f64) {
-    let nf = f64::from(n);
-    let u = (f64::from(k) + 0.5) / nf;
-    let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
-    (u, v)
 }
 
 /// A point where the runtime samples direct light on a patch ([`direct_points`]).
@@ -330,13 +307,11 @@ mod tests {
             let below = pts.iter().filter(|p| p.position.x >= p.position.y).count();
             assert_eq!(2 * below, n as usize + (n as usize % 2), "{pts:?}");
         }
-        // As many pieces as points asked: one point in each piece, standing for its area.
+        // As many pieces as points asked: the centroids.
         let pts = direct_points(&square, 2);
-        assert!(pts[0].position.x >= pts[0].position.y, "{pts:?}");
-        assert!(pts[1].position.y >= pts[1].position.x, "{pts:?}");
-        assert!(pts.iter().all(|p| (p.area - 0.5).abs() < 1e-12));
+        assert!((pts[0].position - (o + x + xy) / 3.0).length() < 1e-12);
         // A sliver of a thousandth of the patch beside the square, 3 points asked: the
-        // sliver keeps one point; each half of the square ⌈3/2⌉ = 2.
+        // sliver keeps one point, its centroid; each half of the square ⌈3/2⌉ = 2.
         let sliver = piece(
             dvec3(2.0, 0.0, 0.0),
             dvec3(2.0447, 0.0, 0.0),
@@ -347,46 +322,5 @@ mod tests {
         assert_eq!(pts.iter().filter(|p| p.position.x >= 2.0).count(), 1);
         let area: f64 = pts.iter().map(|p| p.area).sum();
         assert!((area - 1.0 - sliver.area).abs() < 1e-12, "{area}");
-    }
-
-    /// A column's side as one patch of 32 tall triangles (16 faces, 4 points asked, so one a
-    /// piece): under a shadow line at height `y` (an overhang's), the share of its sampled area
-    /// lit must follow `1 − y`. Each triangle's centroid sits a third or two thirds up, so
-    /// centroids see the line at only two heights and are off by up to 0.33 of the area (0.325
-    /// measured on this grid of heights); one stratified set over the 32 pieces spreads their
-    /// points over the height, off by 0.16 at worst on this grid (a 32-point set through the
-    /// triangles' maps, whose pairing of pieces and strata is not tuned). 0.2 keeps a margin
-    /// under the centroids' 0.33.
-    #[test]
-    fn the_pieces_of_a_column_sample_its_whole_height() {
-        let sides = 16;
-        let ring: Vec<(f64, f64)> = (0..sides)
-            .map(|k| {
-                let a = core::f64::consts::TAU * f64::from(k) / f64::from(sides);
-                (0.2 * a.cos(), -0.2 * a.sin())
-            })
-            .collect();
-        let mut pieces = Vec::new();
-        for k in 0..sides as usize {
-            let ((ax, az), (bx, bz)) = (ring[k], ring[(k + 1) % sides as usize]);
-            let (a0, b0) = (dvec3(ax, 0.0, az), dvec3(bx, 0.0, bz));
-            let (a1, b1) = (dvec3(ax, 1.0, az), dvec3(bx, 1.0, bz));
-            pieces.push(piece(a0, b0, b1));
-            pieces.push(piece(a0, b1, a1));
-        }
-        let pts = direct_points(&pieces, 4);
-        assert_eq!(pts.len(), 32, "one point a piece");
-        let total: f64 = pts.iter().map(|p| p.area).sum();
-        let mut worst = 0.0f64;
-        for i in 1..40 {
-            let y = f64::from(i) / 40.0;
-            let below: f64 = pts
-                .iter()
-                .filter(|p| p.position.y < y)
-                .map(|p| p.area)
-                .sum();
-            worst = worst.max((below / total - y).abs());
-        }
-        assert!(worst < 0.2, "sampled share below a height off by {worst}");
     }
 }
