@@ -236,7 +236,7 @@ fn point_light_follows_the_inverse_square_cosine_law_and_casts_a_hard_shadow() {
         position: Vec3::new(0.0, 0.0, h as f32),
         intensity: radiosity_core::Rgb::new(1.0, 2.0, 3.0),
     };
-    let est = PathTracer::new(&scene, &[light.clone()])
+    let est = PathTracer::new(&scene, std::slice::from_ref(&light))
         .unwrap()
         .object_irradiance(3000, 5);
     let e = estimate(&est, "lit");
