@@ -71,10 +71,12 @@ pub enum BakeError {
         extension: String,
     },
     /// The scene has no usable (non-degenerate) triangle.
-    #[error("{}: the scene has no non-degenerate triangle", path.display())]
+    #[error("{}: the scene has no non-degenerate triangle{why}", path.display())]
     EmptyScene {
         /// The scene file.
         path: PathBuf,
+        /// What the file holds instead (`""`, or `": …"` naming it).
+        why: String,
     },
     /// The scene loaded but cannot be baked: its scale is outside what the file's f32 fields
     /// hold.

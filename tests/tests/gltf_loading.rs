@@ -326,6 +326,14 @@ fn points_and_lines_are_skipped_with_one_warning() {
         .collect();
     assert_eq!(w.len(), 1, "{:?}", scene.report.warnings);
     assert!(w[0].contains("3 point or line primitive"), "{}", w[0]);
+    // Points and lines alone: refused, and the error says why there is nothing to bake.
+    let m = d.mesh(None, vec![prim(p, None, 0), prim(p, None, 1)]);
+    let n = d.node(json!({"mesh": m}));
+    let e = load_err(&d.write(dir.path(), "lines.gltf", &[n]));
+    assert!(
+        e.contains("its 2 primitive(s) are points or lines, which have no surface"),
+        "{e}"
+    );
 }
 
 /// Objects: node name, else mesh name, else `node<i>`; a repeated name gets `#2`, `#3`.
@@ -590,6 +598,7 @@ fn gltf_1_is_named_and_a_scene_without_nodes_is_valid() {
         r#"{"asset":{"version":"2.0"},"scenes":[{}],"scene":0}"#,
     ));
     assert!(e.contains("no non-degenerate triangle"), "{e}");
+    assert!(e.contains("its scene has no nodes"), "{e}");
 }
 
 #[test]

@@ -424,7 +424,10 @@ impl Scene {
             }
         }
         if scene.triangles.is_empty() {
-            return Err(BakeError::EmptyScene { path: path.into() });
+            return Err(BakeError::EmptyScene {
+                path: path.into(),
+                why: String::new(),
+            });
         }
         scene.limit_reflectance(options);
         Ok(scene)

@@ -51,6 +51,8 @@ struct Loader<'a> {
     skipped_primitives: usize,
     missing_texcoords: usize,
     closed_double_sided: usize,
+    /// The scene has no root node.
+    no_nodes: bool,
 }
 
 /// Loads a `.gltf` or `.glb` file into a scene.
@@ -87,8 +89,10 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
         skipped_primitives: 0,
         missing_texcoords: 0,
         closed_double_sided: 0,
+        no_nodes: false,
     };
     let roots = loader.roots(&tree);
+    loader.no_nodes = roots.is_empty();
     loader.walk(&roots, &tree)?;
     loader.finish()
 }
@@ -304,7 +308,21 @@ impl Loader<'_> {
         }
         report.warn_skipped(path);
         if self.scene.triangles.is_empty() {
-            return Err(BakeError::EmptyScene { path: path.into() });
+            // Say what the file holds instead: an engine user's first question.
+            let why = if self.skipped_primitives > 0 {
+                format!(
+                    ": its {} primitive(s) are points or lines, which have no surface",
+                    self.skipped_primitives
+                )
+            } else if self.no_nodes {
+                ": its scene has no nodes".to_string()
+            } else {
+                String::new()
+            };
+            return Err(BakeError::EmptyScene {
+                path: path.into(),
+                why,
+            });
         }
         let options = self.options;
         self.scene.limit_reflectance(options);
