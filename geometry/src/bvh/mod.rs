@@ -194,6 +194,11 @@ pub const CONTACT_GAP: f64 = 0.5 * f32::EPSILON as f64;
 /// [`Occluders::first_surface`]).
 pub const SHEET_GAP: f64 = 1e-4;
 
+/// How many faces deep [`Occluders::buried`] follows front faces met inside a solid: a point
+/// on the ground under the lowest of three nested step boxes sees the second's front face,
+/// inside the lowest, and from there the third's (`docs/decisions/shaded-steps.md`).
+const BURIED_DEPTH: u32 = 3;
+
 /// Where a ray first meets a triangle ([`Occluders::closest_hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -600,7 +605,29 @@ impl Occluders {
     /// of the rays leaves `x` exposed, and the twin of a two-sided sheet (the same corners
     /// wound the other way) lies against it without burying it: a sheet in the open is lit on
     /// both sides.
+    ///
+    /// A back face with a front face behind it within [`SHEET_GAP`] (what
+    /// [`Self::facing_sheet`] shows as the near sheet's front) is also where a solid touches
+    /// another: a box standing inside a box with its back against a wall, whose faces lie in the
+    /// wall's plane, or on the ground, whose bottom lies in the ground's plane. A ray from
+    /// inside the box leaves it there, and its first hit is the box's back face tied with the
+    /// wall's front. Such a tie leaves `x` exposed only when no ray meets a plain back face (a
+    /// part facing a two-sided panel whose sheets are out of order sees the ties alone); when
+    /// every ray meets a back face, tied or not, `x` is inside a solid and buried. (Steps
+    /// modelled as boxes from the ground up, each standing inside the one below and all
+    /// against a plinth, kept the tops inside the step above and the backs against the plinth
+    /// as surface: three fifths of each step's exposed area saw nothing, and the patches that
+    /// merged them with the lit strips gave shaded steps up to 10 times the path tracer's
+    /// light, `docs/decisions/shaded-steps.md`.)
     pub fn buried(&self, x: DVec3, normal: DVec3) -> bool {
+        self.buried_within(x, normal, BURIED_DEPTH)
+    }
+
+    /// [`Self::buried`]; a front face met where another ray met a plain back face and no ray
+    /// left is asked in turn whether it is buried (with `depth − 1`; at depth 0 it is taken as
+    /// buried), and if so counts as a back face: the ray met it inside a solid, so `x` lies
+    /// inside that solid too.
+    fn buried_within(&self, x: DVec3, normal: DVec3, depth: u32) -> bool {
         if self.rt.is_empty() || !normal.is_finite() {
             return false;
         }
@@ -609,16 +636,50 @@ impl Occluders {
         let (t1, t2) = normal.any_orthonormal_pair();
         let tilts = [DVec3::ZERO, t1, -t1, t2, -t2];
         let grazing = [t1, -t1, t2, -t2].map(|t| t * 80f64.to_radians().tan());
-        let mut back = true;
+        let (mut back, mut plain_back, mut tied) = (true, false, false);
+        let mut fronts: Vec<(DVec3, DVec3)> = Vec::new();
         for &t in tilts.iter().chain(&grazing) {
             let d = normal + t;
-            match self.first_surface_from_surface(x, d, 10.0 * self.extent) {
-                Some((_, true)) => return false,
-                Some(_) => {}
-                None => back = false,
+            // A ray that leaves with a front face met: exposed, whatever the other rays meet.
+            let Some(hit) = self.closest_hit_from_surface(x, d, 10.0 * self.extent) else {
+                if !fronts.is_empty() {
+                    return false;
+                }
+                back = false;
+                continue;
+            };
+            let (shown, front) = self.facing_sheet(x, d, hit, &|t| self.holds(t, x));
+            match (front && !self.touches(shown.triangle, x), shown == hit) {
+                (true, true) if !back => return false,
+                (true, true) => fronts.push((
+                    x + d.normalize() * hit.distance,
+                    self.front(hit.triangle).normalize_or_zero(),
+                )),
+                (true, false) => tied = true,
+                (false, _) => plain_back = true,
             }
         }
-        // Enclosed: every ray meets a back face. One ray would call a table under a lampshade
+        // A front face met where no ray met a plain back face, or where a ray left: exposed.
+        // Where every ray met something and one a plain back face, the front faces may lie
+        // inside the solid `x` is in (a box standing inside another: the inner box's faces
+        // below the outer one's top), and `x` is buried if they are. Past `depth` faces that
+        // is taken as so: faces inside solids see each other in a cycle (the ground under a
+        // box sees the front of a box inside it, whose foot sees that ground).
+        if !fronts.is_empty() {
+            if !(back && plain_back) {
+                return false;
+            }
+            return depth == 0
+                || fronts
+                    .iter()
+                    .all(|&(p, n)| self.buried_within(p, n, depth - 1));
+        }
+        // Ties alone (a panel's sheets out of order) or with rays that leave: exposed.
+        if tied && !(back && plain_back) {
+            return false;
+        }
+        // Enclosed: every ray meets a back face (or a back face tied with a front, where the
+        // solid it leaves touches another). One ray would call a table under a lampshade
         // (its inside is its back faces) buried, and rays up to 45° the floor under a bucket
         // hung just above it; the grazing rays leave through the gap. Rays from under a block
         // that rests on the floor meet its inside whichever way they go.

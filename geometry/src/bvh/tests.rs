@@ -292,3 +292,72 @@ fn a_two_sided_sheet_in_the_open_is_exposed_on_both_sides() {
     let occ = Occluders::from_triangles(&tris);
     assert!(occ.buried(dvec3(0.5, 0.5, 0.0), DVec3::Z));
 }
+
+/// Steps modelled as boxes from the ground up to their treads, each higher one standing inside
+/// the one below, all with their backs against a plinth (`scripts/architecture.py`). The faces
+/// inside another box (a lower step's top under the step above, a higher step's front inside
+/// the step below, the backs against the plinth, the bottoms on the ground) are buried; the
+/// treads, the risers above the step below and the sides are exposed. From inside, rays meet
+/// the inner boxes' front faces and the backs tied with the plinth's and the ground's fronts:
+/// before those counted as surface seen, three fifths of each step's area stayed in the matrix
+/// and its patches gathered light inside the boxes (`docs/decisions/shaded-steps.md`).
+#[test]
+fn faces_inside_nested_boxes_are_buried() {
+    let mut tris = quad_y(-20.0, 20.0, 0.0);
+    tris.extend(boxed(dvec3(-6.0, 0.0, 0.0), dvec3(6.0, 0.6, 8.0), true)); // the plinth
+    let (rise, tread) = (0.15, 0.3);
+    for k in 0..4 {
+        let top = rise * f64::from(k + 1);
+        let run = tread * f64::from(4 - k);
+        tris.extend(boxed(dvec3(-1.5, 0.0, -run), dvec3(1.5, top, 0.0), true));
+    }
+    let occ = Occluders::from_triangles(&tris);
+    for k in 0..4 {
+        let top = rise * f64::from(k + 1);
+        let front = -tread * f64::from(4 - k);
+        let exposed = [
+            ("tread", dvec3(0.3, top, front + 0.5 * tread), DVec3::Y),
+            ("riser", dvec3(0.3, top - 0.5 * rise, front), -DVec3::Z),
+            ("side", dvec3(1.5, top - 0.5 * rise, front + 0.1), DVec3::X),
+            (
+                "side",
+                dvec3(-1.5, top - 0.5 * rise, front + 0.1),
+                -DVec3::X,
+            ),
+        ];
+        for (what, x, n) in exposed {
+            assert!(!occ.buried(x, n), "step {k}'s {what} at {x} is exposed");
+        }
+        let mut buried = vec![
+            ("back", dvec3(0.3, 0.5 * top, 0.0), DVec3::Z),
+            ("bottom", dvec3(0.3, 0.0, 0.5 * front), -DVec3::Y),
+        ];
+        if k < 3 {
+            buried.push((
+                "top under the next step",
+                dvec3(-0.37, top, front + 1.53 * tread),
+                DVec3::Y,
+            ));
+        }
+        if k > 0 {
+            let low = 0.5 * rise * f64::from(k);
+            buried.push((
+                "riser inside the step below",
+                dvec3(-0.37, low, front),
+                -DVec3::Z,
+            ));
+        }
+        for (what, x, n) in buried {
+            assert!(occ.buried(x, n), "step {k}'s {what} at {x} is buried");
+        }
+    }
+    // The ground under the lowest step, which sees the next step's riser inside it.
+    assert!(occ.buried(dvec3(0.2, 0.0, -1.05), DVec3::Y));
+    assert!(!occ.buried(dvec3(0.2, 0.0, -1.5), DVec3::Y));
+}
+
+/// A square of the plane `y` from `lo` to `hi` in x and z, facing +y.
+fn quad_y(lo: f64, hi: f64, y: f64) -> Vec<[DVec3; 3]> {
+    let [a, b, c, d] = [(lo, lo), (lo, hi), (hi, hi), (hi, lo)].map(|(x, z)| dvec3(x, y, z));
+    vec![[a, b, c], [a, c, d]]
+}
