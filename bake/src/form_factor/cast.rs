@@ -19,8 +19,10 @@
 //! Keller, "Efficient multidimensional sampling", Eurographics 2002), cosine-weighted about the
 //! piece's own normal. Every stream is seeded by the patch alone, so the matrix is the same on
 //! any thread count. A ray that first meets a back face (the point lies under or inside
-//! something) or nothing counts for no patch: the row is the mean over the patch's whole area,
-//! as the quadrature's is, and the closure divides by the exposed share afterwards.
+//! something) or nothing counts for no patch, nor does one from a buried start (inside a solid
+//! a ray may meet the front of a face inside it too, as in boxes standing inside boxes): the
+//! row is the mean over the patch's whole area, as the quadrature's is, and the closure divides
+//! by the exposed share afterwards.
 
 use super::Progress;
 use crate::geometry::Occluders;
@@ -77,6 +79,10 @@ fn cast_row(
     let mut order: Vec<u32> = (0..rays).collect();
     rng.shuffle(&mut order);
     let far = 10.0 * occ.extent();
+    // The hits (start, its normal, the patch met) and whether any ray met a back face: a
+    // patch whose rays meet none has no point inside a solid.
+    let mut hits: Vec<(DVec3, DVec3, usize)> = Vec::new();
+    let mut inside = false;
     for (k, &p) in order.iter().enumerate() {
         let [u, v] = sobol2(at, k as u32);
         let pick = u * total;
@@ -88,10 +94,25 @@ fn cast_row(
         let (x, n) = patch_point_at(&pieces[q..=q], pieces[q].area, within, v);
         let [a, b] = sobol2(towards, p);
         let d = cosine_at(n, a, b);
-        let Some((h, true)) = occ.first_surface_from_surface(x, d, far) else {
-            continue;
+        let h = match occ.first_surface_from_surface(x, d, far) {
+            Some((h, true)) => h,
+            Some((_, false)) => {
+                inside = true;
+                continue;
+            }
+            None => continue,
         };
         if let Some(j) = owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance) {
+            hits.push((x, n, j));
+        }
+    }
+    // A start inside a solid (a step's top under the step above, `docs/decisions/
+    // shaded-steps.md`) meets the faces inside it, which are buried too: those hits count for
+    // no patch, as its rays that meet back faces, so the row stays the mean over the patch's
+    // whole area with the buried part at 0 and the closure's division by the exposed share
+    // does not magnify them.
+    for (x, n, j) in hits {
+        if !(inside && occ.buried(x, n)) {
             row[j] += 1.0;
         }
     }
