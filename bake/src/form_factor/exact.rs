@@ -26,7 +26,7 @@ pub(super) fn exchange(
     tol: f64,
     rays: &mut u64,
     scratch: &mut Scratch,
-    skip: &dyn Fn(u32) -> bool,
+    skips: &Skips<'_>,
     pair: u64,
 ) -> f64 {
     lay_out_targets(dst, params.quadrature.rule, scratch);
@@ -52,7 +52,7 @@ pub(super) fn exchange(
         dst,
         occ: o,
         params,
-        skip,
+        skips,
         leaf_stream,
     };
     ctx.sample(&mut scratch.samples, whole, rays, total)
@@ -195,13 +195,25 @@ fn source_contributions(
     }
 }
 
+/// What a pair's shadow rays leave out.
+pub(super) struct Skips<'a> {
+    /// Triangles no ray of the pair stops at (a site's own).
+    pub triangle: &'a dyn Fn(u32) -> bool,
+    /// Per source piece, whether some point of it is buried: a ray from such a piece asks
+    /// whether its start is, and one that is reaches nothing. A start inside a solid (a step's
+    /// top under the step above, `docs/decisions/shaded-steps.md`) sees the faces inside that
+    /// solid, which are buried too; the ray-cast rows leave such hits out the same way.
+    /// Empty: no piece is.
+    pub buried: &'a [bool],
+}
+
 /// What drawing the shadow rays of one exact pair needs.
 struct RayContext<'a> {
     src: &'a [Piece],
     dst: &'a [Piece],
     occ: &'a Occluders,
     params: &'a FormFactorParams,
-    skip: &'a dyn Fn(u32) -> bool,
+    skips: &'a Skips<'a>,
     leaf_stream: u64,
 }
 
@@ -221,17 +233,20 @@ impl RayContext<'_> {
             dst,
             occ: o,
             params,
-            skip,
+            skips,
             leaf_stream,
         } = *self;
+        let skip = skips.triangle;
         let per_sample = match params.visibility {
             Visibility::Rays { per_sample, .. } => per_sample.max(1),
             Visibility::Off => 0,
         };
         // Stable: within a piece pair the contributions keep their order.
         samples.sort_by_key(|e| (e.0, e.1));
-        // One shadow ray from source point `x` (drawn with `ray` on leaf `leaf`) of `s` to `t`.
-        let visible = |s: &Piece, t: &Piece, leaf: &[DVec3; 3], ray: u64, k: u64, scramble| {
+        // One shadow ray from source point `x` (drawn with `ray` on leaf `leaf`) of source
+        // piece `si` (`s`) to `t`.
+        let visible = |si: u32, t: &Piece, leaf: &[DVec3; 3], ray: u64, k: u64, scramble| {
+            let s = &src[si as usize];
             // A site stands for a whole patch, usually at one quadrature point: its rays are
             // spread over both polygons, not sent from the point.
             if s.triangle == SITE || t.triangle == SITE {
@@ -243,7 +258,9 @@ impl RayContext<'_> {
                 o.segment_visible_skipping(x, front_point(t, s, k), skip)
             } else {
                 let x = Sample::leaf_point(leaf, ray, scramble);
-                in_front(x, t) && o.reaches(x, ray_end(x, s, t, k), t.triangle)
+                in_front(x, t)
+                    && o.reaches(x, ray_end(x, s, t, k), t.triangle)
+                    && !(skips.buried.get(si as usize) == Some(&true) && o.buried(x, s.normal))
             }
         };
         let same_pieces = |a: &Contribution, b: &Contribution| (a.0, a.1) == (b.0, b.1);
@@ -255,9 +272,9 @@ impl RayContext<'_> {
             let scramble = Sample::leaf_scramble(base);
             let mut sampler = Systematic::new(sum, pair_budget, base);
             for (i, e) in samples.iter().enumerate() {
-                let (s, t) = (&src[e.0 as usize], &dst[e.1 as usize]);
+                let t = &dst[e.1 as usize];
                 sampler.feed(e.3, i + 1 == samples.len(), |ray| {
-                    visible(s, t, &e.2, ray, base + ray, scramble)
+                    visible(e.0, t, &e.2, ray, base + ray, scramble)
                 });
             }
             *rays += sampler.drawn;
@@ -279,7 +296,7 @@ impl RayContext<'_> {
             let scramble = Sample::leaf_scramble(base ^ leaf_stream);
             for (i, e) in group.iter().enumerate() {
                 sampler.feed(e.3, i + 1 == group.len(), |ray| {
-                    visible(s, t, &e.2, ray, base + ray, scramble)
+                    visible(e.0, t, &e.2, ray, base + ray, scramble)
                 });
             }
             *rays += sampler.drawn;

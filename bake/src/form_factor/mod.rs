@@ -189,6 +189,9 @@ struct Pairs<'a> {
     /// Pairs of many pieces go through [`Pairs::clustered`] (the scene has more pieces than
     /// [`FormFactorParams::exact_pieces`]).
     clustered: bool,
+    /// Exact pairs: per piece of `patches.pieces`, whether a point of it was found buried
+    /// ([`partly_buried`]); empty without occluders or when pairs are clustered.
+    buried: Vec<bool>,
 }
 
 impl<'a> Pairs<'a> {
@@ -221,6 +224,14 @@ impl<'a> Pairs<'a> {
                     .fold(0f64, f64::max)
             })
             .collect();
+        let buried = match occ {
+            Some(o) if !use_sites => patches
+                .pieces
+                .par_iter()
+                .map(|p| partly_buried(p, o))
+                .collect(),
+            _ => Vec::new(),
+        };
         Self {
             patches,
             occ,
@@ -230,6 +241,7 @@ impl<'a> Pairs<'a> {
             sites,
             radius,
             clustered: use_sites,
+            buried,
         }
     }
 
@@ -296,6 +308,10 @@ impl<'a> Pairs<'a> {
             }
             (o, ..) => o,
         };
+        let src_buried = self
+            .buried
+            .get(self.patches.patches[a].pieces.clone())
+            .unwrap_or(&[]);
         exact::exchange(
             src,
             dst,
@@ -305,10 +321,27 @@ impl<'a> Pairs<'a> {
             self.tol,
             rays,
             scratch,
-            &skip,
+            &exact::Skips {
+                triangle: &skip,
+                buried: src_buried,
+            },
             (a as u64) << 32 | b as u64,
         )
     }
+}
+
+/// Whether some point of `piece` is buried ([`Occluders::buried`]): its centre or a point a
+/// tenth of the way in from a corner. Only such a piece's shadow rays ask whether their start
+/// is buried (`exact::Skips`), so the test's rays are paid once per piece, not per ray.
+fn partly_buried(piece: &Piece, occ: &Occluders) -> bool {
+    let v = piece.polygon.vertices();
+    if v.is_empty() {
+        return false;
+    }
+    let centre = v.iter().copied().sum::<DVec3>() / v.len() as f64;
+    std::iter::once(centre)
+        .chain(v.iter().map(|&c| c + 0.1 * (centre - c)))
+        .any(|x| occ.buried(x, piece.normal))
 }
 
 /// The fan triangles of a convex polygon, without the slivers that collinear corners (left by
