@@ -29,6 +29,7 @@ mod render;
 mod report;
 mod scene;
 mod solve;
+mod sunset;
 mod view_factors;
 
 use args::BakeArgs;
@@ -61,6 +62,28 @@ enum Command {
         /// Target patch count of the bake.
         #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
         patches: usize,
+    },
+    /// Bake the embedded town square once and set the sun over it: writes sunset.gif and
+    /// sunset.rad (the sun and the sky change every frame, the file stays).
+    Sunset {
+        /// Directory for sunset.gif and sunset.rad.
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+        #[arg(long)]
+        backend: Option<String>,
+        /// Target patch count of the bake.
+        #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
+        patches: usize,
+        /// Frames of the animation, 1 to 600.
+        #[arg(long, value_name = "N", default_value_t = 30)]
+        frames: usize,
+        /// Frame width in pixels, 16 to 2048.
+        #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(16..=2048))]
+        width: u32,
+        /// Frame height in pixels, 16 to 2048.
+        #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(16..=2048))]
+        height: u32,
     },
     /// Bake a scene (OBJ, or glTF 2.0 .gltf/.glb) into a compressed transfer matrix (.rad).
     Bake {
@@ -324,6 +347,14 @@ fn main() -> ExitCode {
             backend,
             patches,
         } => demo::run(&out, backend.as_deref(), patches),
+        Command::Sunset {
+            out,
+            backend,
+            patches,
+            frames,
+            width,
+            height,
+        } => sunset::run(&out, backend.as_deref(), patches, frames, (width, height)),
         Command::Render {
             input,
             bake,
