@@ -18,21 +18,7 @@ use std::time::Instant;
 const FRAMES: usize = 36;
 
 pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::Result<()> {
-    let args = BakeArgs {
-        patches: Some(patches),
-        voxel: None,
-        bounces: "auto".into(),
-        format: "auto".into(),
-        order: "best".into(),
-        sparse: None,
-        corrections: None,
-        tile: None,
-        form_factors: "default".into(),
-        max_reflectance: None,
-        direct_points: None,
-        sky: "on".into(),
-        given: Vec::new(),
-    };
+    let args = BakeArgs::with_patches(patches);
     let params = radiosity_bake::pipeline::BakeParams {
         probes: radiosity_bake::probes::ProbeSpec::Auto,
         ..crate::bake::params(&args)?

@@ -53,28 +53,14 @@ struct Cli {
 enum Command {
     /// Bake the embedded Cornell box and light it: writes demo.png, demo.gif and demo.rad.
     Demo {
-        /// Directory for demo.png, demo.gif and demo.rad.
-        #[arg(long, default_value = ".")]
-        out: PathBuf,
-        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
-        #[arg(long)]
-        backend: Option<String>,
-        /// Target patch count of the bake.
-        #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
-        patches: usize,
+        #[command(flatten)]
+        show: args::ShowArgs,
     },
     /// Bake the embedded town square once and set the sun over it: writes sunset.gif and
     /// sunset.rad (the sun and the sky change every frame, the file stays).
     Sunset {
-        /// Directory for sunset.gif and sunset.rad.
-        #[arg(long, default_value = ".")]
-        out: PathBuf,
-        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
-        #[arg(long)]
-        backend: Option<String>,
-        /// Target patch count of the bake.
-        #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
-        patches: usize,
+        #[command(flatten)]
+        show: args::ShowArgs,
         /// Frames of the animation, 1 to 600.
         #[arg(long, value_name = "N", default_value_t = 30)]
         frames: usize,
@@ -342,19 +328,19 @@ fn main() -> ExitCode {
             backend.as_deref(),
             json,
         ),
-        Command::Demo {
-            out,
-            backend,
-            patches,
-        } => demo::run(&out, backend.as_deref(), patches),
+        Command::Demo { show } => demo::run(&show.out, show.backend.as_deref(), show.patches),
         Command::Sunset {
-            out,
-            backend,
-            patches,
+            show,
             frames,
             width,
             height,
-        } => sunset::run(&out, backend.as_deref(), patches, frames, (width, height)),
+        } => sunset::run(
+            &show.out,
+            show.backend.as_deref(),
+            show.patches,
+            frames,
+            (width, height),
+        ),
         Command::Render {
             input,
             bake,

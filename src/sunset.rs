@@ -63,21 +63,7 @@ pub(crate) fn run(
         (1..=600).contains(&frames),
         "--frames must be 1 to 600, not {frames}"
     );
-    let args = BakeArgs {
-        patches: Some(patches),
-        voxel: None,
-        bounces: "auto".into(),
-        format: "auto".into(),
-        order: "best".into(),
-        sparse: None,
-        corrections: None,
-        tile: None,
-        form_factors: "default".into(),
-        max_reflectance: None,
-        direct_points: None,
-        sky: "on".into(),
-        given: Vec::new(),
-    };
+    let args = BakeArgs::with_patches(patches);
     let params = radiosity_bake::pipeline::BakeParams {
         probes: radiosity_bake::probes::ProbeSpec::None,
         ..crate::bake::params(&args)?
