@@ -2,6 +2,20 @@
 
 use clap::Args;
 
+/// The flags of the commands that bake an embedded scene and show it (`demo`, `sunset`).
+#[derive(Args, Clone, Debug)]
+pub(crate) struct ShowArgs {
+    /// Directory for the files it writes.
+    #[arg(long, default_value = ".")]
+    pub(crate) out: std::path::PathBuf,
+    /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+    #[arg(long)]
+    pub(crate) backend: Option<String>,
+    /// Target patch count of the bake.
+    #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = patch_count)]
+    pub(crate) patches: usize,
+}
+
 /// How to bake (`bake`, and `solve` on an OBJ).
 #[derive(Args, Clone, Debug)]
 pub(crate) struct BakeArgs {
@@ -68,6 +82,25 @@ pub(crate) struct BakeArgs {
 }
 
 impl BakeArgs {
+    /// The command line's defaults with `--patches patches`: the bake of `demo` and `sunset`.
+    pub(crate) fn with_patches(patches: usize) -> Self {
+        BakeArgs {
+            patches: Some(patches),
+            voxel: None,
+            bounces: "auto".into(),
+            format: "auto".into(),
+            order: "best".into(),
+            sparse: None,
+            corrections: None,
+            tile: None,
+            form_factors: "default".into(),
+            max_reflectance: None,
+            direct_points: None,
+            sky: "on".into(),
+            given: Vec::new(),
+        }
+    }
+
     /// The long names of the bake flags given on the command line of `matches`.
     pub(crate) fn given_in(matches: &clap::ArgMatches) -> Vec<String> {
         use clap::parser::ValueSource;

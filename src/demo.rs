@@ -18,21 +18,7 @@ use std::time::Instant;
 const FRAMES: usize = 36;
 
 pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::Result<()> {
-    let args = BakeArgs {
-        patches: Some(patches),
-        voxel: None,
-        bounces: "auto".into(),
-        format: "auto".into(),
-        order: "best".into(),
-        sparse: None,
-        corrections: None,
-        tile: None,
-        form_factors: "default".into(),
-        max_reflectance: None,
-        direct_points: None,
-        sky: "on".into(),
-        given: Vec::new(),
-    };
+    let args = BakeArgs::with_patches(patches);
     let params = radiosity_bake::pipeline::BakeParams {
         probes: radiosity_bake::probes::ProbeSpec::Auto,
         ..crate::bake::params(&args)?
@@ -158,7 +144,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     exposures.sort_by(f32::total_cmp);
     let exposure = exposures[exposures.len() / 2];
     let gif = out.join("demo.gif");
-    write_gif(&gif, &images, exposure)?;
+    write_gif(&gif, &images, Some(exposure))?;
     outln!(
         "{}: {} frames 256×256, per frame: gather {:.2} ms ({}), direct light + gather {:.2} ms, probes {:.2} ms (medians)",
         gif.display(),
@@ -171,21 +157,29 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     Ok(())
 }
 
-fn median(v: &mut [f64]) -> f64 {
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
 
-/// Writes an animated GIF (looping, 80 ms per frame) atomically.
-fn write_gif(path: &Path, images: &[LinearImage], exposure: f32) -> anyhow::Result<()> {
+/// Writes an animated GIF (looping, 80 ms per frame) atomically, every frame at `exposure`,
+/// or each at its own automatic exposure.
+pub(crate) fn write_gif(
+    path: &Path,
+    images: &[LinearImage],
+    exposure: Option<f32>,
+) -> anyhow::Result<()> {
     use image::codecs::gif::{GifEncoder, Repeat};
     use image::{Delay, Frame};
     crate::output::write_atomic(path, |w| {
         let mut enc = GifEncoder::new_with_speed(w, 10);
         enc.set_repeat(Repeat::Infinite)?;
         for img in images {
-            let rgba =
-                image::DynamicImage::ImageRgb8(crate::picture::srgb8(img, exposure)).to_rgba8();
+            let rgba = image::DynamicImage::ImageRgb8(crate::picture::srgb8(
+                img,
+                exposure.unwrap_or_else(|| img.auto_exposure()),
+            ))
+            .to_rgba8();
             enc.encode_frame(Frame::from_parts(
                 rgba,
                 0,

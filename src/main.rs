@@ -29,6 +29,7 @@ mod render;
 mod report;
 mod scene;
 mod solve;
+mod sunset;
 mod view_factors;
 
 use args::BakeArgs;
@@ -52,15 +53,23 @@ struct Cli {
 enum Command {
     /// Bake the embedded Cornell box and light it: writes demo.png, demo.gif and demo.rad.
     Demo {
-        /// Directory for demo.png, demo.gif and demo.rad.
-        #[arg(long, default_value = ".")]
-        out: PathBuf,
-        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
-        #[arg(long)]
-        backend: Option<String>,
-        /// Target patch count of the bake.
-        #[arg(long, value_name = "N", default_value_t = 2048, allow_negative_numbers = true, value_parser = args::patch_count)]
-        patches: usize,
+        #[command(flatten)]
+        show: args::ShowArgs,
+    },
+    /// Bake the embedded town square once and set the sun over it: writes sunset.gif and
+    /// sunset.rad (the sun and the sky change every frame, the file stays).
+    Sunset {
+        #[command(flatten)]
+        show: args::ShowArgs,
+        /// Frames of the animation, 1 to 600.
+        #[arg(long, value_name = "N", default_value_t = 30)]
+        frames: usize,
+        /// Frame width in pixels, 16 to 2048.
+        #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(16..=2048))]
+        width: u32,
+        /// Frame height in pixels, 16 to 2048.
+        #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(16..=2048))]
+        height: u32,
     },
     /// Bake a scene (OBJ, or glTF 2.0 .gltf/.glb) into a compressed transfer matrix (.rad).
     Bake {
@@ -319,11 +328,19 @@ fn main() -> ExitCode {
             backend.as_deref(),
             json,
         ),
-        Command::Demo {
-            out,
-            backend,
-            patches,
-        } => demo::run(&out, backend.as_deref(), patches),
+        Command::Demo { show } => demo::run(&show.out, show.backend.as_deref(), show.patches),
+        Command::Sunset {
+            show,
+            frames,
+            width,
+            height,
+        } => sunset::run(
+            &show.out,
+            show.backend.as_deref(),
+            show.patches,
+            frames,
+            (width, height),
+        ),
         Command::Render {
             input,
             bake,

@@ -13,6 +13,7 @@
 //!   visibility and shading of a camera's image; [`camera`] and [`image`] for it.
 //! - [`objects`]: per-object area-weighted irradiance and radiosity ([`ObjectShares`]: patches
 //!   shared by several objects' parts).
+//! - [`daylight`]: a clear day's sun and sky for a sun position, for frames of a moving sun.
 //! - [`lights`], [`materials`], [`points::parse`]: the lights, materials and points files of
 //!   `docs/contract.md`, parsed and validated.
 //!
@@ -29,6 +30,7 @@ macro_rules! overflow {
 }
 
 pub mod camera;
+pub mod daylight;
 pub mod image;
 pub mod lights;
 pub mod materials;

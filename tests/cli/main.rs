@@ -13,6 +13,7 @@ mod pathtrace;
 mod points;
 mod runtime;
 mod solve_physics;
+mod sunset;
 
 use radiosity_core::Format;
 use radiosity_tests::fixtures::sample_file;

@@ -263,3 +263,28 @@ pub fn assert_argument_errors_match_reference(
         ));
     }
 }
+
+/// One frame of `file` on the reference gather, given each patch's direct irradiance
+/// (`direct`, W/m²): the gathered `y`, the irradiance `H` and the radiosity `B` per patch.
+pub struct ReferenceFrame {
+    /// `M·x`, the indirect irradiance.
+    pub y: Vec<Rgb>,
+    /// `direct + y`.
+    pub h: Vec<Rgb>,
+    /// `E + ρ·H`.
+    pub b: Vec<Rgb>,
+}
+
+/// [`ReferenceFrame`] of `file` under `direct`.
+pub fn reference_frame(file: &RadFile<'_>, direct: &[Rgb]) -> ReferenceFrame {
+    let n = file.n();
+    let mut x = vec![Rgb::ZERO; n];
+    radiosity_core::first_exitance(&file.patches, direct, &mut x);
+    let mut y = vec![Rgb::ZERO; n];
+    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
+        .gather(&x, &mut y)
+        .expect("the reference gather takes the file's own sizes");
+    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
+    radiosity_core::finish_frame(&file.patches, direct, &y, &mut h, &mut b);
+    ReferenceFrame { y, h, b }
+}

@@ -7,9 +7,8 @@ use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
 use radiosity_bake::transfer::BounceSpec;
-use radiosity_core::{
-    Bounces, DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
-};
+use radiosity_core::{Bounces, Format, Rgb};
+use radiosity_tests::fixtures::reference_frame;
 use radiosity_tests::scenes::{Material, Quad, closed_box, write_scene};
 use std::f64::consts::PI;
 use std::path::Path;
@@ -31,18 +30,7 @@ fn bake_file(path: &Path, p: &BakeParams) -> BakeOutput {
 
 /// Radiosity of every file patch lit by its own emission only.
 fn radiosity(out: &BakeOutput) -> Vec<Rgb> {
-    let f = &out.file;
-    let n = f.n();
-    let direct = vec![Rgb::ZERO; n];
-    let mut x = vec![Rgb::ZERO; n];
-    first_exitance(&f.patches, &direct, &mut x);
-    let mut y = vec![Rgb::ZERO; n];
-    ReferenceGather::new(f.matrix.clone(), DecodeMode::D3d10)
-        .gather(&x, &mut y)
-        .unwrap();
-    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
-    finish_frame(&f.patches, &direct, &y, &mut h, &mut b);
-    b
+    reference_frame(&out.file, &vec![Rgb::ZERO; out.file.n()]).b
 }
 
 #[test]

@@ -30,9 +30,8 @@ use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
 use radiosity_bake::transfer::BounceSpec;
-use radiosity_core::{
-    DecodeMode, Format, Gather, ReferenceGather, Rgb, finish_frame, first_exitance,
-};
+use radiosity_core::{Format, Rgb};
+use radiosity_tests::fixtures::reference_frame;
 use radiosity_tests::scenes::{
     Material, Quad, closed_box, floating_cube, resting_blocks_room, write_scene,
 };
@@ -59,18 +58,8 @@ fn bake_ok(scene: &Scene, p: &BakeParams) -> BakeOutput {
 
 /// Irradiance H and radiosity B of every file patch, lit by the scene's own emitters.
 fn frame(out: &BakeOutput) -> (Vec<Rgb>, Vec<Rgb>) {
-    let f = &out.file;
-    let n = f.n();
-    let direct = vec![Rgb::ZERO; n];
-    let mut x = vec![Rgb::ZERO; n];
-    first_exitance(&f.patches, &direct, &mut x);
-    let mut y = vec![Rgb::ZERO; n];
-    ReferenceGather::new(f.matrix.clone(), DecodeMode::D3d10)
-        .gather(&x, &mut y)
-        .unwrap();
-    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
-    finish_frame(&f.patches, &direct, &y, &mut h, &mut b);
-    (h, b)
+    let f = reference_frame(&out.file, &vec![Rgb::ZERO; out.file.n()]);
+    (f.h, f.b)
 }
 
 /// Every H and B finite and non-negative, and the energy bound of the module docs. `closed`:

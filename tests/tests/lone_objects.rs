@@ -7,10 +7,9 @@ use glam::Vec3;
 use radiosity_bake::pipeline::{BakeParams, Hooks, bake};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
-use radiosity_core::{
-    DecodeMode, Gather, Light, ReferenceGather, Rgb, finish_frame, first_exitance,
-};
+use radiosity_core::{Light, Rgb};
 use radiosity_runtime::BakedScene;
+use radiosity_tests::fixtures::reference_frame;
 use radiosity_tests::scenes::{Material, Quad, block, write_scene};
 
 /// Bakes `quads` and lights them with a sun travelling along `d` (irradiance 1 facing it);
@@ -27,25 +26,17 @@ fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
     let out = bake(&scene, &params, Hooks::default()).expect("a lone object bakes");
     let rt = BakedScene::new(out.file);
     let file = &rt.file;
-    let n = file.n();
     let lights = [Light::Directional {
         direction: d,
         irradiance: Rgb::splat(1.0),
     }];
     let (direct, at_samples) = rt.direct_with_samples(&lights).unwrap();
-    let mut x = vec![Rgb::ZERO; n];
-    first_exitance(&file.patches, &direct, &mut x);
-    let mut y = vec![Rgb::ZERO; n];
-    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
-        .gather(&x, &mut y)
-        .unwrap();
+    let f = reference_frame(file, &direct);
     assert!(
-        y.iter().all(|v| *v == Rgb::ZERO),
+        f.y.iter().all(|v| *v == Rgb::ZERO),
         "no light travels between surfaces"
     );
-    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
-    finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
-    radiosity_runtime::objects::per_object(file, &h, &b, &direct, &at_samples)
+    radiosity_runtime::objects::per_object(file, &f.h, &f.b, &direct, &at_samples)
         .into_iter()
         .map(|o| (o.name, o.irradiance[0]))
         .collect()

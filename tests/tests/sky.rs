@@ -6,11 +6,10 @@ use glam::Vec3;
 use radiosity_bake::pipeline::{BakeParams, Hooks, bake};
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::VoxelParams;
-use radiosity_core::{
-    DecodeMode, EnvMap, Gather, Light, ReferenceGather, Rgb, finish_frame, first_exitance,
-};
+use radiosity_core::{EnvMap, Light, Rgb};
 use radiosity_pathtrace::PathTracer;
 use radiosity_runtime::BakedScene;
+use radiosity_tests::fixtures::reference_frame;
 use radiosity_tests::scenes::{Material, Quad, block, write_scene};
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -50,17 +49,9 @@ fn baked(scene: &Scene, sky: bool) -> BakedScene {
 /// One frame under `lights`: each object's mean irradiance.
 fn per_object(rt: &BakedScene, lights: &[Light]) -> Vec<(String, [f64; 3])> {
     let file = &rt.file;
-    let n = file.n();
     let (direct, at_samples) = rt.direct_with_samples(lights).unwrap();
-    let mut x = vec![Rgb::ZERO; n];
-    first_exitance(&file.patches, &direct, &mut x);
-    let mut y = vec![Rgb::ZERO; n];
-    ReferenceGather::new(file.matrix.clone(), DecodeMode::D3d10)
-        .gather(&x, &mut y)
-        .unwrap();
-    let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
-    finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
-    radiosity_runtime::objects::per_object(file, &h, &b, &direct, &at_samples)
+    let f = reference_frame(file, &direct);
+    radiosity_runtime::objects::per_object(file, &f.h, &f.b, &direct, &at_samples)
         .into_iter()
         .map(|o| (o.name, o.irradiance))
         .collect()
