@@ -71,6 +71,15 @@ pub(crate) struct BakeArgs {
         allow_negative_numbers = true
     )]
     pub(crate) direct_points: Option<u32>,
+    /// Direct-light points of a patch a shadow may cross (1 to 64; default 32): a patch whose
+    /// points see out differently in some of 16 directions gets this many instead of
+    /// --direct-points (docs/decisions/shadow-points.md)
+    #[arg(
+        long = "shadow-points",
+        value_name = "N",
+        allow_negative_numbers = true
+    )]
+    pub(crate) shadow_points: Option<u32>,
     /// Measure each patch's sky visibility so that a sky or environment light can light the
     /// file: on, off
     #[arg(long, value_name = "on|off", default_value = "on")]
@@ -96,6 +105,7 @@ impl BakeArgs {
             form_factors: "default".into(),
             max_reflectance: None,
             direct_points: None,
+            shadow_points: None,
             sky: "on".into(),
             given: Vec::new(),
         }

@@ -23,6 +23,7 @@ pub(crate) fn flags(args: &BakeArgs) -> BakeFlags {
         form_factors: Some(args.form_factors.clone()),
         max_reflectance: args.max_reflectance,
         direct_points: args.direct_points,
+        shadow_points: args.shadow_points,
         probes: Some("none".into()),
         probe_rank: None,
         sky: Some(args.sky.clone()),

@@ -47,7 +47,7 @@ pub(crate) fn expose(
     occ: Option<&Occluders>,
     f: &mut Dense,
     seed: u64,
-    min_points: u32,
+    points: &[u32],
 ) -> Exposure {
     let objects = patches
         .pieces
@@ -120,7 +120,7 @@ pub(crate) fn expose(
             if !(share[i] > 0.0 && share[i] < 1.0) {
                 return Vec::new();
             }
-            direct_points(patches.pieces_of(i), min_points)
+            direct_points(patches.pieces_of(i), points[i])
                 .iter()
                 .map(|d| occ.buried(d.position, d.normal))
                 .collect()

@@ -75,9 +75,15 @@ fn uniform_point(v: &[DVec3], rng: &mut SplitMix64) -> DVec3 {
 
 /// A cosine-weighted direction about the unit normal `n` (two draws from `rng`).
 pub(crate) fn cosine_direction(n: DVec3, rng: &mut SplitMix64) -> DVec3 {
+    let u = rng.next_f64();
+    cosine_at(n, u, rng.next_f64())
+}
+
+/// The cosine-weighted direction about the unit normal `n` at `(u, v)` of the unit square.
+pub(crate) fn cosine_at(n: DVec3, u: f64, v: f64) -> DVec3 {
     let (t1, t2) = n.any_orthonormal_pair();
-    let (r, phi) = (rng.next_f64(), std::f64::consts::TAU * rng.next_f64());
-    (t1 * phi.cos() + t2 * phi.sin()) * r.sqrt() + n * (1.0 - r).sqrt()
+    let phi = std::f64::consts::TAU * v;
+    (t1 * phi.cos() + t2 * phi.sin()) * u.sqrt() + n * (1.0 - u).sqrt()
 }
 
 /// The random stream of patch `i`'s rays.

@@ -50,6 +50,8 @@ pub mod effects;
 pub(crate) mod closure;
 
 pub(crate) mod dark;
+/// Direct-light points where shadows fall.
+pub mod shadow_points;
 
 pub mod transfer;
 

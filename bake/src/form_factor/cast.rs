@@ -26,7 +26,7 @@
 
 use super::Progress;
 use crate::geometry::Occluders;
-use crate::hemisphere::{Owners, patch_point_at};
+use crate::hemisphere::{Owners, cosine_at, patch_point_at};
 use crate::rng::{SplitMix64, sobol2};
 use crate::simplify::Patches;
 use glam::DVec3;
@@ -45,13 +45,6 @@ fn streams(i: usize) -> ([u32; 2], [u32; 2], SplitMix64) {
     };
     let (a, b) = (scramble(), scramble());
     (a, b, rng)
-}
-
-/// The cosine-weighted direction about `n` at `(u, v)` of the unit square.
-fn cosine_at(n: DVec3, u: f64, v: f64) -> DVec3 {
-    let (t1, t2) = n.any_orthonormal_pair();
-    let phi = std::f64::consts::TAU * v;
-    (t1 * phi.cos() + t2 * phi.sin()) * u.sqrt() + n * (1.0 - u).sqrt()
 }
 
 /// Casts `rays` rays from patch `i` and adds one to `row[j]` for each that reaches patch `j`.

@@ -66,6 +66,8 @@ pub struct BakeFlags {
     pub max_reflectance: Option<f64>,
     /// Direct-light points a patch has at least (1 to 64).
     pub direct_points: Option<u32>,
+    /// Direct-light points of a patch a shadow may cross (1 to 64).
+    pub shadow_points: Option<u32>,
     /// Light probes: `auto` (the default), `none`, a spacing, or a JSON file of points.
     pub probes: Option<Word>,
     /// What the probes store: `auto` (the default), `full` or a rank.
@@ -75,7 +77,7 @@ pub struct BakeFlags {
 }
 
 /// The keys of [`BakeFlags`] in JSON.
-const KEYS: [&str; 14] = [
+const KEYS: [&str; 15] = [
     "patches",
     "voxel",
     "bounces",
@@ -87,6 +89,7 @@ const KEYS: [&str; 14] = [
     "form_factors",
     "max_reflectance",
     "direct_points",
+    "shadow_points",
     "probes",
     "probe_rank",
     "sky",
@@ -173,6 +176,13 @@ impl BakeFlags {
                 return refuse(format!("--direct-points must be 1 to {most}, not {k}"));
             }
             p.direct_points = k;
+        }
+        if let Some(k) = self.shadow_points {
+            let most = crate::simplify::runtime_mesh::MAX_DIRECT_POINTS;
+            if !(1..=most).contains(&k) {
+                return refuse(format!("--shadow-points must be 1 to {most}, not {k}"));
+            }
+            p.shadow_points = k;
         }
         let order = self.order.as_deref().unwrap_or("best");
         p.order = OrderKind::from_name(order).ok_or_else(|| {

@@ -72,9 +72,10 @@ pub struct Discretised {
     pub closure: ClosureReport,
     /// The surface buried under other objects, taken out of the patches ([`expose`]).
     pub exposure: Exposure,
-    /// Direct-light points a patch has at least ([`BakeParams::direct_points`]), as
-    /// `exposure` marked them buried.
-    pub direct_points: u32,
+    /// Direct-light points of each patch (simplification order): [`BakeParams::direct_points`],
+    /// or [`BakeParams::shadow_points`] where a shadow may cross it
+    /// ([`crate::shadow_points`]), as `exposure` marked them buried.
+    pub direct_points: Vec<u32>,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
     /// The form-factor settings used.
@@ -121,6 +122,12 @@ pub fn discretise(
             params.direct_points
         )));
     }
+    if !(1..=most).contains(&params.shadow_points) {
+        return Err(BakeError::InvalidParams(format!(
+            "direct-light points per patch a shadow may cross must be 1 to {most}, not {}",
+            params.shadow_points
+        )));
+    }
     let mut timings = BTreeMap::new();
     let mut clock = Instant::now();
     let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
@@ -164,22 +171,30 @@ pub fn discretise(
             .collect(),
     );
     let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
-    let exposure = expose(
-        &mut patches,
-        occluders.as_ref(),
-        &mut f,
-        params.seed,
-        params.direct_points,
-    );
-    let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
-    // The checks below cast rays even where nothing occludes (no BVH was built for F): then
-    // one is built, once, when a check first needs it.
+    // The checks below cast rays even where nothing occludes (no BVH was built for F: a sheet
+    // above a floor blocks no pair of patches, yet shadows the floor from a sun): then one is
+    // built, once, when a check first needs it.
     let built = std::cell::OnceCell::new();
     let checks_occ = || {
         occluders
             .as_ref()
             .unwrap_or_else(|| built.get_or_init(|| scene.occluders()))
     };
+    let (direct_points, shadowed) = crate::shadow_points::direct_point_counts(
+        &patches,
+        checks_occ(),
+        params.direct_points,
+        params.shadow_points,
+    );
+    effects.insert("shadow_points", shadowed);
+    let exposure = expose(
+        &mut patches,
+        occluders.as_ref(),
+        &mut f,
+        params.seed,
+        &direct_points,
+    );
+    let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
     let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
     effects.insert("closed", closed);
@@ -231,7 +246,7 @@ pub fn discretise(
         effects,
         closure,
         exposure,
-        direct_points: params.direct_points,
+        direct_points,
         rays_cast: ff.rays_cast,
         form_factors: params.form_factors.summary(),
         reciprocity_error: ff.reciprocity_error,
@@ -532,7 +547,7 @@ pub fn file_mesh(
         &system.patches,
         &file_index,
         &system.exposure.buried_points,
-        system.direct_points,
+        &system.direct_points,
     )
 }
 

@@ -52,6 +52,10 @@ pub struct BakeParams {
     /// ([`crate::simplify::runtime_mesh::direct_points`]), 1 to
     /// [`MAX_DIRECT_POINTS`](crate::simplify::runtime_mesh::MAX_DIRECT_POINTS).
     pub direct_points: u32,
+    /// Direct-light points of a patch a shadow may cross ([`crate::shadow_points`]), 1 to
+    /// [`MAX_DIRECT_POINTS`](crate::simplify::runtime_mesh::MAX_DIRECT_POINTS); at or below
+    /// `direct_points`, every patch has `direct_points`.
+    pub shadow_points: u32,
     /// Light probes placed and weighed after the transfer ([`crate::probes`]); `None` by
     /// default here (the command line and the host API default to `Auto`).
     pub probes: ProbeSpec,
@@ -76,6 +80,7 @@ impl Default for BakeParams {
             closure_tolerance: 0.05,
             seed: 1,
             direct_points: crate::simplify::runtime_mesh::DIRECT_POINTS,
+            shadow_points: crate::shadow_points::SHADOW_POINTS,
             probes: ProbeSpec::None,
             probe_rank: ProbeRank::Auto,
             sky: true,

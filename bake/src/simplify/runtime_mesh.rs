@@ -23,7 +23,7 @@ pub(crate) fn runtime_mesh(
     patches: &Patches,
     file_index: &[Option<u32>],
     buried_points: &[Vec<bool>],
-    min_points: u32,
+    points: &[u32],
 ) -> (Mesh<'static>, Vec<u32>) {
     let nt = scene.triangles.len();
     let bary = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -126,7 +126,7 @@ pub(crate) fn runtime_mesh(
     for (k, p) in patches.patches.iter().enumerate() {
         let Some(f) = file_index[k] else { continue };
         let buried = buried_points.get(k).map_or(&[][..], Vec::as_slice);
-        for (j, d) in direct_points(patches.pieces_of(k), min_points)
+        for (j, d) in direct_points(patches.pieces_of(k), points[k])
             .into_iter()
             .enumerate()
         {
