@@ -133,6 +133,7 @@ fn bad_options_are_refused_before_any_work_naming_the_key() {
         (r#"{"format": "bc9"}"#, "--format"),
         (r#"{"probes": "nowhere.json"}"#, "--probes"),
         (r#"{"bounces": 0}"#, "--bounces"),
+        (r#"{"shadow_points": 65}"#, "--shadow-points"),
         ("[1, 2]", "bad bake options"),
     ] {
         let msg = match BakeFlags::from_json(json) {
@@ -146,6 +147,10 @@ fn bad_options_are_refused_before_any_work_naming_the_key() {
         .params()
         .unwrap();
     assert_eq!(p.probe_rank, radiosity_bake::probes::ProbeRank::Rank(128));
+    let (p, _) = flags(r#"{"direct_points": 2, "shadow_points": 8}"#)
+        .params()
+        .unwrap();
+    assert_eq!((p.direct_points, p.shadow_points), (2, 8));
     let dir = tempfile::tempdir().unwrap();
     let err = bake_file(
         &cornell(),
