@@ -2,6 +2,7 @@
 """Per-object error of `radiosity solve --json` against `radiosity pathtrace --json`.
 
     scripts/compare_objects.py SOLVE.json PATHTRACE.json [--worst N] [--sunlit-fraction F]
+                               [--leave-out NAME ...]
 
 Both files are the JSON those commands print for the same scene and lights file (see
 docs/contract.md, `solve --json` and `pathtrace --json`). For each object the figure is the
@@ -31,14 +32,14 @@ def mean3(v):
     return (v[0] + v[1] + v[2]) / 3.0
 
 
-def compare(solve, ref, sunlit_fraction=0.5):
+def compare(solve, ref, sunlit_fraction=0.5, leave_out=()):
     by_name = {o["name"]: o for o in solve["objects"]}
     rows, skipped = [], []
     for o in ref["objects"]:
         s = by_name.get(o["name"])
         area = o.get("exposed_area", o["area"])
         h_pt = mean3(o["irradiance"])
-        if s is None or area <= 0 or h_pt <= 0:
+        if s is None or area <= 0 or h_pt <= 0 or o["name"] in leave_out:
             skipped.append(o["name"])
             continue
         h = mean3(s["irradiance"])
@@ -90,12 +91,15 @@ def main():
     ap.add_argument("--worst", type=int, default=15)
     ap.add_argument("--sunlit-fraction", type=float, default=0.5)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--leave-out", action="append", default=[], metavar="NAME",
+                    help="an object to leave out (counted with the skipped), e.g. one the "
+                         "reference all but never reaches; may be repeated")
     a = ap.parse_args()
     with open(a.solve) as f:
         solve = json.load(f)
     with open(a.pathtrace) as f:
         ref = json.load(f)
-    c = compare(solve, ref, a.sunlit_fraction)
+    c = compare(solve, ref, a.sunlit_fraction, set(a.leave_out))
     rows = c.pop("rows")
     if a.json:
         c["worst"] = [
@@ -106,7 +110,7 @@ def main():
         json.dump(c, sys.stdout, indent=1)
         print()
         return
-    print(f"patches {solve.get('patches')}: {c['objects']} objects ({c['skipped']} without light left out)")
+    print(f"patches {solve.get('patches')}: {c['objects']} objects ({c['skipped']} without light or asked left out)")
     print(f"area-weighted mean |error| {100 * c['area_weighted_mean_abs_error']:.2f}%, "
           f"area-weighted L2 {100 * c['area_weighted_l2']:.2f}%, "
           f"reference noise {100 * c['reference_noise']:.2f}%")
