@@ -4,7 +4,8 @@
 
 use crate::effects::Effect;
 use crate::geometry::Occluders;
-use crate::hemisphere::{cosine_direction, patch_point_at, patch_point_on, patch_rng};
+use crate::form_factor::Starts;
+use crate::hemisphere::{cosine_direction, patch_point_at, patch_rng};
 use crate::pipeline::{BakeParams, ClosureReport};
 use crate::simplify::Patches;
 use crate::simplify::runtime_mesh::direct_points;
@@ -46,7 +47,7 @@ pub(crate) fn expose(
     patches: &mut Patches,
     occ: Option<&Occluders>,
     f: &mut Dense,
-    seed: u64,
+    burial: &[Vec<u32>],
     points: &[u32],
 ) -> Exposure {
     let objects = patches
@@ -62,9 +63,8 @@ pub(crate) fn expose(
         ..Exposure::default()
     };
     let buried: Vec<(f64, Vec<(u32, f64)>)> = match occ {
-        Some(occ) => (0..patches.len())
-            .into_par_iter()
-            .map(|i| buried_by_object(patches, occ, i, seed))
+        Some(_) => (0..patches.len())
+            .map(|i| buried_by_object(patches, i, burial.get(i).map_or(&[], Vec::as_slice)))
             .collect(),
         None => vec![(0.0, Vec::new()); patches.len()],
     };
@@ -112,7 +112,8 @@ pub(crate) fn expose(
         }
     }
     // Which of the points the runtime samples direct light at (`runtime_mesh::runtime_mesh`)
-    // lie buried, in the partly buried patches.
+    // lie buried, in the partly buried patches: as the surveyed starts say (`by_survey`),
+    // asked where they cannot tell.
     let share = &exposure.share;
     exposure.buried_points = (0..patches.len())
         .into_par_iter()
@@ -120,9 +121,11 @@ pub(crate) fn expose(
             if !(share[i] > 0.0 && share[i] < 1.0) {
                 return Vec::new();
             }
+            let survey = burial.get(i).map_or(&[][..], Vec::as_slice);
+            let verdict = by_survey(patches, i, survey);
             direct_points(patches.pieces_of(i), points[i])
                 .iter()
-                .map(|d| occ.buried(d.position, d.normal))
+                .map(|d| verdict(d).unwrap_or_else(|| occ.buried(d.position, d.normal)))
                 .collect()
         })
         .collect();
@@ -354,10 +357,10 @@ pub(crate) fn escape_check(patches: &Patches, occ: &Occluders, live: &[bool], se
 /// Salt of [`escape_check`]'s streams, apart from the other checks' rays of the same patch.
 const ESCAPE_STREAM: u64 = 0x6573_6361_7065;
 
-/// Points in the first look at a patch in [`buried_by_object`] (stratified, see
-/// [`crate::rng::sobol2`]). At 32, slivers of about 3.5% along a patch's edge went unseen: on a
-/// room with a block resting on its floor at 4358 patches their rows stayed 0.955–0.968 (the
-/// exposed share alone), the lowest rows of the scene; at 64 its lowest is 0.992.
+/// Points in the first look at a patch in [`survey`] (stratified, see [`crate::rng::sobol2`]).
+/// At 32, slivers of about 3.5% along a patch's edge went unseen: on a room with a block
+/// resting on its floor at 4358 patches their rows stayed 0.955–0.968 (the exposed share
+/// alone), the lowest rows of the scene; at 64 its lowest is 0.992.
 pub(crate) const BURIED_FIRST: u32 = 64;
 
 /// Points in all for a patch the first look finds partly buried. Independent uniform points
@@ -365,44 +368,55 @@ pub(crate) const BURIED_FIRST: u32 = 64;
 /// measured within ±0.003 of a 20 000-point estimate on strips along a patch's edge.
 pub(crate) const BURIED_POINTS: u32 = 512;
 
-/// The buried area of patch `i` ([`Occluders::buried`]: covered by another object, so that no
-/// light reaches it or leaves it) per object of its pieces (increasing object order; empty
-/// when none is found buried), from [`BURIED_FIRST`] stratified points, and [`BURIED_POINTS`]
-/// in all when any of those is buried: each buried point counts `area / BURIED_POINTS` to its
-/// piece's object. Returned with the buried share of the patch's area.
-pub(crate) fn buried_by_object(
-    patches: &Patches,
-    occ: &Occluders,
-    i: usize,
-    seed: u64,
-) -> (f64, Vec<(u32, f64)>) {
-    let pieces = patches.pieces_of(i);
-    let total: f64 = pieces.iter().map(|q| q.area).sum();
-    if pieces.is_empty() || !(total > 0.0) {
-        return (0.0, Vec::new());
-    }
-    let mut rng = patch_rng(seed, i);
-    let scramble = [rng.next_u64() as u32, (rng.next_u64() >> 32) as u32];
-    let look = |points: core::ops::Range<u32>, counts: &mut Vec<(u32, u32)>| {
-        for k in points {
-            let [u, v] = crate::rng::sobol2(scramble, k);
-            let (piece, x, n) = patch_point_on(pieces, total, u, v);
-            if occ.covered(piece.triangle, x) || occ.buried(x, n) {
-                match counts.iter_mut().find(|c| c.0 == piece.object) {
-                    Some(c) => c.1 += 1,
-                    None => counts.push((piece.object, 1)),
+/// A surveyed start that nothing buries ([`survey`]).
+pub(crate) const EXPOSED: u32 = u32::MAX;
+
+/// The burial survey: per patch, for each of its first [`BURIED_POINTS`] ray starts
+/// ([`crate::form_factor::Starts`]), the object of the piece it lies on where another object
+/// buries it ([`Occluders::covered`] or [`Occluders::buried`]: no light reaches it or leaves
+/// it), [`EXPOSED`] where not; empty for a patch whose first [`BURIED_FIRST`] starts are all
+/// exposed. The ray-cast rows start their rays only at surveyed starts of a partly buried
+/// patch and [`expose`] takes its buried share from the same starts, so each start's burial
+/// (up to 4 fans of 9 rays deep) is asked once (`docs/decisions/burial-survey.md`).
+pub(crate) fn survey(patches: &Patches, occ: &Occluders) -> Vec<Vec<u32>> {
+    (0..patches.len())
+        .into_par_iter()
+        .map(|i| {
+            let Some(starts) = Starts::new(patches, i) else {
+                return Vec::new();
+            };
+            let look = |k: u32| {
+                let (piece, _, x, n) = starts.point(k);
+                if occ.covered(piece.triangle, x) || occ.buried(x, n) {
+                    piece.object
+                } else {
+                    EXPOSED
                 }
+            };
+            let mut seen: Vec<u32> = (0..BURIED_FIRST).map(look).collect();
+            if seen.iter().all(|&o| o == EXPOSED) {
+                return Vec::new();
             }
-        }
-    };
+            seen.extend((BURIED_FIRST..BURIED_POINTS).map(look));
+            seen
+        })
+        .collect()
+}
+
+/// The buried share of patch `i`'s area and its buried area per object of its pieces
+/// (increasing object order; empty when none is buried), from its survey (`buried`, empty or
+/// [`BURIED_POINTS`] long): each buried start counts `area / BURIED_POINTS` to its object.
+fn buried_by_object(patches: &Patches, i: usize, buried: &[u32]) -> (f64, Vec<(u32, f64)>) {
     let mut counts: Vec<(u32, u32)> = Vec::new();
-    look(0..BURIED_FIRST, &mut counts);
-    if counts.is_empty() {
-        return (0.0, Vec::new());
+    for &o in buried.iter().filter(|&&o| o != EXPOSED) {
+        match counts.iter_mut().find(|c| c.0 == o) {
+            Some(c) => c.1 += 1,
+            None => counts.push((o, 1)),
+        }
     }
-    look(BURIED_FIRST..BURIED_POINTS, &mut counts);
     counts.sort_unstable_by_key(|c| c.0);
     let all: u32 = counts.iter().map(|c| c.1).sum();
+    let total: f64 = patches.pieces_of(i).iter().map(|q| q.area).sum();
     let each = total / f64::from(BURIED_POINTS);
     (
         f64::from(all) / f64::from(BURIED_POINTS),
@@ -411,4 +425,47 @@ pub(crate) fn buried_by_object(
             .map(|(o, c)| (o, f64::from(c) * each))
             .collect(),
     )
+}
+
+/// Whether a direct-light point of patch `i` is buried, as its survey (`survey`, [`survey`])
+/// tells: the surveyed starts on the point's piece where they agree, else the nearest start
+/// of the same object facing the same way (normals within 25°) if it lies within two start
+/// spacings (`2·√(A/512)`, A the patch's area) and on no piece whose starts disagree; `None`
+/// where the survey cannot tell. Asked at every point, a patch of the conference room's chairs
+/// (one point on each of ~350 pieces, most of them too small to hold a start) cost 350
+/// questions of up to 4 fans of 9 rays: 14 s of a 35 s bake
+/// (`docs/decisions/burial-survey.md`).
+fn by_survey<'a>(
+    patches: &'a Patches,
+    i: usize,
+    survey: &'a [u32],
+) -> impl Fn(&crate::simplify::runtime_mesh::DirectPoint) -> Option<bool> + 'a {
+    let pieces = patches.pieces_of(i);
+    // Per piece: bit 0 an exposed start seen on it, bit 1 a buried one.
+    let mut seen = vec![0u8; pieces.len()];
+    let mut looked: Vec<(glam::DVec3, glam::DVec3, u32, bool)> = Vec::new();
+    let mut reach = 0.0;
+    if let Some(starts) = Starts::new(patches, i) {
+        for (k, &o) in survey.iter().enumerate() {
+            let (piece, q, x, n) = starts.point(k as u32);
+            let buried = o != EXPOSED;
+            seen[q] |= if buried { 2 } else { 1 };
+            looked.push((x, n, piece.object, buried));
+        }
+        let area: f64 = pieces.iter().map(|q| q.area).sum();
+        reach = 2.0 * (area / f64::from(BURIED_POINTS)).sqrt();
+    }
+    let facing = 25f64.to_radians().cos();
+    move |d| match seen.get(d.piece as usize).copied() {
+        Some(1) => Some(false),
+        Some(2) => Some(true),
+        Some(3) | None => None,
+        Some(_) => looked
+            .iter()
+            .filter(|s| s.2 == d.object && s.1.dot(d.normal) >= facing)
+            .map(|s| (s.0.distance_squared(d.position), s.3))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .filter(|s| s.0 <= reach * reach)
+            .map(|s| s.1),
+    }
 }

@@ -19,16 +19,20 @@
 //! Keller, "Efficient multidimensional sampling", Eurographics 2002), cosine-weighted about the
 //! piece's own normal. Every stream is seeded by the patch alone, so the matrix is the same on
 //! any thread count. A ray that first meets a back face (the point lies under or inside
-//! something) or nothing counts for no patch, nor does one from a buried start (inside a solid
-//! a ray may meet the front of a face inside it too, as in boxes standing inside boxes): the
-//! row is the mean over the patch's whole area, as the quadrature's is, and the closure divides
-//! by the exposed share afterwards.
+//! something) or nothing counts for no patch, and none leaves a buried start (inside a solid a
+//! ray may meet the front of a face inside it too, as in boxes standing inside boxes): the row
+//! is the mean over the patch's whole area, as the quadrature's is, and the closure divides by
+//! the exposed share afterwards. A partly buried patch's rays start at the points the burial
+//! survey looked at ([`crate::closure::survey`]: 512, eight rays each at 4096 a patch), so
+//! that each start's burial is asked once and the share divided by is measured at the very
+//! starts (`docs/decisions/burial-survey.md`).
 
 use super::Progress;
 use crate::geometry::Occluders;
 use crate::hemisphere::{Owners, cosine_at, patch_point_at};
 use crate::rng::{SplitMix64, sobol2};
-use crate::simplify::Patches;
+use crate::closure::{BURIED_POINTS, EXPOSED};
+use crate::simplify::{Patches, Piece};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -47,65 +51,90 @@ fn streams(i: usize) -> ([u32; 2], [u32; 2], SplitMix64) {
     (a, b, rng)
 }
 
+/// Where patch `i`'s rays start: point `k` of a scrambled Sobol' (0, 2)-sequence mapped onto
+/// its pieces by area. The burial survey ([`crate::closure::survey`]) looks at the first
+/// [`BURIED_POINTS`] of them, so that a partly buried patch's rays start only where it knows.
+pub(crate) struct Starts<'a> {
+    pieces: &'a [Piece],
+    /// Running areas, so that a ray's piece is a binary search away (a curved patch of a real
+    /// scene holds tens of thousands of pieces, and a walk over them cost more than the ray).
+    cumulative: Vec<f64>,
+    at: [u32; 2],
+}
+
+impl<'a> Starts<'a> {
+    /// Patch `i`'s starts; `None` for a patch without area.
+    pub(crate) fn new(patches: &'a Patches, i: usize) -> Option<Self> {
+        let pieces = patches.pieces_of(i);
+        let mut cumulative = Vec::with_capacity(pieces.len());
+        let mut total = 0.0;
+        for q in pieces {
+            total += q.area;
+            cumulative.push(total);
+        }
+        (!pieces.is_empty() && total > 0.0).then(|| Self {
+            pieces,
+            cumulative,
+            at: streams(i).0,
+        })
+    }
+
+    /// Start `k`: its piece (and the piece's index among the patch's pieces), the point and
+    /// the piece's normal.
+    pub(crate) fn point(&self, k: u32) -> (&'a Piece, usize, DVec3, DVec3) {
+        let [u, v] = sobol2(self.at, k);
+        let total = self.cumulative[self.cumulative.len() - 1];
+        let pick = u * total;
+        let q = self
+            .cumulative
+            .partition_point(|&c| c < pick)
+            .min(self.pieces.len() - 1);
+        let below = if q == 0 { 0.0 } else { self.cumulative[q - 1] };
+        let piece = &self.pieces[q];
+        let within = ((pick - below) / piece.area).clamp(0.0, 1.0);
+        let (x, n) = patch_point_at(&self.pieces[q..=q], piece.area, within, v);
+        (piece, q, x, n)
+    }
+}
+
 /// Casts `rays` rays from patch `i` and adds one to `row[j]` for each that reaches patch `j`.
+/// `buried`: the survey of the patch's first [`BURIED_POINTS`] starts, empty where it found
+/// none buried; then ray `k` starts at start `k mod BURIED_POINTS`, and none from a buried
+/// one (a start inside a solid, a step's top under the step above, meets the faces inside
+/// it, which are buried too: `docs/decisions/shaded-steps.md`). The row stays the mean over
+/// the patch's whole area with the buried part at 0, as the quadrature's, and the closure's
+/// division by the exposed share, measured at the same starts, makes it the mean over the
+/// exposed ones exactly.
 fn cast_row(
     patches: &Patches,
     owners: &Owners,
     occ: &Occluders,
     i: usize,
     rays: u32,
+    buried: &[u32],
     row: &mut [f32],
 ) {
-    let pieces = patches.pieces_of(i);
-    // Running areas, so that a ray's piece is a binary search away (a curved patch of a real
-    // scene holds tens of thousands of pieces, and a walk over them cost more than the ray).
-    let mut cumulative = Vec::with_capacity(pieces.len());
-    let mut total = 0.0;
-    for q in pieces {
-        total += q.area;
-        cumulative.push(total);
-    }
-    if pieces.is_empty() || !(total > 0.0) {
+    let Some(starts) = Starts::new(patches, i) else {
         return;
-    }
-    let (at, towards, mut rng) = streams(i);
+    };
+    let (_, towards, mut rng) = streams(i);
     let mut order: Vec<u32> = (0..rays).collect();
     rng.shuffle(&mut order);
     let far = 10.0 * occ.extent();
-    // The hits (start, its normal, the patch met) and whether any ray met a back face: a
-    // patch whose rays meet none has no point inside a solid.
-    let mut hits: Vec<(DVec3, DVec3, usize)> = Vec::new();
-    let mut inside = false;
     for (k, &p) in order.iter().enumerate() {
-        let [u, v] = sobol2(at, k as u32);
-        let pick = u * total;
-        let q = cumulative
-            .partition_point(|&c| c < pick)
-            .min(pieces.len() - 1);
-        let below = if q == 0 { 0.0 } else { cumulative[q - 1] };
-        let within = ((pick - below) / pieces[q].area).clamp(0.0, 1.0);
-        let (x, n) = patch_point_at(&pieces[q..=q], pieces[q].area, within, v);
-        let [a, b] = sobol2(towards, p);
-        let d = cosine_at(n, a, b);
-        let h = match occ.first_surface_from_surface(x, d, far) {
-            Some((h, true)) => h,
-            Some((_, false)) => {
-                inside = true;
+        let mut k = k as u32;
+        if !buried.is_empty() {
+            k %= BURIED_POINTS;
+            if buried[k as usize] != EXPOSED {
                 continue;
             }
-            None => continue,
-        };
-        if let Some(j) = owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance) {
-            hits.push((x, n, j));
         }
-    }
-    // A start inside a solid (a step's top under the step above, `docs/decisions/
-    // shaded-steps.md`) meets the faces inside it, which are buried too: those hits count for
-    // no patch, as its rays that meet back faces, so the row stays the mean over the patch's
-    // whole area with the buried part at 0 and the closure's division by the exposed share
-    // does not magnify them.
-    for (x, n, j) in hits {
-        if !(inside && occ.buried(x, n)) {
+        let (_, _, x, n) = starts.point(k);
+        let [a, b] = sobol2(towards, p);
+        let d = cosine_at(n, a, b);
+        if let Some((h, true)) = occ.first_surface_from_surface(x, d, far)
+            && let Some(j) = owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance)
+        {
             row[j] += 1.0;
         }
     }
@@ -117,6 +146,7 @@ pub(super) fn cast(
     patches: &Patches,
     occ: &Occluders,
     rays: u32,
+    burial: &[Vec<u32>],
     matrix: &mut [f32],
     progress: Option<Progress<'_>>,
 ) -> u64 {
@@ -134,7 +164,8 @@ pub(super) fn cast(
             if stopped.load(Ordering::Relaxed) {
                 return;
             }
-            cast_row(patches, &owners, occ, i, rays, row);
+            let buried = burial.get(i).map_or(&[][..], Vec::as_slice);
+            cast_row(patches, &owners, occ, i, rays, buried, row);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(p) = progress
                 && !p(d, n)

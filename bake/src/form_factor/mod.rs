@@ -67,6 +67,7 @@ mod flat;
 mod params;
 mod sampling;
 
+pub(crate) use cast::Starts;
 pub use clustered::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
 pub use exact::EXACT_PAIR_RAYS;
 pub use params::{FormFactorParams, FormFactorSummary, ManyPieces, RAYS_PER_PATCH, Visibility};
@@ -494,7 +495,8 @@ pub fn form_factor_rows(
         // Every row of a ray-cast matrix pools both sides of its pairs, so the rows come from
         // the whole matrix, whose cost follows the patches anyway.
         let mut matrix = vec![0f32; n * n];
-        let rays = cast::cast(patches, occ, per_patch, &mut matrix, progress);
+        let burial = crate::closure::survey(patches, occ);
+        let rays = cast::cast(patches, occ, per_patch, &burial, &mut matrix, progress);
         let out = rows
             .iter()
             .map(|&i| {
@@ -544,10 +546,30 @@ pub fn form_factors(
     params: &FormFactorParams,
     progress: Option<Progress<'_>>,
 ) -> FormFactors {
+    form_factors_surveyed(patches, occluders, params, None, progress)
+}
+
+/// [`form_factors`], with the burial survey ([`crate::closure::survey`]) where the caller has
+/// it; the ray-cast rows take one of their own otherwise.
+pub(crate) fn form_factors_surveyed(
+    patches: &Patches,
+    occluders: Option<&Occluders>,
+    params: &FormFactorParams,
+    burial: Option<&[Vec<u32>]>,
+    progress: Option<Progress<'_>>,
+) -> FormFactors {
     let n = patches.len();
     if let Some((occ, per_patch)) = cast_rays(patches, occluders, params) {
         let mut matrix = vec![0f32; n * n];
-        let rays_cast = cast::cast(patches, occ, per_patch, &mut matrix, progress);
+        let own;
+        let burial = match burial {
+            Some(b) => b,
+            None => {
+                own = crate::closure::survey(patches, occ);
+                &own
+            }
+        };
+        let rays_cast = cast::cast(patches, occ, per_patch, burial, &mut matrix, progress);
         return FormFactors {
             rays_per_patch: per_patch,
             ..FormFactors::new(patches, matrix, rays_cast, 0, 0)

@@ -25,7 +25,7 @@ use crate::encode::{
     default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
-    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors,
+    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors_surveyed,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -154,8 +154,20 @@ pub fn discretise(
     lap("plan", &mut timings);
 
     hooks.start("form factors")?;
+    // Which points other objects bury, asked once for the ray-cast rows and the closure.
+    let burial = occluders
+        .as_ref()
+        .map(|o| crate::closure::survey(&patches, o))
+        .unwrap_or_default();
+    lap("burial", &mut timings);
     let go_on = |done: usize, total: usize| hooks.report(done, total);
-    let mut ff = form_factors(&patches, occluders.as_ref(), &ffp, Some(&go_on));
+    let mut ff = form_factors_surveyed(
+        &patches,
+        occluders.as_ref(),
+        &ffp,
+        Some(&burial),
+        Some(&go_on),
+    );
     // The rows skipped after a cancellation leave the matrix incomplete: it goes no further.
     hooks.check()?;
     lap("form_factors", &mut timings);
@@ -191,7 +203,7 @@ pub fn discretise(
         &mut patches,
         occluders.as_ref(),
         &mut f,
-        params.seed,
+        &burial,
         &direct_points,
     );
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();

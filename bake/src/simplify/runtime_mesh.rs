@@ -196,32 +196,42 @@ pub(crate) fn direct_points(
 ) -> Vec<DirectPoint> {
     let live: Vec<crate::simplify::Piece> =
         pieces.iter().filter(|q| q.area > 0.0).cloned().collect();
+    // Where each live piece stands in `pieces`.
+    let index: Vec<u32> = (0..pieces.len() as u32)
+        .filter(|&q| pieces[q as usize].area > 0.0)
+        .collect();
     let total: f64 = live.iter().map(|q| q.area).sum();
     if live.is_empty() || !(total > 0.0) {
         return Vec::new();
     }
-    let hammersley =
-        |within: &[crate::simplify::Piece], area: f64, n: u32, out: &mut Vec<DirectPoint>| {
-            let nf = f64::from(n);
-            for k in 0..n {
-                let u = (f64::from(k) + 0.5) / nf;
-                let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
-                let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
-                out.push(DirectPoint {
-                    position: x,
-                    normal,
-                    area: area / nf,
-                    object: piece.object,
-                });
-            }
-        };
+    // `first`: where `within` starts among the live pieces.
+    let hammersley = |within: &[crate::simplify::Piece],
+                      first: usize,
+                      area: f64,
+                      n: u32,
+                      out: &mut Vec<DirectPoint>| {
+        let nf = f64::from(n);
+        for k in 0..n {
+            let u = (f64::from(k) + 0.5) / nf;
+            let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
+            let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
+            let at = within.iter().position(|q| core::ptr::eq(q, piece)).unwrap_or(0);
+            out.push(DirectPoint {
+                position: x,
+                normal,
+                area: area / nf,
+                object: piece.object,
+                piece: index[first + at],
+            });
+        }
+    };
     let mut points = Vec::new();
     if live.len() < min_points as usize {
-        hammersley(&live, total, min_points, &mut points);
+        hammersley(&live, 0, total, min_points, &mut points);
         return points;
     }
     let k_all = f64::from(min_points);
-    for q in &live {
+    for (at, q) in live.iter().enumerate() {
         // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
         let n = (k_all * q.area / total - 1e-9).ceil().max(1.0) as u32;
         if n == 1 {
@@ -230,9 +240,10 @@ pub(crate) fn direct_points(
                 normal: q.normal,
                 area: q.area,
                 object: q.object,
+                piece: index[at],
             });
         } else {
-            hammersley(core::slice::from_ref(q), q.area, n, &mut points);
+            hammersley(core::slice::from_ref(q), at, q.area, n, &mut points);
         }
     }
     points
@@ -248,6 +259,8 @@ pub(crate) struct DirectPoint {
     pub(crate) area: f64,
     /// The scene object of its piece.
     pub(crate) object: u32,
+    /// Its piece: the index among the patch's pieces.
+    pub(crate) piece: u32,
 }
 
 fn sample(position: DVec3, normal: DVec3, area: f64) -> PatchSample {
