@@ -3,8 +3,8 @@
 //! [`escape_check`]); and the matching correction of F ([`closure_effect`]).
 
 use crate::effects::Effect;
-use crate::geometry::Occluders;
 use crate::form_factor::Starts;
+use crate::geometry::Occluders;
 use crate::hemisphere::{cosine_direction, patch_point_at, patch_rng};
 use crate::pipeline::{BakeParams, ClosureReport};
 use crate::simplify::Patches;

@@ -28,10 +28,10 @@
 //! starts (`docs/decisions/burial-survey.md`).
 
 use super::Progress;
+use crate::closure::{BURIED_POINTS, EXPOSED};
 use crate::geometry::Occluders;
 use crate::hemisphere::{Owners, cosine_at, patch_point_at};
 use crate::rng::{SplitMix64, sobol2};
-use crate::closure::{BURIED_POINTS, EXPOSED};
 use crate::simplify::{Patches, Piece};
 use glam::DVec3;
 use rayon::prelude::*;

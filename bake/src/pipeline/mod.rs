@@ -25,7 +25,8 @@ use crate::encode::{
     default_sparse_fraction, encode_dense_with,
 };
 use crate::form_factor::{
-    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility, form_factors_surveyed,
+    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
+    form_factors_surveyed,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;

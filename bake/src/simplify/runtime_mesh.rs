@@ -215,7 +215,10 @@ pub(crate) fn direct_points(
             let u = (f64::from(k) + 0.5) / nf;
             let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
             let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
-            let at = within.iter().position(|q| core::ptr::eq(q, piece)).unwrap_or(0);
+            let at = within
+                .iter()
+                .position(|q| core::ptr::eq(q, piece))
+                .unwrap_or(0);
             out.push(DirectPoint {
                 position: x,
                 normal,
