@@ -38,6 +38,7 @@ pub const PROBE_DIRECTIONS: u32 = PROBE_GRID * PROBE_GRID;
 pub(crate) fn direct_point_counts(
     patches: &Patches,
     occ: &Occluders,
+    objects: &[u32],
     min: u32,
     shadowed: u32,
 ) -> (Vec<u32>, Effect) {
@@ -55,7 +56,7 @@ pub(crate) fn direct_point_counts(
     }
     let raised: Vec<bool> = (0..n)
         .into_par_iter()
-        .map(|i| crosses(patches, i, occ))
+        .map(|i| crosses(patches, i, occ, objects))
         .collect();
     let count = raised.iter().filter(|&&r| r).count();
     let total: f64 = patches.patches.iter().map(|p| p.area).sum();
@@ -82,8 +83,12 @@ pub(crate) fn direct_point_counts(
 
 /// Whether some direction about patch `i`'s normal lights some of its probe points and not
 /// others: the ray from one leaves the scene and from another meets something, or one
-/// point's face turns away from the direction (a column's facets around a bend).
-fn crosses(patches: &Patches, i: usize, occ: &Occluders) -> bool {
+/// point's face turns away from the direction (a column's facets around a bend), or two rays
+/// meet different objects, one at less than [`NEAR_SHARE`] of the other's distance (a light
+/// between the two in that direction lights one point and not the other: the floor under a
+/// table's edge in a closed room, whose rays never leave). `objects`: the object of each
+/// scene triangle.
+fn crosses(patches: &Patches, i: usize, occ: &Occluders, objects: &[u32]) -> bool {
     let points = direct_points(patches.pieces_of(i), PROBE_POINTS);
     if points.len() < 2 {
         return false;
@@ -96,23 +101,42 @@ fn crosses(patches: &Patches, i: usize, occ: &Occluders) -> bool {
         for b in 0..PROBE_GRID {
             let d = cosine_at(normal, (f64::from(a) + 0.5) / g, (f64::from(b) + 0.5) / g);
             let (mut lit, mut dark) = (false, false);
+            // The nearest and farthest hits: (distance, object).
+            let (mut near, mut farthest) = ((f64::INFINITY, 0), (0.0, 0));
             for p in &points {
-                let sees = p.normal.dot(d) > 0.0
-                    && occ
-                        .segment_visible(p.position, p.position + d * (far + p.position.length()));
-                if sees {
+                if p.normal.dot(d) <= 0.0 {
+                    dark = true;
+                } else if occ
+                    .segment_visible(p.position, p.position + d * (far + p.position.length()))
+                {
                     lit = true;
                 } else {
                     dark = true;
+                    if let Some(h) = occ.closest_hit_from_surface(p.position, d, 2.0 * far) {
+                        let o = objects.get(h.triangle as usize).copied().unwrap_or(0);
+                        if h.distance < near.0 {
+                            near = (h.distance, o);
+                        }
+                        if h.distance > farthest.0 {
+                            farthest = (h.distance, o);
+                        }
+                    }
                 }
                 if lit && dark {
                     return true;
                 }
             }
+            if near.1 != farthest.1 && near.0 < NEAR_SHARE * farthest.0 {
+                return true;
+            }
         }
     }
     false
 }
+
+/// Two hits of one probe direction this far apart (the nearer at less than this share of the
+/// farther's distance), on different objects, say that a light may stand between them.
+const NEAR_SHARE: f64 = 0.5;
 
 #[cfg(test)]
 mod tests {
@@ -149,7 +173,8 @@ f 5 6 7 8
         };
         let patches = simplify(&scene, &voxel).expect("patches");
         let occ = scene.occluders();
-        let (counts, effect) = direct_point_counts(&patches, &occ, 4, 32);
+        let objects: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
+        let (counts, effect) = direct_point_counts(&patches, &occ, &objects, 4, 32);
         assert!(effect.on, "{}", effect.why);
         let mut raised_roof_top = 0;
         let mut under_the_edge = Vec::new();
@@ -170,7 +195,71 @@ f 5 6 7 8
             "{under_the_edge:?}"
         );
         // With no more points asked for shadows than the minimum, nothing changes.
-        let (same, off) = direct_point_counts(&patches, &occ, 4, 4);
+        let (same, off) = direct_point_counts(&patches, &occ, &objects, 4, 4);
         assert!(same.iter().all(|&c| c == 4) && !off.on);
+    }
+
+    #[test]
+    fn closed_rooms_raise_points_where_a_light_inside_may_cast_a_shadow() {
+        // An 8 × 3 × 8 closed room (faces inward) with a two-sided slab 1 above the floor's
+        // x < 2 strip: no ray leaves, so only the hits' distances and objects can tell.
+        // Tilted towards −x, rays from the floor along the slab's edge meet the slab (about
+        // 1 away) from under it and the ceiling or the far wall (3 or more) from beside it: a
+        // light between them lights one and not the other. The floor at x in [5, 6] sees the
+        // ceiling and the walls, whose hits of one direction meet at the room's edges without
+        // a jump: kept at 4.
+        let obj = "\
+o floor
+v 0 0 0
+v 8 0 0
+v 8 0 8
+v 0 0 8
+f 1 4 3 2
+o ceiling
+v 0 3 0
+v 8 3 0
+v 8 3 8
+v 0 3 8
+f 5 6 7 8
+o walls
+f 1 2 6 5
+f 2 3 7 6
+f 3 4 8 7
+f 4 1 5 8
+o slab
+v 0 1 0
+v 2 1 0
+v 2 1 8
+v 0 1 8
+f 9 12 11 10
+f 9 10 11 12
+";
+        let scene = Scene::from_obj_str(std::path::Path::new("room.obj"), obj).expect("scene");
+        let voxel = VoxelParams {
+            resolution: Resolution::CellSize(0.5),
+            ..VoxelParams::default()
+        };
+        let patches = simplify(&scene, &voxel).expect("patches");
+        let occ = scene.occluders();
+        let objects: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
+        let (counts, effect) = direct_point_counts(&patches, &occ, &objects, 4, 32);
+        assert!(effect.on, "{}", effect.why);
+        let (mut edge, mut open) = (Vec::new(), Vec::new());
+        for (i, p) in patches.patches.iter().enumerate() {
+            let c = p.centre;
+            if p.normal.y < 0.5 || c.y > 0.5 || !(2.0..6.0).contains(&c.z) {
+                continue;
+            }
+            if (c.x - 2.0).abs() < 0.5 {
+                edge.push(counts[i]);
+            } else if (5.0..6.0).contains(&c.x) {
+                open.push(counts[i]);
+            }
+        }
+        assert!(
+            !edge.is_empty() && edge.iter().all(|&c| c == 32),
+            "{edge:?}"
+        );
+        assert!(!open.is_empty() && open.iter().all(|&c| c == 4), "{open:?}");
     }
 }

@@ -193,9 +193,11 @@ pub fn discretise(
             .as_ref()
             .unwrap_or_else(|| built.get_or_init(|| scene.occluders()))
     };
+    let objects: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
     let (direct_points, shadowed) = crate::shadow_points::direct_point_counts(
         &patches,
         checks_occ(),
+        &objects,
         params.direct_points,
         params.shadow_points,
     );
