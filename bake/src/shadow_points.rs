@@ -164,17 +164,22 @@ f 5 6 7 8
         Scene::from_obj_str(std::path::Path::new("roof.obj"), obj).expect("scene")
     }
 
-    #[test]
-    fn only_patches_a_shadow_can_cross_get_more_points() {
-        let scene = floor_and_roof();
+    /// The scene in 0.5 cells, and its direct-light point counts at 4 and 32.
+    fn raised(scene: &Scene) -> (Patches, Vec<u32>, Effect) {
         let voxel = VoxelParams {
             resolution: Resolution::CellSize(0.5),
             ..VoxelParams::default()
         };
-        let patches = simplify(&scene, &voxel).expect("patches");
-        let occ = scene.occluders();
+        let patches = simplify(scene, &voxel).expect("patches");
         let objects: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
-        let (counts, effect) = direct_point_counts(&patches, &occ, &objects, 4, 32);
+        let (counts, effect) = direct_point_counts(&patches, &scene.occluders(), &objects, 4, 32);
+        (patches, counts, effect)
+    }
+
+    #[test]
+    fn only_patches_a_shadow_can_cross_get_more_points() {
+        let scene = floor_and_roof();
+        let (patches, counts, effect) = raised(&scene);
         assert!(effect.on, "{}", effect.why);
         let mut raised_roof_top = 0;
         let mut under_the_edge = Vec::new();
@@ -195,7 +200,8 @@ f 5 6 7 8
             "{under_the_edge:?}"
         );
         // With no more points asked for shadows than the minimum, nothing changes.
-        let (same, off) = direct_point_counts(&patches, &occ, &objects, 4, 4);
+        let objects: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
+        let (same, off) = direct_point_counts(&patches, &scene.occluders(), &objects, 4, 4);
         assert!(same.iter().all(|&c| c == 4) && !off.on);
     }
 
@@ -235,14 +241,7 @@ f 9 12 11 10
 f 9 10 11 12
 ";
         let scene = Scene::from_obj_str(std::path::Path::new("room.obj"), obj).expect("scene");
-        let voxel = VoxelParams {
-            resolution: Resolution::CellSize(0.5),
-            ..VoxelParams::default()
-        };
-        let patches = simplify(&scene, &voxel).expect("patches");
-        let occ = scene.occluders();
-        let objects: Vec<u32> = scene.triangles.iter().map(|t| t.object).collect();
-        let (counts, effect) = direct_point_counts(&patches, &occ, &objects, 4, 32);
+        let (patches, counts, effect) = raised(&scene);
         assert!(effect.on, "{}", effect.why);
         let (mut edge, mut open) = (Vec::new(), Vec::new());
         for (i, p) in patches.patches.iter().enumerate() {
