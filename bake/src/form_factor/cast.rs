@@ -91,7 +91,12 @@ impl<'a> Starts<'a> {
             .min(self.pieces.len() - 1);
         let below = if q == 0 { 0.0 } else { self.cumulative[q - 1] };
         let piece = &self.pieces[q];
-        let within = ((pick - below) / piece.area).clamp(0.0, 1.0);
+        // A piece without area is picked only by `pick` 0 at the front: its first point.
+        let within = if piece.area > 0.0 {
+            ((pick - below) / piece.area).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let (x, n) = patch_point_at(&self.pieces[q..=q], piece.area, within, v);
         (piece, q, x, n)
     }
