@@ -178,6 +178,10 @@ pub const DIRECT_POINTS: u32 = 4;
 /// The most direct-light points a patch may be given.
 pub const MAX_DIRECT_POINTS: u32 = 64;
 
+/// Points an object of many pieces keeps in a patch of more than [`MAX_DIRECT_POINTS`] pieces
+/// ([`direct_points`]): enough for the facets of a curved part to be seen from most sides.
+const MIN_OBJECT_POINTS: u32 = 16;
+
 /// The points where the runtime samples direct light on a patch made of `pieces`: position,
 /// unit normal, the area each stands for and its piece's object, `K = min_points` at least.
 /// A patch of fewer than `K` pieces gets `K` points spread over its area, each standing for an
@@ -188,8 +192,12 @@ pub const MAX_DIRECT_POINTS: u32 = 64;
 /// the same set through the piece): where the small parts of several objects share a patch
 /// with a large surface (the tops of boxes in a yard with the ground around them), each part
 /// keeps a point of its own and the large surface about `K`, where one centroid a piece left
-/// the ground of a cell full of boxes' shadows one point. No randomness: the same patch gets
-/// the same points.
+/// the ground of a cell full of boxes' shadows one point. A patch of more than
+/// [`MAX_DIRECT_POINTS`] pieces (a finely tessellated chair: the conference room's patches
+/// hold ~350) gives each of its objects `max(1, ⌈K·a/A⌉)` points instead, `a` the object's
+/// area in it, the same set through the object's pieces: each object keeps points of its own,
+/// and the frame does not pay a shadow ray per facet (`docs/decisions/direct-light-points.md`).
+/// No randomness: the same patch gets the same points.
 pub(crate) fn direct_points(
     pieces: &[crate::simplify::Piece],
     min_points: u32,
@@ -204,9 +212,9 @@ pub(crate) fn direct_points(
     if live.is_empty() || !(total > 0.0) {
         return Vec::new();
     }
-    // `first`: where `within` starts among the live pieces.
+    // `at[j]`: where `within[j]` stands among the live pieces.
     let hammersley = |within: &[crate::simplify::Piece],
-                      first: usize,
+                      at: &dyn Fn(usize) -> usize,
                       area: f64,
                       n: u32,
                       out: &mut Vec<DirectPoint>| {
@@ -215,7 +223,7 @@ pub(crate) fn direct_points(
             let u = (f64::from(k) + 0.5) / nf;
             let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
             let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
-            let at = within
+            let j = within
                 .iter()
                 .position(|q| core::ptr::eq(q, piece))
                 .unwrap_or(0);
@@ -224,19 +232,21 @@ pub(crate) fn direct_points(
                 normal,
                 area: area / nf,
                 object: piece.object,
-                piece: index[first + at],
+                piece: index[at(j)],
             });
         }
     };
     let mut points = Vec::new();
     if live.len() < min_points as usize {
-        hammersley(&live, 0, total, min_points, &mut points);
+        hammersley(&live, &|j| j, total, min_points, &mut points);
         return points;
     }
     let k_all = f64::from(min_points);
-    for (at, q) in live.iter().enumerate() {
-        // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
-        let n = (k_all * q.area / total - 1e-9).ceil().max(1.0) as u32;
+    // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
+    let share = |a: f64| (k_all * a / total - 1e-9).ceil().max(1.0) as u32;
+    // Per piece: its count and where it stands among the live pieces.
+    let each_piece = |at: usize, q: &crate::simplify::Piece, points: &mut Vec<DirectPoint>| {
+        let n = share(q.area);
         if n == 1 {
             points.push(DirectPoint {
                 position: q.polygon.centroid(),
@@ -246,8 +256,33 @@ pub(crate) fn direct_points(
                 piece: index[at],
             });
         } else {
-            hammersley(core::slice::from_ref(q), at, q.area, n, &mut points);
+            hammersley(core::slice::from_ref(q), &|_| at, q.area, n, points);
         }
+    };
+    if live.len() > MAX_DIRECT_POINTS as usize {
+        // An object of more pieces than its share of MAX_DIRECT_POINTS (at least
+        // MIN_OBJECT_POINTS) gets that share over its pieces; the others a point a piece.
+        let budget = f64::from(MAX_DIRECT_POINTS.max(min_points));
+        let mut objects: Vec<u32> = live.iter().map(|q| q.object).collect();
+        objects.sort_unstable();
+        objects.dedup();
+        for o in objects {
+            let at: Vec<usize> = (0..live.len()).filter(|&j| live[j].object == o).collect();
+            let within: Vec<crate::simplify::Piece> = at.iter().map(|&j| live[j]).collect();
+            let area: f64 = within.iter().map(|q| q.area).sum();
+            let n = ((budget * area / total - 1e-9).ceil() as u32).max(MIN_OBJECT_POINTS);
+            if within.len() > n as usize {
+                hammersley(&within, &|j| at[j], area, n, &mut points);
+            } else {
+                for &j in &at {
+                    each_piece(j, &live[j], &mut points);
+                }
+            }
+        }
+        return points;
+    }
+    for (at, q) in live.iter().enumerate() {
+        each_piece(at, q, &mut points);
     }
     points
 }
@@ -338,5 +373,44 @@ mod tests {
         assert_eq!(pts.iter().filter(|p| p.position.x >= 2.0).count(), 1);
         let area: f64 = pts.iter().map(|p| p.area).sum();
         assert!((area - 1.0 - sliver.area).abs() < 1e-12, "{area}");
+    }
+
+    /// A patch of more than `MAX_DIRECT_POINTS` pieces: an object of many facets (a fan of 200
+    /// slivers over the unit square, object 0) gets its share of 64 points spread over them,
+    /// not a point a facet; a small object of six pieces (object 1, a thousandth of the area)
+    /// keeps a point on each of its pieces, as in a patch of few pieces.
+    #[test]
+    fn an_object_of_many_facets_gets_its_share_not_a_point_a_facet() {
+        let c = dvec3(0.5, 0.5, 0.0);
+        let mut pieces: Vec<Piece> = (0..200)
+            .map(|k| {
+                let t = |k: u32| {
+                    let a = f64::from(k) / 200.0 * std::f64::consts::TAU;
+                    c + 0.5 * dvec3(a.cos(), a.sin(), 0.0)
+                };
+                piece(c, t(k), t(k + 1))
+            })
+            .collect();
+        let fan_area: f64 = pieces.iter().map(|q| q.area).sum();
+        for k in 0..6 {
+            let o = dvec3(3.0 + f64::from(k), 0.0, 0.0);
+            let mut q = piece(o, o + dvec3(0.02, 0.0, 0.0), o + dvec3(0.0, 0.02, 0.0));
+            q.object = 1;
+            pieces.push(q);
+        }
+        let pts = direct_points(&pieces, 32);
+        let fan: Vec<_> = pts.iter().filter(|p| p.object == 0).collect();
+        let small: Vec<_> = pts.iter().filter(|p| p.object == 1).collect();
+        // ⌈64 · a/A⌉ with a/A ≈ 0.998: 64 points over the fan, each an equal share of it.
+        assert_eq!(fan.len(), 64);
+        for p in &fan {
+            assert!((p.area - fan_area / 64.0).abs() < 1e-12, "{}", p.area);
+            assert!((p.position - c).length() <= 0.5 + 1e-9);
+        }
+        // The small object: one point on each of its six pieces (their centroids).
+        assert_eq!(small.len(), 6);
+        let mut on: Vec<u32> = small.iter().map(|p| p.piece).collect();
+        on.sort_unstable();
+        assert_eq!(on, (200..206).collect::<Vec<u32>>());
     }
 }
