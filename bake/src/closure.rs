@@ -129,6 +129,43 @@ pub(crate) fn expose(
                 .collect()
         })
         .collect();
+    // An object all of whose direct-light points in a shared patch lie buried is buried
+    // there: its pieces in the patch were too small to hold a surveyed start (a bench's leg
+    // standing on a plinth, its foot alone in the plinth's patch), so the survey left them
+    // exposed, and `solve` would give them the patch's mean direct light (its sunlit
+    // plinth's). Its share goes to the patch's other objects, in proportion.
+    for i in 0..patches.len() {
+        let marks = &exposure.buried_points[i];
+        if marks.is_empty() || exposure.shared[i].len() < 2 {
+            continue;
+        }
+        let pts = direct_points(patches.pieces_of(i), points[i]);
+        let mut gone = 0.0;
+        let shares = &mut exposure.shared[i];
+        let before: f64 = shares.iter().map(|s| s.1).sum();
+        shares.retain(|&(o, a)| {
+            let mut mine = pts
+                .iter()
+                .zip(marks)
+                .filter(|(d, _)| d.object == o)
+                .peekable();
+            let buried = mine.peek().is_some() && mine.all(|(_, &b)| b);
+            if buried {
+                gone += a;
+                exposure.buried_area[o as usize] += a;
+            }
+            !buried
+        });
+        let rest = before - gone;
+        if gone > 0.0 && rest > 0.0 {
+            for (o, a) in shares.iter_mut() {
+                let more = *a * gone / rest;
+                *a += more;
+                let b = &mut exposure.buried_area[*o as usize];
+                *b = (*b - more).max(0.0);
+            }
+        }
+    }
     exposure
 }
 

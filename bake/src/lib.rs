@@ -50,6 +50,8 @@ pub mod effects;
 pub(crate) mod closure;
 
 pub(crate) mod dark;
+/// Each object's own gather row in the patches it shares.
+pub(crate) mod part_rows;
 /// Direct-light points where shadows fall.
 pub mod shadow_points;
 

@@ -41,11 +41,13 @@ pub enum SectionKind {
     Probes = 16,
     /// Optional sky visibility ([`crate::sky::SkyVisibility`]).
     Sky = 17,
+    /// Optional gather rows of the parts of shared patches ([`crate::parts::PartRows`]).
+    Parts = 18,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 17] = [
+    pub const ALL: [SectionKind; 18] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -63,6 +65,7 @@ impl SectionKind {
         SectionKind::CorrectionCodes,
         SectionKind::Probes,
         SectionKind::Sky,
+        SectionKind::Parts,
     ];
 
     /// The kind with this code.
@@ -82,6 +85,7 @@ impl SectionKind {
                 | SectionKind::CorrectionCodes
                 | SectionKind::Probes
                 | SectionKind::Sky
+                | SectionKind::Parts
         )
     }
 
@@ -105,6 +109,7 @@ impl SectionKind {
             SectionKind::CorrectionCodes => "CORRECTION_CODES",
             SectionKind::Probes => "PROBES",
             SectionKind::Sky => "SKY",
+            SectionKind::Parts => "PARTS",
         }
     }
 }

@@ -52,6 +52,7 @@
 //!     mesh: None,
 //!     probes: None,
 //!     sky: None,
+//!     parts: None,
 //! };
 //! let bytes = file.to_bytes().unwrap();
 //! let parsed = RadFile::parse(&bytes).unwrap();
@@ -84,6 +85,7 @@ mod layout;
 mod light;
 mod math;
 pub mod mesh;
+pub mod parts;
 mod patch;
 pub mod probes;
 mod quantise;
@@ -111,6 +113,7 @@ pub use light::{
     Light, LightError, ShadowRay, finish_frame, first_exitance, sky_radiance_of, sky_sh_of,
 };
 pub use mesh::{CornerLengthError, CornerWeight, Mesh, MeshCounts, MeshTriangle, PatchSample};
+pub use parts::{Part, PartRows};
 pub use patch::Patch;
 pub use probes::{
     DecodedProbes, ProbeFactors, ProbeModes, ProbeWeight, Probes, SH_COEFFICIENTS, sh_irradiance,

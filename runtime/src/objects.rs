@@ -145,6 +145,11 @@ pub fn per_object(
                 .iter()
                 .find(|d| d.0 == o)
                 .map_or(Rgb::ZERO, |d| d.1 - direct[i]);
+            // The object's own bounced light, where the file gives its part a row of its own.
+            let shift = match part_light(file, i, o, b, direct, at_samples) {
+                Some(own) => shift + own - (h[i] - direct[i]),
+                None => shift,
+            };
             let (h, b) = (h[i] + shift, b[i] + p.reflectance * shift);
             let a = &mut acc[o as usize];
             a.0 += w;
@@ -186,6 +191,39 @@ pub fn per_object(
             }
         })
         .collect()
+}
+
+/// The light bounced onto object `o`'s part of patch `i` through the part's own row (the
+/// file's PARTS section, [`radiosity_core::PartRows`]): `Σ w·B(s)` over its entries, `B(s)` the
+/// radiosity of sample `s`'s patch with the sample's own direct light in place of the patch's
+/// mean. `None` where the part has no row, or `h`, `direct` or `at_samples` are too short for
+/// the file.
+pub fn part_light(
+    file: &RadFile<'_>,
+    i: usize,
+    o: u32,
+    b: &[Rgb],
+    direct: &[Rgb],
+    at_samples: &[Rgb],
+) -> Option<Rgb> {
+    let (parts, mesh) = (file.parts.as_ref()?, file.mesh.as_ref()?);
+    let p = parts.find(i as u32, o)?;
+    if b.len() != file.patches.len()
+        || direct.len() != file.patches.len()
+        || at_samples.len() != mesh.samples.len()
+    {
+        return None;
+    }
+    let mut own = Rgb::ZERO;
+    let mut j = 0usize;
+    for (s, w) in parts.row(p) {
+        // The patch of sample `s`: samples are in patch order, and a part's in increasing order.
+        while mesh.sample_rows[j + 1] <= s {
+            j += 1;
+        }
+        own += (b[j] + file.patches[j].reflectance * (at_samples[s as usize] - direct[j])) * w;
+    }
+    Some(own)
 }
 
 /// The direct irradiance of each object's own samples in shared patch `i` (area-weighted

@@ -363,6 +363,7 @@ mod tests {
             mesh: Some(mesh),
             probes: None,
             sky: None,
+            parts: None,
         };
         file.validate().unwrap();
         BakedScene::new(file)

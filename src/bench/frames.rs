@@ -156,6 +156,7 @@ pub(super) fn bench_probes(
         mesh: Some(mesh.clone()),
         probes: None,
         sky: None,
+        parts: None,
     };
     let rt = radiosity_runtime::BakedScene::new(file);
     let direct = bench_direct(&rt)

@@ -90,6 +90,34 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         mesh: Some(sample_mesh(n)),
         probes: Some(sample_probes(n)),
         sky: Some(sample_sky(n, 2)),
+        parts: Some(sample_parts(n, sample_mesh(n).samples.len())),
+    }
+}
+
+/// Gather rows of two objects' parts in each of the first three patches (fewer for a smaller
+/// file), each entry a mesh sample of `samples` with a count of 1 to 3.
+pub fn sample_parts(n: usize, samples: usize) -> radiosity_core::PartRows<'static> {
+    use radiosity_core::Part;
+    let mut parts = Vec::new();
+    let (mut at, mut counts) = (Vec::new(), Vec::new());
+    for patch in 0..n.min(3) as u32 {
+        for object in 0..2u32 {
+            parts.push(Part {
+                patch,
+                object,
+                scale: 1.0 / 64.0,
+                start: at.len() as u32,
+            });
+            for s in (patch as usize + object as usize..samples).step_by(3) {
+                at.push(s as u32);
+                counts.push(1 + (s % 3) as u16);
+            }
+        }
+    }
+    radiosity_core::PartRows {
+        parts: Cow::Owned(parts),
+        samples: Cow::Owned(at),
+        counts: Cow::Owned(counts),
     }
 }
 

@@ -77,6 +77,10 @@ pub struct Discretised {
     /// or [`BakeParams::shadow_points`] where a shadow may cross it
     /// ([`crate::shadow_points`]), as `exposure` marked them buried.
     pub direct_points: Vec<u32>,
+    /// Per patch (simplification order), its shared objects' own gather rows
+    /// ([`crate::part_rows`]), their entries' patches renumbered to live indices and their
+    /// weights scaled as the closure scaled the patch's row.
+    pub part_rows: Vec<Vec<crate::part_rows::PartRow>>,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
     /// The form-factor settings used.
@@ -211,6 +215,7 @@ pub fn discretise(
     );
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
+    let raw_sums: Vec<f64> = (0..f.n).map(|i| f.row(i).iter().sum()).collect();
     let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
     effects.insert("closed", closed);
     lap("closure", &mut timings);
@@ -245,6 +250,61 @@ pub fn discretise(
     // Where no patch sees another (one object, a convex one, a single sheet), no light travels
     // between surfaces: the transfer is zero and the file carries everything else (patches,
     // mesh, direct light, probes), so that one code path serves every asset.
+    // Each shared patch's parts gather through rows of their own, scaled as the closure
+    // scaled their patch's row.
+    let mut live_at = vec![u32::MAX; n_all];
+    for (k, &i) in live.iter().enumerate() {
+        live_at[i] = k as u32;
+    }
+    // Each patch's direct-light samples as the runtime mesh will hold them: the points not
+    // buried, else the patch's centre.
+    let samples: Vec<Vec<(glam::DVec3, u32)>> = (0..n_all)
+        .map(|i| {
+            let marks = exposure.buried_points.get(i).map_or(&[][..], Vec::as_slice);
+            let mut v: Vec<(glam::DVec3, u32)> = crate::simplify::runtime_mesh::direct_points(
+                patches.pieces_of(i),
+                direct_points[i],
+            )
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| marks.get(*k) != Some(&true))
+            .map(|(_, d)| (d.position, d.object))
+            .collect();
+            if v.is_empty() {
+                let p = &patches.patches[i];
+                v.push((p.centre, p.object));
+            }
+            v
+        })
+        .collect();
+    let part_rows: Vec<Vec<crate::part_rows::PartRow>> = match occluders.as_ref() {
+        Some(occ) => {
+            crate::part_rows::part_rows(&patches, occ, &exposure.shared, &samples, params.seed)
+                .into_iter()
+                .enumerate()
+                .map(|(i, rows)| {
+                    let after: f64 = f.row(i).iter().sum();
+                    let scale = if raw_sums[i] > 0.0 {
+                        after / raw_sums[i]
+                    } else {
+                        1.0
+                    };
+                    rows.into_iter()
+                        .map(|(o, each, row)| {
+                            let row = row
+                                .into_iter()
+                                .filter(|&(j, _, _)| live_at[j as usize] != u32::MAX)
+                                .map(|(j, k, c)| (live_at[j as usize], k, c))
+                                .collect();
+                            (o, each * scale, row)
+                        })
+                        .collect()
+                })
+                .collect()
+        }
+        None => vec![Vec::new(); n_all],
+    };
+    lap("part_rows", &mut timings);
     let f_live = live_rows(f, &live);
     let reflectance: Vec<[f64; 3]> = live
         .iter()
@@ -262,6 +322,7 @@ pub fn discretise(
         closure,
         exposure,
         direct_points,
+        part_rows,
         rays_cast: ff.rays_cast,
         form_factors: params.form_factors.summary(),
         reciprocity_error: ff.reciprocity_error,
@@ -417,8 +478,10 @@ fn second_half(
         mesh: None,
         probes: None,
         sky: None,
+        parts: None,
     };
     let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
+    file.parts = part_rows_section(system, &chosen.perm, &mesh);
     file.mesh = Some(mesh);
     let discretise_ms: f64 = system.timings_ms.values().sum();
     timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
@@ -440,6 +503,48 @@ fn second_half(
     };
     let out = crate::probes::attach(out, &params.probes, params.probe_rank, hooks)?;
     crate::sky::attach(out, params.sky, hooks)
+}
+
+/// The PARTS section of the file: each shared patch's part rows ([`Discretised::part_rows`])
+/// in file numbering, their entries naming the mesh's samples; `None` where no patch is shared.
+fn part_rows_section(
+    system: &Discretised,
+    perm: &[u32],
+    mesh: &radiosity_core::Mesh<'_>,
+) -> Option<radiosity_core::PartRows<'static>> {
+    let mut file_of = vec![0u32; perm.len()];
+    for (k, &at) in perm.iter().enumerate() {
+        file_of[at as usize] = k as u32;
+    }
+    let mut parts = Vec::new();
+    let (mut samples, mut counts) = (Vec::new(), Vec::new());
+    let mut entries: Vec<(u32, u16)> = Vec::new();
+    for (f, &at) in perm.iter().enumerate() {
+        let Some(rows) = system.part_rows.get(system.live[at as usize]) else {
+            continue;
+        };
+        for (object, scale, row) in rows {
+            entries.clear();
+            entries.extend(row.iter().map(|&(j, k, c)| {
+                let file_j = file_of[j as usize] as usize;
+                (mesh.sample_rows[file_j] + k, c)
+            }));
+            entries.sort_unstable();
+            parts.push(radiosity_core::Part {
+                patch: f as u32,
+                object: *object,
+                scale: *scale as f32,
+                start: samples.len() as u32,
+            });
+            samples.extend(entries.iter().map(|e| e.0));
+            counts.extend(entries.iter().map(|e| e.1));
+        }
+    }
+    (!parts.is_empty()).then(|| radiosity_core::PartRows {
+        parts: Cow::Owned(parts),
+        samples: Cow::Owned(samples),
+        counts: Cow::Owned(counts),
+    })
 }
 
 /// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,

@@ -32,6 +32,8 @@ pub struct Bytes {
     pub probes: usize,
     /// The SKY section (0 without one, or where nothing sees the sky).
     pub sky: usize,
+    /// The PARTS section (0 where no patch holds parts of several objects).
+    pub parts: usize,
 }
 
 /// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
@@ -271,6 +273,7 @@ pub(super) fn report(
             corrected_blocks: file.matrix.corrections.count(),
             probes: file.probes.as_ref().map_or(0, |p| p.to_bytes().len()),
             sky: file.sky.as_ref().map_or(0, |s| s.to_bytes().len()),
+            parts: file.parts.as_ref().map_or(0, |p| p.to_bytes().len()),
         },
         rays_cast: system.rays_cast,
         form_factors: system.form_factors,

@@ -237,7 +237,8 @@ pub(crate) fn direct_points(
         }
     };
     let mut points = Vec::new();
-    if live.len() < min_points as usize {
+    let one_object = live.iter().all(|q| q.object == live[0].object);
+    if live.len() < min_points as usize && one_object {
         hammersley(&live, &|j| j, total, min_points, &mut points);
         return points;
     }

@@ -32,6 +32,7 @@ pub use write::reseal;
 
 use crate::checksum::Crc32;
 use crate::mesh::Mesh;
+use crate::parts::PartRows;
 use crate::probes::Probes;
 use crate::sky::SkyVisibility;
 use crate::{Patch, RadError, SectionKind, TransferMatrix};
@@ -210,6 +211,9 @@ pub struct RadFile<'a> {
     /// Sky visibility per patch and probe, if the bake measured it (`None`: a sky cannot
     /// light this file).
     pub sky: Option<SkyVisibility<'a>>,
+    /// Each object's own gather row in the patches it shares, if the bake stored them
+    /// (`None`: every object takes its patches' bounced light).
+    pub parts: Option<PartRows<'a>>,
 }
 
 fn align(x: u64) -> u64 {
@@ -327,6 +331,10 @@ impl<'a> RadFile<'a> {
         if let Some(sky) = &self.sky {
             sky.validate(n, self.probes.as_ref().map_or(0, |p| p.positions.len()))?;
         }
+        if let Some(parts) = &self.parts {
+            let samples = self.mesh.as_ref().map_or(0, |m| m.samples.len());
+            parts.validate(n, self.objects.len(), samples)?;
+        }
         self.matrix.validate()
     }
 
@@ -351,6 +359,7 @@ impl<'a> RadFile<'a> {
             sky: self.sky.map(|s| SkyVisibility {
                 values: Cow::Owned(s.values.into_owned()),
             }),
+            parts: self.parts.map(PartRows::into_owned),
         }
     }
 }

@@ -9,6 +9,7 @@ use super::{
 use crate::checksum::crc32;
 use crate::layout::{Format, MatrixLayout};
 use crate::mesh::Mesh;
+use crate::parts::PartRows;
 use crate::probes::Probes;
 use crate::sky::SkyVisibility;
 use crate::{BlockCorrections, Patch, RadError, SectionKind, SparseRows, TransferMatrix};
@@ -124,6 +125,9 @@ impl<'a> RadFile<'a> {
                 .transpose()?,
             sky: sec(SectionKind::Sky)
                 .map(SkyVisibility::from_bytes)
+                .transpose()?,
+            parts: sec(SectionKind::Parts)
+                .map(PartRows::from_bytes)
                 .transpose()?,
         };
         file.validate()?;

@@ -82,6 +82,10 @@ impl RadFile<'_> {
         if let Some(sky) = &self.sky {
             sections.push((SectionKind::Sky, sky.to_bytes()));
         }
+        let parts = self.parts.as_ref().map(crate::parts::PartRows::to_bytes);
+        if let Some(p) = &parts {
+            sections.push((SectionKind::Parts, p));
+        }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());
         let mut pos = table_end;

@@ -158,6 +158,7 @@ pub fn rad_file_around(
         mesh: None,
         probes: None,
         sky: None,
+        parts: None,
     }
 }
 

@@ -1,0 +1,124 @@
+//! Each object's own gather row in a patch it shares with other objects: the form factors from
+//! that object's part of the patch to every patch, so that `solve` gives the part the light
+//! bounced onto it, not the patch's mean (`docs/decisions/part-rows.md`).
+//!
+//! A patch of several objects' parts (a 5 m cell of a pavilion: a plinth's top, a bench, the
+//! posts of a railing, the underside of a beam) holds one irradiance, the mean over its area,
+//! and its parts face different ways and stand in different light: the shaded posts of a
+//! railing took +40% of the bounced light they get, a fascia facing the sunlit ground −25%.
+//! Hierarchical radiosity's answer is to refine the receiver where the light it gathers varies
+//! across it; this is that refinement one level down, along the objects: the light still
+//! leaves every patch as the patch's radiosity `B`, but each part gathers it through its own
+//! row, `y_o = Σ_j F_oj·B_j`, one sparse dot a part a frame.
+
+use crate::geometry::Occluders;
+use crate::hemisphere::{Owners, cosine_direction, patch_point_on};
+use crate::rng::SplitMix64;
+use crate::simplify::{Patches, Piece};
+use rayon::prelude::*;
+
+/// Cosine-weighted rays cast from each part: a part's row is a mean over them, with a
+/// standard error of about `√(F(1−F)/N)` on an entry `F`, and a part's gathered light, a sum
+/// over the patches it sees, much less.
+pub(crate) const PART_RAYS: u32 = 256;
+
+/// One object's part of a shared patch: its object, the weight of one count (one over its
+/// rays that start exposed) and its entries `(patch, sample, count)`: the rays whose first
+/// hit is nearest to direct-light sample `sample` (its index among `samples[patch]`) of
+/// `patch` (simplification numbering), in increasing `(patch, sample)` order.
+pub(crate) type PartRow = (u32, f64, Vec<(u32, u32, u16)>);
+
+/// Per patch (simplification order), for each of its shared objects (`shared[i]`, in that
+/// order) with a row, the [`PartRow`] of [`PART_RAYS`] cosine-weighted rays from the object's
+/// part of the patch; empty for a patch of one object. `samples[j]` are patch `j`'s
+/// direct-light samples `(position, object)` as the runtime mesh holds them: a hit counts to
+/// the nearest sample of the hit's object on the hit patch, else the nearest of any. Rays that
+/// start buried (their first hit a back face) are not counted: the row is the mean over the
+/// part's exposed surface. Deterministic: each part's stream is seeded by its patch and
+/// object.
+pub(crate) fn part_rows(
+    patches: &Patches,
+    occ: &Occluders,
+    shared: &[Vec<(u32, f64)>],
+    samples: &[Vec<(glam::DVec3, u32)>],
+    seed: u64,
+) -> Vec<Vec<PartRow>> {
+    let owners = Owners::new(patches);
+    let far = 10.0 * occ.extent();
+    (0..patches.len())
+        .into_par_iter()
+        .map(|i| {
+            if shared[i].len() < 2 {
+                return Vec::new();
+            }
+            let pieces = patches.pieces_of(i);
+            shared[i]
+                .iter()
+                .filter_map(|&(o, _)| {
+                    let mine: Vec<Piece> = pieces
+                        .iter()
+                        .filter(|q| q.object == o && q.area > 0.0)
+                        .cloned()
+                        .collect();
+                    let area: f64 = mine.iter().map(|q| q.area).sum();
+                    if mine.is_empty() || !(area > 0.0) {
+                        return None;
+                    }
+                    let mut rng = SplitMix64(
+                        seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                            ^ u64::from(o).wrapping_mul(0xc2b2_ae3d_27d4_eb4f),
+                    );
+                    let mut hits: Vec<(u32, u32)> = Vec::new();
+                    let mut exposed = 0u32;
+                    let nf = f64::from(PART_RAYS);
+                    for k in 0..PART_RAYS {
+                        let u = (f64::from(k) + 0.5) / nf;
+                        let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
+                        let (_, x, n) = patch_point_on(&mine, area, u, v);
+                        let d = cosine_direction(n, &mut rng);
+                        match occ.first_surface_from_surface(x, d, far) {
+                            Some((_, false)) => {}
+                            Some((h, true)) => {
+                                exposed += 1;
+                                let at = x + d * h.distance;
+                                if let Some(j) = owners.patch_at(&patches.pieces, h.triangle, at) {
+                                    let obj = patches.pieces[patches.patches[j].pieces.clone()]
+                                        .iter()
+                                        .find(|q| q.triangle == h.triangle)
+                                        .map_or(u32::MAX, |q| q.object);
+                                    let near = |same: bool| {
+                                        samples[j]
+                                            .iter()
+                                            .enumerate()
+                                            .filter(|(_, s)| !same || s.1 == obj)
+                                            .min_by(|a, b| {
+                                                a.1.0
+                                                    .distance_squared(at)
+                                                    .total_cmp(&b.1.0.distance_squared(at))
+                                            })
+                                            .map(|(k, _)| k as u32)
+                                    };
+                                    let k = near(true).or_else(|| near(false)).unwrap_or(0);
+                                    hits.push((j as u32, k));
+                                }
+                            }
+                            None => exposed += 1,
+                        }
+                    }
+                    if exposed == 0 {
+                        return None;
+                    }
+                    hits.sort_unstable();
+                    let mut row: Vec<(u32, u32, u16)> = Vec::new();
+                    for (j, k) in hits {
+                        match row.last_mut() {
+                            Some(e) if e.0 == j && e.1 == k => e.2 += 1,
+                            _ => row.push((j, k, 1)),
+                        }
+                    }
+                    Some((o, 1.0 / f64::from(exposed), row))
+                })
+                .collect()
+        })
+        .collect()
+}
