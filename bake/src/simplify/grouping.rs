@@ -318,11 +318,6 @@ pub(super) fn absorb_small_groups(
     }
     let lift = LIFT * h;
     let part = LOOSE_PART * h * h;
-    let absorb_cos: f64 = std::env::var("RAD_ABSORB_COS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(-2.0);
-    let absorb_strict = std::env::var("RAD_ABSORB_STRICT").is_ok();
     // The group each one joins (itself when it stays); a group that others join never joins
     // another, so one step reaches the end.
     let mut into: Vec<usize> = (0..groups.len()).collect();
@@ -336,22 +331,13 @@ pub(super) fn absorb_small_groups(
         for &g in list.iter().filter(|&&g| is_small[g]) {
             let own = |t: &usize| ends[*t].2 == ends[g].2;
             let seen = |t: &usize| loose.sees(ends[*t], ends[g], lift, part);
-            let facing = |t: &usize| ends[*t].1.dot(ends[g].1) >= absorb_cos;
             let (big, kept) = targets.split_at(large);
-            let pick = |f: &dyn Fn(&usize) -> bool| {
-                big.iter()
-                    .find(|t| f(t) && own(t))
-                    .or_else(|| big.iter().find(|t| f(t) && seen(t)))
-                    .or_else(|| kept.iter().find(|t| f(t) && own(t)))
-                    .or_else(|| kept.iter().find(|t| f(t) && seen(t)))
-            };
-            let found = if absorb_cos > -1.0 {
-                pick(&facing)
-                    .map(|t| Some(t))
-                    .unwrap_or_else(|| if absorb_strict { None } else { pick(&|_| true) })
-            } else {
-                pick(&|_| true)
-            };
+            let found = big
+                .iter()
+                .find(|t| own(t))
+                .or_else(|| big.iter().find(|t| seen(t)))
+                .or_else(|| kept.iter().find(|t| own(t)))
+                .or_else(|| kept.iter().find(|t| seen(t)));
             match found {
                 Some(&t) => into[g] = t,
                 None => targets.push(g),
