@@ -82,11 +82,17 @@ pub(crate) fn run(
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
     radiosity_runtime::scene::ensure_finite(&h, &b)?;
 
-    let objects: Vec<Value> =
-        radiosity_runtime::objects::per_object(file, &h, &b, &direct, &at_samples)
-            .iter()
-            .map(serde_json::to_value)
-            .collect::<Result<_, _>>()?;
+    let objects: Vec<Value> = radiosity_runtime::objects::per_object(
+        file,
+        &h,
+        &b,
+        &direct,
+        &at_samples,
+        radiosity_core::sky_sh_of(&lights).as_ref(),
+    )
+    .iter()
+    .map(serde_json::to_value)
+    .collect::<Result<_, _>>()?;
     let answers = match &points {
         Some(points) => {
             let t = Instant::now();

@@ -15,6 +15,7 @@ use crate::geometry::Occluders;
 use crate::hemisphere::{Owners, cosine_direction, patch_point_on};
 use crate::rng::SplitMix64;
 use crate::simplify::{Patches, Piece};
+use radiosity_core::probes::{SH_COEFFICIENTS, sh_basis};
 use rayon::prelude::*;
 
 /// Cosine-weighted rays cast from each part: a part's row is a mean over them, with a
@@ -22,11 +23,21 @@ use rayon::prelude::*;
 /// over the patches it sees, much less.
 pub(crate) const PART_RAYS: u32 = 256;
 
-/// One object's part of a shared patch: its object, the weight of one count (one over its
-/// rays that start exposed) and its entries `(patch, sample, count)`: the rays whose first
-/// hit is nearest to direct-light sample `sample` (its index among `samples[patch]`) of
-/// `patch` (simplification numbering), in increasing `(patch, sample)` order.
-pub(crate) type PartRow = (u32, f64, Vec<(u32, u32, u16)>);
+/// One object's part of a shared patch ([`part_rows`]).
+#[derive(Clone, Debug)]
+pub(crate) struct PartRow {
+    /// The object.
+    pub(crate) object: u32,
+    /// The weight of one count: one over the part's rays that start exposed.
+    pub(crate) each: f64,
+    /// `(patch, sample, count)`: the rays whose first hit is nearest to direct-light sample
+    /// `sample` (its index among `samples[patch]`) of `patch` (simplification numbering), in
+    /// increasing `(patch, sample)` order.
+    pub(crate) entries: Vec<(u32, u32, u16)>,
+    /// Its cosine-weighted sky visibility (`radiosity_core::sky`'s `T`): `π/N · Σ Y_k(ω)` over
+    /// the rays that leave the scene.
+    pub(crate) sky: [f32; SH_COEFFICIENTS],
+}
 
 /// Per patch (simplification order), for each of its shared objects (`shared[i]`, in that
 /// order) with a row, the [`PartRow`] of [`PART_RAYS`] cosine-weighted rays from the object's
@@ -70,6 +81,7 @@ pub(crate) fn part_rows(
                     );
                     let mut hits: Vec<(u32, u32)> = Vec::new();
                     let mut exposed = 0u32;
+                    let mut sky = [0f64; SH_COEFFICIENTS];
                     let nf = f64::from(PART_RAYS);
                     for k in 0..PART_RAYS {
                         let u = (f64::from(k) + 0.5) / nf;
@@ -102,7 +114,12 @@ pub(crate) fn part_rows(
                                     hits.push((j as u32, k));
                                 }
                             }
-                            None => exposed += 1,
+                            None => {
+                                exposed += 1;
+                                for (t, y) in sky.iter_mut().zip(sh_basis(d.as_vec3().to_array())) {
+                                    *t += f64::from(y);
+                                }
+                            }
                         }
                     }
                     if exposed == 0 {
@@ -116,7 +133,13 @@ pub(crate) fn part_rows(
                             _ => row.push((j, k, 1)),
                         }
                     }
-                    Some((o, 1.0 / f64::from(exposed), row))
+                    let each = 1.0 / f64::from(exposed);
+                    Some(PartRow {
+                        object: o,
+                        each,
+                        entries: row,
+                        sky: sky.map(|t| (std::f64::consts::PI * each * t) as f32),
+                    })
                 })
                 .collect()
         })

@@ -10,12 +10,19 @@
 //! `j` with the sample's own direct light in place of the patch's mean: the light leaving a
 //! sunlit strip of a mostly shaded plinth is seen as sunlit.
 //!
-//! Layout (little-endian; `P` parts, `E` entries, length exactly `16 + 16·P + 6·E`):
+//! Where the file has sky visibility (its SKY section), each part also has its own
+//! cosine-weighted sky visibility `T` (nine `f32`, the SKY section's convention), measured by
+//! the same rays, in place of its patch's: a post under a roof in a patch with the open plinth
+//! beside it sees the roof, not the plinth's sky.
+//!
+//! Layout (little-endian; `P` parts, `E` entries, `S` parts with sky visibility, 0 or `P`;
+//! length exactly `16 + 16·P + 36·S + 6·E`):
 //!
 //! | bytes | content |
 //! |---|---|
-//! | 0..16 | `P: u32`, `E: u32`, two zero `u32` |
+//! | 0..16 | `P: u32`, `E: u32`, `S: u32`, a zero `u32` |
 //! | 16·P | [`Part`]s, in increasing `(patch, object)` order, no pair twice |
+//! | 36·S | each part's sky visibility `T`, nine `f32` |
 //! | 4·E | `u32` mesh sample of each entry, increasing within a part |
 //! | 2·E | `u16` count of each entry: its weight is `count · scale` of its part |
 
@@ -47,6 +54,8 @@ pub struct PartRows<'a> {
     pub samples: Cow<'a, [u32]>,
     /// The count of each entry.
     pub counts: Cow<'a, [u16]>,
+    /// Each part's cosine-weighted sky visibility, nine values a part (empty: none measured).
+    pub sky: Cow<'a, [f32]>,
 }
 
 /// A count may not exceed this: a part's rays are at most this many.
@@ -81,13 +90,30 @@ impl<'a> PartRows<'a> {
             .ok()
     }
 
+    /// Part `p`'s sky visibility, if the section has it.
+    pub fn sky_of(&self, p: usize) -> Option<[f32; SKY]> {
+        let t = self.sky.get(SKY * p..SKY * (p + 1))?;
+        let mut out = [0.0; SKY];
+        out.copy_from_slice(t);
+        Some(out)
+    }
+
     /// The section's bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(16 + 16 * self.parts.len() + 6 * self.samples.len());
-        for w in [self.parts.len() as u32, self.samples.len() as u32, 0, 0] {
+        let s = self.sky.len() / SKY;
+        let mut out = Vec::with_capacity(
+            16 + 16 * self.parts.len() + 4 * self.sky.len() + 6 * self.samples.len(),
+        );
+        for w in [
+            self.parts.len() as u32,
+            self.samples.len() as u32,
+            s as u32,
+            0,
+        ] {
             out.extend_from_slice(&w.to_le_bytes());
         }
         out.extend_from_slice(bytemuck::cast_slice(&self.parts));
+        out.extend_from_slice(bytemuck::cast_slice(&self.sky));
         out.extend_from_slice(bytemuck::cast_slice(&self.samples));
         out.extend_from_slice(bytemuck::cast_slice(&self.counts));
         out
@@ -106,23 +132,33 @@ impl<'a> PartRows<'a> {
         }
         let word =
             |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-        if word(8) != 0 || word(12) != 0 {
+        if word(12) != 0 {
             return Err(RadError::Invalid {
                 section: SectionKind::Parts,
                 index: 0,
                 reason: "reserved field is not zero",
             });
         }
-        let (p, e) = (u64::from(word(0)), u64::from(word(4)));
-        let expected = 16 + 16 * p + 6 * e;
+        let (p, e, s) = (u64::from(word(0)), u64::from(word(4)), u64::from(word(8)));
+        if s != 0 && s != p {
+            return Err(RadError::Invalid {
+                section: SectionKind::Parts,
+                index: 0,
+                reason: "sky visibility for neither none nor every part",
+            });
+        }
+        let expected = 16 + 16 * p + 4 * SKY as u64 * s + 6 * e;
         if bytes.len() as u64 != expected {
             return Err(short(expected));
         }
-        let (a, b) = (16 + 16 * p as usize, 16 + 16 * p as usize + 4 * e as usize);
+        let a = 16 + 16 * p as usize;
+        let b = a + 4 * SKY * s as usize;
+        let c = b + 4 * e as usize;
         Ok(PartRows {
             parts: crate::container::cast(&bytes[16..a]),
-            samples: crate::container::cast(&bytes[a..b]),
-            counts: crate::container::cast(&bytes[b..]),
+            sky: crate::container::cast(&bytes[a..b]),
+            samples: crate::container::cast(&bytes[b..c]),
+            counts: crate::container::cast(&bytes[c..]),
         })
     }
 
@@ -167,6 +203,19 @@ impl<'a> PartRows<'a> {
         if self.parts.is_empty() && e != 0 {
             return Err(bad(0, "entries without parts"));
         }
+        if !(self.sky.is_empty() || self.sky.len() == SKY * self.parts.len()) {
+            return Err(bad(0, "sky visibility for neither none nor every part"));
+        }
+        for (k, t) in self.sky.chunks_exact(SKY).enumerate() {
+            // The constant term is at most the whole lobe's, π·Y0, as a patch's.
+            let most = core::f32::consts::PI * crate::sky::Y0 * 1.001;
+            if !t.iter().all(|v| v.is_finite()) || !(0.0..=most).contains(&t[0]) {
+                return Err(bad(
+                    k,
+                    "sky visibility not finite or its constant term outside [0, π·Y0]",
+                ));
+            }
+        }
         for k in 0..self.parts.len() {
             let mut prev: Option<u32> = None;
             let end = self.parts.get(k + 1).map_or(e, |q| q.start as usize);
@@ -193,9 +242,13 @@ impl<'a> PartRows<'a> {
             parts: Cow::Owned(self.parts.into_owned()),
             samples: Cow::Owned(self.samples.into_owned()),
             counts: Cow::Owned(self.counts.into_owned()),
+            sky: Cow::Owned(self.sky.into_owned()),
         }
     }
 }
+
+/// Values of a part's sky visibility: the SH coefficients of orders 0 to 2.
+pub const SKY: usize = crate::probes::SH_COEFFICIENTS;
 
 #[cfg(test)]
 mod tests {
@@ -225,6 +278,7 @@ mod tests {
             ]),
             samples: Cow::Owned(alloc::vec![4, 9, 2, 0, 5]),
             counts: Cow::Owned(alloc::vec![1, 3, 2, 8, 1]),
+            sky: Cow::Owned((0..27).map(|k| 0.01 * k as f32).collect()),
         }
     }
 
@@ -234,7 +288,7 @@ mod tests {
         let rows = sample();
         rows.validate(4, 3, 10).unwrap();
         let bytes = rows.to_bytes();
-        assert_eq!(bytes.len(), 16 + 16 * 3 + 6 * 5);
+        assert_eq!(bytes.len(), 16 + 16 * 3 + 36 * 3 + 6 * 5);
         let back = PartRows::from_bytes(&bytes).unwrap();
         assert_eq!(back, rows);
         let r: Vec<(u32, f32)> = back.row(1).collect();
@@ -245,6 +299,16 @@ mod tests {
         assert_eq!(back.of_patch(1), 2..2);
         assert_eq!(back.find(3, 0), Some(2));
         assert_eq!(back.find(3, 1), None);
+        assert_eq!(back.sky_of(1).unwrap()[0], 0.09);
+        // Without sky visibility too.
+        let bare = PartRows {
+            sky: Cow::Owned(Vec::new()),
+            ..rows
+        };
+        let bytes = bare.to_bytes();
+        let back = PartRows::from_bytes(&bytes).unwrap();
+        assert_eq!(back, bare);
+        assert_eq!(back.sky_of(0), None);
     }
 
     /// Each broken promise is refused with its own reason.
@@ -275,6 +339,15 @@ mod tests {
         let mut r = sample();
         r.counts.to_mut()[0] = 0;
         assert_eq!(reason(&r), "count outside 1 to 4096");
+        let mut r = sample();
+        r.sky.to_mut().pop();
+        assert_eq!(reason(&r), "sky visibility for neither none nor every part");
+        let mut r = sample();
+        r.sky.to_mut()[9] = -0.5;
+        assert_eq!(
+            reason(&r),
+            "sky visibility not finite or its constant term outside [0, π·Y0]"
+        );
         // A length that does not match the counts in the head.
         let mut bytes = sample().to_bytes();
         bytes.pop();

@@ -123,12 +123,18 @@ impl<'a> ObjectShares<'a> {
 /// place of the patch's mean (`direct`, per patch, and `at_samples`, per mesh sample): the
 /// indirect light is the patch's, shared, but a box in a building's shadow whose top shares a
 /// patch with the sunlit ground keeps its own shadow.
+///
+/// Where the file gives the parts of a shared patch rows of their own (its PARTS section), a
+/// part takes its bounced light from its row ([`part_light`]) and, under a sky (`sky`, the
+/// frame's sky radiance SH, `radiosity_core::sky_sh_of`), the sky's light from its own sky
+/// visibility in place of the patch's.
 pub fn per_object(
     file: &RadFile<'_>,
     h: &[Rgb],
     b: &[Rgb],
     direct: &[Rgb],
     at_samples: &[Rgb],
+    sky: Option<&radiosity_core::SkySh>,
 ) -> Vec<ObjectLight> {
     // Per object: matrix area, and Σ A·H, Σ A·B, Σ A·E over its share of the matrix patches.
     let report: Option<serde_json::Value> = file
@@ -149,7 +155,7 @@ pub fn per_object(
             let shift = match part_light(file, i, o, b, direct, at_samples) {
                 Some(own) => shift + own - (h[i] - direct[i]),
                 None => shift,
-            };
+            } + sky.map_or(Rgb::ZERO, |sh| part_sky(file, i, o, sh));
             let (h, b) = (h[i] + shift, b[i] + p.reflectance * shift);
             let a = &mut acc[o as usize];
             a.0 += w;
@@ -224,6 +230,19 @@ pub fn part_light(
         own += (b[j] + file.patches[j].reflectance * (at_samples[s as usize] - direct[j])) * w;
     }
     Some(own)
+}
+
+/// The sky's light on object `o`'s part of patch `i` through the part's own sky visibility,
+/// less the patch's (what [`per_object`] adds to the patch's light); zero where the file has
+/// no part sky visibility for it.
+fn part_sky(file: &RadFile<'_>, i: usize, o: u32, sh: &radiosity_core::SkySh) -> Rgb {
+    let (Some(parts), Some(vis)) = (file.parts.as_ref(), file.sky.as_ref()) else {
+        return Rgb::ZERO;
+    };
+    let Some(t) = parts.find(i as u32, o).and_then(|p| parts.sky_of(p)) else {
+        return Rgb::ZERO;
+    };
+    radiosity_core::sky_irradiance(&t, sh) - radiosity_core::sky_irradiance(&vis.entry(i), sh)
 }
 
 /// The direct irradiance of each object's own samples in shared patch `i` (area-weighted

@@ -118,6 +118,7 @@ pub fn sample_parts(n: usize, samples: usize) -> radiosity_core::PartRows<'stati
         parts: Cow::Owned(parts),
         samples: Cow::Owned(at),
         counts: Cow::Owned(counts),
+        sky: Cow::Owned(vec![0.25; 9 * (2 * n.min(3))]),
     }
 }
 

@@ -88,7 +88,7 @@ fn floor_irradiance(sheet_material: serde_json::Value) -> f64 {
         &mut h,
         &mut b,
     );
-    radiosity_runtime::objects::per_object(&rt.file, &h, &b, &direct, &at_samples)
+    radiosity_runtime::objects::per_object(&rt.file, &h, &b, &direct, &at_samples, None)
         .into_iter()
         .find(|o| o.name == "floor")
         .expect("the floor object")

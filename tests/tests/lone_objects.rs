@@ -36,10 +36,17 @@ fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
         f.y.iter().all(|v| *v == Rgb::ZERO),
         "no light travels between surfaces"
     );
-    radiosity_runtime::objects::per_object(file, &f.h, &f.b, &direct, &at_samples)
-        .into_iter()
-        .map(|o| (o.name, o.irradiance[0]))
-        .collect()
+    radiosity_runtime::objects::per_object(
+        file,
+        &f.h,
+        &f.b,
+        &direct,
+        &at_samples,
+        radiosity_core::sky_sh_of(&lights).as_ref(),
+    )
+    .into_iter()
+    .map(|o| (o.name, o.irradiance[0]))
+    .collect()
 }
 
 /// The unit square in y = 0 from (0, 0, 0) to (1, 0, −1), facing up, object `object`.

@@ -51,10 +51,17 @@ fn per_object(rt: &BakedScene, lights: &[Light]) -> Vec<(String, [f64; 3])> {
     let file = &rt.file;
     let (direct, at_samples) = rt.direct_with_samples(lights).unwrap();
     let f = reference_frame(file, &direct);
-    radiosity_runtime::objects::per_object(file, &f.h, &f.b, &direct, &at_samples)
-        .into_iter()
-        .map(|o| (o.name, o.irradiance))
-        .collect()
+    radiosity_runtime::objects::per_object(
+        file,
+        &f.h,
+        &f.b,
+        &direct,
+        &at_samples,
+        radiosity_core::sky_sh_of(lights).as_ref(),
+    )
+    .into_iter()
+    .map(|o| (o.name, o.irradiance))
+    .collect()
 }
 
 fn of<'a>(objects: &'a [(String, [f64; 3])], name: &str) -> &'a [f64; 3] {

@@ -80,7 +80,7 @@ pub struct Discretised {
     /// Per patch (simplification order), its shared objects' own gather rows
     /// ([`crate::part_rows`]), their entries' patches renumbered to live indices and their
     /// weights scaled as the closure scaled the patch's row.
-    pub part_rows: Vec<Vec<crate::part_rows::PartRow>>,
+    pub(crate) part_rows: Vec<Vec<crate::part_rows::PartRow>>,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
     /// The form-factor settings used.
@@ -290,13 +290,14 @@ pub fn discretise(
                         1.0
                     };
                     rows.into_iter()
-                        .map(|(o, each, row)| {
-                            let row = row
-                                .into_iter()
-                                .filter(|&(j, _, _)| live_at[j as usize] != u32::MAX)
-                                .map(|(j, k, c)| (live_at[j as usize], k, c))
-                                .collect();
-                            (o, each * scale, row)
+                        .map(|mut r| {
+                            r.entries
+                                .retain(|&(j, _, _)| live_at[j as usize] != u32::MAX);
+                            for e in &mut r.entries {
+                                e.0 = live_at[e.0 as usize];
+                            }
+                            r.each *= scale;
+                            r
                         })
                         .collect()
                 })
@@ -481,7 +482,7 @@ fn second_half(
         parts: None,
     };
     let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
-    file.parts = part_rows_section(system, &chosen.perm, &mesh);
+    file.parts = part_rows_section(system, &chosen.perm, &mesh, params.sky);
     file.mesh = Some(mesh);
     let discretise_ms: f64 = system.timings_ms.values().sum();
     timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
@@ -511,39 +512,44 @@ fn part_rows_section(
     system: &Discretised,
     perm: &[u32],
     mesh: &radiosity_core::Mesh<'_>,
+    with_sky: bool,
 ) -> Option<radiosity_core::PartRows<'static>> {
     let mut file_of = vec![0u32; perm.len()];
     for (k, &at) in perm.iter().enumerate() {
         file_of[at as usize] = k as u32;
     }
     let mut parts = Vec::new();
-    let (mut samples, mut counts) = (Vec::new(), Vec::new());
+    let (mut samples, mut counts, mut sky) = (Vec::new(), Vec::new(), Vec::new());
     let mut entries: Vec<(u32, u16)> = Vec::new();
     for (f, &at) in perm.iter().enumerate() {
         let Some(rows) = system.part_rows.get(system.live[at as usize]) else {
             continue;
         };
-        for (object, scale, row) in rows {
+        for row in rows {
             entries.clear();
-            entries.extend(row.iter().map(|&(j, k, c)| {
+            entries.extend(row.entries.iter().map(|&(j, k, c)| {
                 let file_j = file_of[j as usize] as usize;
                 (mesh.sample_rows[file_j] + k, c)
             }));
             entries.sort_unstable();
             parts.push(radiosity_core::Part {
                 patch: f as u32,
-                object: *object,
-                scale: *scale as f32,
+                object: row.object,
+                scale: row.each as f32,
                 start: samples.len() as u32,
             });
             samples.extend(entries.iter().map(|e| e.0));
             counts.extend(entries.iter().map(|e| e.1));
+            if with_sky {
+                sky.extend_from_slice(&row.sky);
+            }
         }
     }
-    (!parts.is_empty()).then(|| radiosity_core::PartRows {
+    (!parts.is_empty()).then_some(radiosity_core::PartRows {
         parts: Cow::Owned(parts),
         samples: Cow::Owned(samples),
         counts: Cow::Owned(counts),
+        sky: Cow::Owned(sky),
     })
 }
 
