@@ -57,6 +57,7 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "sparse": m.sparse.bytes(),
             "corrections": m.corrections.bytes(),
             "scales": m.scales.len() * std::mem::size_of::<radiosity_core::LogScale>(),
+            "parts": file.parts.as_ref().map_or(0, |p| p.to_bytes().len()),
         },
         "tiles": l.tile_count(),
         "tile_size": l.tile_size(),
@@ -71,6 +72,12 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "rank": p.factors.as_ref().map(|f| f.rank),
             "bytes": p.to_bytes().len(),
             "spacing": p.spacing,
+        })),
+        "parts": file.parts.as_ref().map(|p| json!({
+            "count": p.parts.len(),
+            "entries": p.samples.len(),
+            "sky": !p.sky.is_empty(),
+            "bytes": p.to_bytes().len(),
         })),
     });
     let obj = out.as_object_mut().expect("object");
@@ -146,6 +153,19 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
             p.len(),
             p.spacing,
             mib(&s["probes"]["bytes"])
+        );
+    }
+    if let Some(p) = &file.parts {
+        outln!(
+            "  parts        {} objects' parts of shared patches with rows of their own ({} entries{}, {:.3} MiB)",
+            p.parts.len(),
+            p.samples.len(),
+            if p.sky.is_empty() {
+                ""
+            } else {
+                ", sky visibility"
+            },
+            mib(&s["parts"]["bytes"])
         );
     }
     if let Some(effects) = s.get("effects").and_then(Value::as_object) {
