@@ -194,6 +194,8 @@ fn files_baked_before_the_surface_fields_still_solve() {
     }
     assert!(file.mesh.is_some(), "the bake writes a mesh");
     file.mesh = None;
+    // Part rows name the mesh's samples: a file without a mesh has none.
+    file.parts = None;
     let bare = dir.path().join("bare.rad");
     std::fs::write(&bare, file.to_bytes().unwrap()).unwrap();
     let old = solve_json(&bare, &[]);
