@@ -278,7 +278,7 @@ mod tests {
             ]),
             samples: Cow::Owned(alloc::vec![4, 9, 2, 0, 5]),
             counts: Cow::Owned(alloc::vec![1, 3, 2, 8, 1]),
-            sky: Cow::Owned((0..27).map(|k| 0.01 * k as f32).collect()),
+            sky: Cow::Owned((0..27).map(|k| k as f32 / 64.0).collect()),
         }
     }
 
@@ -299,7 +299,7 @@ mod tests {
         assert_eq!(back.of_patch(1), 2..2);
         assert_eq!(back.find(3, 0), Some(2));
         assert_eq!(back.find(3, 1), None);
-        assert_eq!(back.sky_of(1).unwrap()[0], 0.09);
+        assert_eq!(back.sky_of(1).unwrap()[0], 9.0 / 64.0);
         // Without sky visibility too.
         let bare = PartRows {
             sky: Cow::Owned(Vec::new()),
