@@ -247,9 +247,6 @@ pub fn discretise(
         )
     };
     effects.insert("dark_patches", dark_effect);
-    // Where no patch sees another (one object, a convex one, a single sheet), no light travels
-    // between surfaces: the transfer is zero and the file carries everything else (patches,
-    // mesh, direct light, probes), so that one code path serves every asset.
     // Each shared patch's parts gather through rows of their own, scaled as the closure
     // scaled their patch's row.
     let mut live_at = vec![u32::MAX; n_all];
@@ -258,7 +255,10 @@ pub fn discretise(
     }
     // Each patch's direct-light samples as the runtime mesh will hold them: the points not
     // buried, else the patch's centre.
+    let any_shared = exposure.shared.iter().any(|s| s.len() >= 2);
+    let occ_for_parts = occluders.as_ref().filter(|_| any_shared);
     let samples: Vec<Vec<(glam::DVec3, u32)>> = (0..n_all)
+        .filter(|_| occ_for_parts.is_some())
         .map(|i| {
             let marks = exposure.buried_points.get(i).map_or(&[][..], Vec::as_slice);
             let mut v: Vec<(glam::DVec3, u32)> = crate::simplify::runtime_mesh::direct_points(
@@ -277,7 +277,7 @@ pub fn discretise(
             v
         })
         .collect();
-    let part_rows: Vec<Vec<crate::part_rows::PartRow>> = match occluders.as_ref() {
+    let part_rows: Vec<Vec<crate::part_rows::PartRow>> = match occ_for_parts {
         Some(occ) => {
             crate::part_rows::part_rows(&patches, occ, &exposure.shared, &samples, params.seed)
                 .into_iter()
@@ -306,6 +306,9 @@ pub fn discretise(
         None => vec![Vec::new(); n_all],
     };
     lap("part_rows", &mut timings);
+    // Where no patch sees another (one object, a convex one, a single sheet), no light travels
+    // between surfaces: the transfer is zero and the file carries everything else (patches,
+    // mesh, direct light, probes), so that one code path serves every asset.
     let f_live = live_rows(f, &live);
     let reflectance: Vec<[f64; 3]> = live
         .iter()
