@@ -202,7 +202,7 @@ pub fn per_object(
 /// The light bounced onto object `o`'s part of patch `i` through the part's own row (the
 /// file's PARTS section, [`radiosity_core::PartRows`]): `Σ w·B(s)` over its entries, `B(s)` the
 /// radiosity of sample `s`'s patch with the sample's own direct light in place of the patch's
-/// mean. `None` where the part has no row, or `h`, `direct` or `at_samples` are too short for
+/// mean. `None` where the part has no row, or `b`, `direct` or `at_samples` do not fit
 /// the file.
 pub fn part_light(
     file: &RadFile<'_>,
