@@ -79,6 +79,10 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "sky": !p.sky.is_empty(),
             "bytes": p.to_bytes().len(),
         })),
+        "coverage": file.coverage.as_ref().map(|c| json!({
+            "partial": c.iter().filter(|&&c| c < 1.0).count(),
+            "bytes": 4 * c.len(),
+        })),
     });
     let obj = out.as_object_mut().expect("object");
     for (k, v) in own.as_object().expect("object") {
@@ -166,6 +170,13 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
                 ", sky visibility"
             },
             mib(&s["parts"]["bytes"])
+        );
+    }
+    if let Some(c) = &file.coverage {
+        outln!(
+            "  coverage     {} of {} mesh triangles partly covered (alphaMode)",
+            c.iter().filter(|&&c| c < 1.0).count(),
+            c.len()
         );
     }
     if let Some(effects) = s.get("effects").and_then(Value::as_object) {

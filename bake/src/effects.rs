@@ -61,8 +61,19 @@ pub(crate) fn plan_colour(patches: &Patches) -> Effect {
 /// box costs six plane tests per vertex), and the planes are tested in parallel, each until a
 /// vertex lies behind it: a tessellated sphere of 5120 facets (5120 planes, 2562 vertices) is
 /// 13 M tests, milliseconds, where its visibility rays and their pair tests took minutes.
+/// A scene with triangles of partial coverage (glTF `alphaMode`) always casts them: the rays'
+/// occluders carry the coverage that scales the form factors (`form_factor::coverage`).
 pub fn plan_occlusion(scene: &Scene) -> Effect {
     use rayon::prelude::*;
+    let partial = scene.coverage.iter().filter(|&&c| c < 1.0).count();
+    if partial > 0 {
+        return Effect::new(
+            true,
+            format!(
+                "{partial} triangle(s) of partial coverage (alphaMode): light passes them by their share, visibility rays cast"
+            ),
+        );
+    }
     let (lo, hi) = scene.bounds();
     let tol = 1e-9 * (hi - lo).length().max(f64::MIN_POSITIVE);
     // Exact duplicates by a rounded key; planes that differ by rounding and land in two cells

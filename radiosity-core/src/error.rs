@@ -43,11 +43,14 @@ pub enum SectionKind {
     Sky = 17,
     /// Optional gather rows of the parts of shared patches ([`crate::parts::PartRows`]).
     Parts = 18,
+    /// Optional coverage of the mesh's triangles (`f32` each, see
+    /// [`crate::RadFile::coverage`]).
+    Coverage = 19,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 18] = [
+    pub const ALL: [SectionKind; 19] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -66,6 +69,7 @@ impl SectionKind {
         SectionKind::Probes,
         SectionKind::Sky,
         SectionKind::Parts,
+        SectionKind::Coverage,
     ];
 
     /// The kind with this code.
@@ -86,6 +90,7 @@ impl SectionKind {
                 | SectionKind::Probes
                 | SectionKind::Sky
                 | SectionKind::Parts
+                | SectionKind::Coverage
         )
     }
 
@@ -110,6 +115,7 @@ impl SectionKind {
             SectionKind::Probes => "PROBES",
             SectionKind::Sky => "SKY",
             SectionKind::Parts => "PARTS",
+            SectionKind::Coverage => "COVERAGE",
         }
     }
 }

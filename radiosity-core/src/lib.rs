@@ -53,6 +53,7 @@
 //!     probes: None,
 //!     sky: None,
 //!     parts: None,
+//!     coverage: None,
 //! };
 //! let bytes = file.to_bytes().unwrap();
 //! let parsed = RadFile::parse(&bytes).unwrap();

@@ -38,7 +38,11 @@ impl BakedScene {
             let tris: Vec<[DVec3; 3]> = (0..m.triangles.len())
                 .map(|t| m.corners(t).map(|c| Vec3::from(c).as_dvec3()))
                 .collect();
-            Occluders::from_triangles(&tris)
+            let coverage = file
+                .coverage
+                .as_deref()
+                .map_or_else(Vec::new, <[f32]>::to_vec);
+            Occluders::from_triangles(&tris).with_coverage(coverage)
         });
         let probes = file.probes.as_ref().map(radiosity_core::DecodedProbes::new);
         Self {
@@ -91,8 +95,10 @@ impl BakedScene {
             let Some((e, ray)) = l.irradiance_at(point.as_vec3(), normal.as_vec3()) else {
                 continue;
             };
+            // The share of the light that gets through: 0 or 1, or between for triangles of
+            // partial coverage on the way.
             let visible = match &self.occluders {
-                None => true,
+                None => 1.0,
                 Some(occ) => {
                     // A directional light's segment runs past the scene's far side.
                     let dist = if ray.distance.is_finite() {
@@ -101,11 +107,11 @@ impl BakedScene {
                         2.0 * occ.extent() + (point.length())
                     };
                     let end = point + ray.direction.as_dvec3() * dist;
-                    occ.segment_visible(point, end)
+                    occ.segment_transmittance(point, end)
                 }
             };
-            if visible {
-                h += e;
+            if visible > 0.0 {
+                h += e * visible as f32;
             }
         }
         h
@@ -364,6 +370,7 @@ mod tests {
             probes: None,
             sky: None,
             parts: None,
+            coverage: None,
         };
         file.validate().unwrap();
         BakedScene::new(file)

@@ -157,6 +157,7 @@ pub(super) fn bench_probes(
         probes: None,
         sky: None,
         parts: None,
+        coverage: None,
     };
     let rt = radiosity_runtime::BakedScene::new(file);
     let direct = bench_direct(&rt)

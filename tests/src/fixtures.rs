@@ -91,7 +91,13 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         probes: Some(sample_probes(n)),
         sky: Some(sample_sky(n, 2)),
         parts: Some(sample_parts(n, sample_mesh(n).samples.len())),
+        coverage: Some(Cow::Owned(sample_coverage(sample_mesh(n).triangles.len()))),
     }
+}
+
+/// Coverage for `t` triangles: every third at 0.5, the rest opaque.
+pub fn sample_coverage(t: usize) -> Vec<f32> {
+    (0..t).map(|i| if i % 3 == 1 { 0.5 } else { 1.0 }).collect()
 }
 
 /// Gather rows of two objects' parts in each of the first three patches (fewer for a smaller

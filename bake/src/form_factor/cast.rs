@@ -152,6 +152,7 @@ pub(super) fn cast(
     occ: &Occluders,
     rays: u32,
     burial: &[Vec<u32>],
+    coverage: Option<&[f64]>,
     matrix: &mut [f32],
     progress: Option<Progress<'_>>,
 ) -> u64 {
@@ -182,7 +183,9 @@ pub(super) fn cast(
     // densities, divided by each side's area. Equal ray counts per patch: the density of `i`
     // is `R / A_i`.
     let r = f64::from(rays);
-    let area = |i: usize| patches.patches[i].area;
+    // A patch of coverage c (`super::coverage`) exchanges light over its area c·A: its rays
+    // meet a partly covered target by the target's share already.
+    let area = |i: usize| patches.patches[i].area * coverage.map_or(1.0, |c| c[i]);
     for i in 0..n {
         let d = i * n + i;
         matrix[d] = (f64::from(matrix[d]) / r) as f32;

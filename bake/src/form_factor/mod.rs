@@ -331,6 +331,27 @@ impl<'a> Pairs<'a> {
     }
 }
 
+/// Each patch's coverage (glTF `alphaMode`): the area-weighted mean of its pieces'
+/// triangles' ([`Occluders::coverage`]), or `None` when every patch is whole. A form factor
+/// `F_ij` is the share of the light leaving `i` that reaches the part of `j` that is there,
+/// `c_j` times the geometric one (whose rays pass partly covered triangles on the way by their
+/// share, [`Occluders::with_coverage`]); the exchange between the two covered parts is
+/// `c_i c_j A_i F^geo_ij`, so reciprocity holds with the areas `c·A`.
+pub(crate) fn coverage(patches: &Patches, occ: Option<&Occluders>) -> Option<Vec<f64>> {
+    let occ = occ?;
+    let c: Vec<f64> = (0..patches.len())
+        .map(|i| {
+            let (mut covered, mut area) = (0.0, 0.0);
+            for p in patches.pieces_of(i) {
+                covered += f64::from(occ.coverage(p.triangle)) * p.area;
+                area += p.area;
+            }
+            if area > 0.0 { covered / area } else { 1.0 }
+        })
+        .collect();
+    c.iter().any(|&c| c < 1.0).then_some(c)
+}
+
 /// Whether some point of `piece` is buried ([`Occluders::buried`]): its centre or a point a
 /// tenth of the way in from a corner. Only such a piece's shadow rays ask whether their start
 /// is buried (`exact::Skips`), so the test's rays are paid once per piece, not per ray.
@@ -496,7 +517,16 @@ pub fn form_factor_rows(
         // the whole matrix, whose cost follows the patches anyway.
         let mut matrix = vec![0f32; n * n];
         let burial = crate::closure::survey(patches, occ);
-        let rays = cast::cast(patches, occ, per_patch, &burial, &mut matrix, progress);
+        let cover = coverage(patches, Some(occ));
+        let rays = cast::cast(
+            patches,
+            occ,
+            per_patch,
+            &burial,
+            cover.as_deref(),
+            &mut matrix,
+            progress,
+        );
         let out = rows
             .iter()
             .map(|&i| {
@@ -510,6 +540,7 @@ pub fn form_factor_rows(
     }
     let setup = Setup::new(patches, occluders, params);
     let ctx = Pairs::new(patches, setup.occ, setup.cache.as_ref(), params, setup.tol);
+    let cover = coverage(patches, occluders);
     let done = AtomicUsize::new(0);
     let stopped = AtomicBool::new(false);
     let out: Vec<(Vec<f64>, u64)> = rows
@@ -523,7 +554,10 @@ pub fn form_factor_rows(
             let row = (0..n)
                 // In the whole matrix's order (lower index first): a tie in area is
                 // integrated from the lower index.
-                .map(|j| ctx.exchange(i.min(j), i.max(j), &mut rays, scratch) / ai)
+                .map(|j| {
+                    let cj = cover.as_ref().map_or(1.0, |c| c[j]);
+                    cj * ctx.exchange(i.min(j), i.max(j), &mut rays, scratch) / ai
+                })
                 .collect();
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(p) = progress
@@ -569,7 +603,16 @@ pub(crate) fn form_factors_surveyed(
                 &own
             }
         };
-        let rays_cast = cast::cast(patches, occ, per_patch, burial, &mut matrix, progress);
+        let cover = coverage(patches, Some(occ));
+        let rays_cast = cast::cast(
+            patches,
+            occ,
+            per_patch,
+            burial,
+            cover.as_deref(),
+            &mut matrix,
+            progress,
+        );
         return FormFactors {
             rays_per_patch: per_patch,
             ..FormFactors::new(patches, matrix, rays_cast, 0, 0)
@@ -605,14 +648,16 @@ pub(crate) fn form_factors_surveyed(
         .collect();
     let mut matrix = vec![0f32; n * n];
     let mut rays_cast = 0;
+    let cover = coverage(patches, occluders);
+    let c = |i: usize| cover.as_ref().map_or(1.0, |c| c[i]);
     for (i, (row, rays)) in rows.iter().enumerate() {
         rays_cast += rays;
         let ai = patches.patches[i].area;
         for (k, &g) in row.iter().enumerate() {
             let j = i + k;
             let aj = patches.patches[j].area;
-            matrix[i * n + j] = (g / ai) as f32;
-            matrix[j * n + i] = (g / aj) as f32;
+            matrix[i * n + j] = (c(j) * g / ai) as f32;
+            matrix[j * n + i] = (c(i) * g / aj) as f32;
         }
     }
     let sites = ctx.sites.iter().filter(|s| s.is_some()).count();

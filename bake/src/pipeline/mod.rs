@@ -483,10 +483,16 @@ fn second_half(
         probes: None,
         sky: None,
         parts: None,
+        coverage: None,
     };
     let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
     file.parts = part_rows_section(system, &chosen.perm, &mesh, params.sky);
     file.mesh = Some(mesh);
+    file.coverage = scene
+        .coverage
+        .iter()
+        .any(|&c| c < 1.0)
+        .then(|| Cow::Owned(scene.coverage.clone()));
     let discretise_ms: f64 = system.timings_ms.values().sum();
     timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let summary = BakeSummary {

@@ -630,7 +630,9 @@ impl Scene {
     }
 
     /// The occlusion BVH over every triangle, with each triangle's emission flag (an emitter
-    /// drawn on a surface covers it: [`Occluders::covered`]).
+    /// drawn on a surface covers it: [`Occluders::covered`]) and its alpha coverage
+    /// ([`Occluders::with_coverage`]: rays go through a triangle of coverage c with
+    /// probability 1 − c).
     pub fn occluders(&self) -> Occluders {
         let corners: Vec<[DVec3; 3]> = (0..self.triangles.len()).map(|t| self.corners(t)).collect();
         let emits = self
@@ -638,7 +640,7 @@ impl Scene {
             .iter()
             .map(|t| self.materials[t.material as usize].emission.mean() > 0.0)
             .collect();
-        Occluders::with_emitters(&corners, emits)
+        Occluders::with_emitters(&corners, emits).with_coverage(self.coverage.clone())
     }
 
     /// Area of triangle `t`.

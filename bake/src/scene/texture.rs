@@ -146,7 +146,7 @@ impl Texture {
     pub(crate) fn mean_over_triangle(&self, uv: [[f64; 2]; 3]) -> [f64; 3] {
         let mut acc = [0.0; 3];
         let mut n = 0.0;
-        self.lattice(uv, |u, v| {
+        self.lattice(uv, |u, v, _| {
             let s = self.sample(u, v);
             for ch in 0..3 {
                 acc[ch] += s[ch];
@@ -157,17 +157,19 @@ impl Texture {
     }
 
     /// The alpha coverage of the UV triangle `uv` (same lattice as
-    /// [`Self::mean_over_triangle`]), alpha being the texel's times `factor`: with
+    /// [`Self::mean_over_triangle`]), alpha being the texel's times `factor`, given at the
+    /// triangle's corners and interpolated (`baseColorFactor` alpha × `COLOR_0` alpha): with
     /// `cutoff` (glTF MASK) the fraction of points at or above it, without (BLEND) the mean.
     pub(crate) fn coverage_over_triangle(
         &self,
         uv: [[f64; 2]; 3],
-        factor: f64,
+        factor: [f64; 3],
         cutoff: Option<f64>,
     ) -> f64 {
         let (mut acc, mut n) = (0.0, 0.0);
-        self.lattice(uv, |u, v| {
-            let a = self.sample_alpha(u, v) * factor;
+        self.lattice(uv, |u, v, w| {
+            let f = w[0] * factor[0] + w[1] * factor[1] + w[2] * factor[2];
+            let a = self.sample_alpha(u, v) * f;
             acc += match cutoff {
                 Some(c) => f64::from(u8::from(a >= c)),
                 None => a,
@@ -177,29 +179,38 @@ impl Texture {
         acc / n
     }
 
-    /// Calls `f(u, v)` at the centroids of the k² sub-triangles of a regular subdivision of
-    /// the UV triangle `uv` (equal weights), `k` from its texel footprint (1 to 64).
-    fn lattice(&self, uv: [[f64; 2]; 3], mut f: impl FnMut(f64, f64)) {
+    /// Calls `f(u, v, w)` at the centroids of the k² sub-triangles of a regular subdivision
+    /// of the UV triangle `uv` (equal weights), `w` their barycentric weights of the three
+    /// corners, `k` from its texel footprint (1 to 64).
+    fn lattice(&self, uv: [[f64; 2]; 3], mut f: impl FnMut(f64, f64, [f64; 3])) {
         let span = |i: usize| {
             let (a, b) = (uv[i], uv[(i + 1) % 3]);
             ((a[0] - b[0]) * self.width as f64).hypot((a[1] - b[1]) * self.height as f64)
         };
         let k = (span(0).max(span(1)).max(span(2)).ceil() as usize).clamp(1, 64);
-        for i in 0..k {
-            for j in 0..k - i {
-                for up in [true, false] {
-                    if !up && i + j + 1 >= k {
-                        continue;
-                    }
-                    let off = if up { 1.0 / 3.0 } else { 2.0 / 3.0 };
-                    let a = (i as f64 + off) / k as f64;
-                    let b = (j as f64 + off) / k as f64;
-                    let c = 1.0 - a - b;
-                    f(
-                        a * uv[0][0] + b * uv[1][0] + c * uv[2][0],
-                        a * uv[0][1] + b * uv[1][1] + c * uv[2][1],
-                    );
+        barycentric_lattice(k, |w| {
+            f(
+                w[0] * uv[0][0] + w[1] * uv[1][0] + w[2] * uv[2][0],
+                w[0] * uv[0][1] + w[1] * uv[1][1] + w[2] * uv[2][1],
+                w,
+            )
+        });
+    }
+}
+
+/// Calls `f(w)` with the barycentric weights of the centroids of the k² sub-triangles of a
+/// regular subdivision of a triangle into k parts along each edge (equal areas).
+pub(crate) fn barycentric_lattice(k: usize, mut f: impl FnMut([f64; 3])) {
+    for i in 0..k {
+        for j in 0..k - i {
+            for up in [true, false] {
+                if !up && i + j + 1 >= k {
+                    continue;
                 }
+                let off = if up { 1.0 / 3.0 } else { 2.0 / 3.0 };
+                let a = (i as f64 + off) / k as f64;
+                let b = (j as f64 + off) / k as f64;
+                f([a, b, 1.0 - a - b]);
             }
         }
     }
@@ -233,7 +244,7 @@ mod tests {
         let both = |factor, cutoff| {
             0.5 * tris
                 .iter()
-                .map(|&uv| t.coverage_over_triangle(uv, factor, cutoff))
+                .map(|&uv| t.coverage_over_triangle(uv, [factor; 3], cutoff))
                 .sum::<f64>()
         };
         // The lattice has 64 points per side: the edge is resolved to about 1/64.

@@ -53,6 +53,46 @@ pub struct Occluders {
     /// `doubleSided`, or two sheets modelled back to back). A twin never buries its sheet
     /// ([`Self::buried`]).
     twinned: Vec<bool>,
+    /// Each triangle's coverage c in (0, 1] (by its index in the list given): the fraction of
+    /// its area that is there (glTF `alphaMode` MASK and BLEND). A ray meets a triangle of
+    /// coverage below 1 with probability c, decided by a hash of the ray and the triangle
+    /// ([`Self::passes`]); empty when every triangle is opaque.
+    coverage: Vec<f32>,
+}
+
+/// Which triangles of partial coverage a traversal lets a ray through.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Sieve {
+    /// Each by its hash ([`Occluders::passes`]).
+    Hash,
+    /// Each by its hash except this one (the target of [`Occluders::reaches`]: met always).
+    HashExcept(u32),
+    /// Every one: a surface with holes buries nothing ([`Occluders::buried`]).
+    All,
+}
+
+/// Uniform in `[0, 1)` from a ray (its local origin and direction, bit for bit) and a
+/// triangle: SplitMix64's finaliser over the words folded together, so the same ray asks the
+/// same question of a triangle every time it is traced ([`Occluders::facing_sheet`]
+/// re-traces a ray) and different rays ask independently.
+fn ray_hash(ray: &Ray, triangle: u32) -> f32 {
+    let words = [
+        ray.origin.x,
+        ray.origin.y,
+        ray.origin.z,
+        ray.direction.x,
+        ray.direction.y,
+        ray.direction.z,
+    ];
+    let mut h = u64::from(triangle).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    for w in words {
+        h = (h ^ u64::from(w.to_bits())).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h ^= h >> 29;
+    }
+    h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    h ^= h >> 31;
+    (h >> 40) as f32 / (1u64 << 24) as f32
 }
 
 /// The extent of every scene in the BVH's f32 coordinates. obvhs's CWBVH skips every node
@@ -331,6 +371,52 @@ impl Occluders {
             emits: Vec::new(),
             covers: Default::default(),
             twinned: twins(tris),
+            coverage: Vec::new(),
+        }
+    }
+
+    /// Gives each triangle (by its index in the list given) its coverage c: the fraction of
+    /// its area that is there, in (0, 1]. Rays meet a triangle of c < 1 with probability c
+    /// ([`Self::passes`]); [`Self::segment_transmittance`] takes `1 − c` of the light
+    /// through. An empty list, or one of only 1s, keeps every triangle opaque.
+    ///
+    /// # Panics
+    /// If `coverage` is neither empty nor one value per triangle.
+    #[must_use]
+    pub fn with_coverage(mut self, coverage: Vec<f32>) -> Self {
+        assert!(
+            coverage.is_empty() || coverage.len() == self.slot.len(),
+            "one coverage per triangle"
+        );
+        self.coverage = if coverage.iter().all(|&c| c >= 1.0) {
+            Vec::new()
+        } else {
+            coverage
+        };
+        self
+    }
+
+    /// The coverage of triangle `t` (its index in the list given): 1 unless
+    /// [`Self::with_coverage`] said less.
+    pub fn coverage(&self, t: u32) -> f32 {
+        self.coverage.get(t as usize).copied().unwrap_or(1.0)
+    }
+
+    /// Whether `ray` (local coordinates) goes through triangle `t`, which it meets, rather than
+    /// stopping there: with probability `1 − c` by [`ray_hash`]; never for an opaque one.
+    fn passes(&self, t: u32, ray: &Ray) -> bool {
+        !self.coverage.is_empty() && {
+            let c = self.coverage(t);
+            c < 1.0 && ray_hash(ray, t) >= c
+        }
+    }
+
+    /// Whether `sieve` lets `ray` through triangle `t`, which it meets.
+    fn sifts(&self, sieve: Sieve, t: u32, ray: &Ray) -> bool {
+        match sieve {
+            Sieve::Hash => self.passes(t, ray),
+            Sieve::HashExcept(target) => t != target && self.passes(t, ray),
+            Sieve::All => self.coverage(t) < 1.0,
         }
     }
 
@@ -381,12 +467,52 @@ impl Occluders {
         let o = self.local(a);
         let ray = Ray::new(o, dir, margin as f32, (len - margin) as f32);
         self.cw.ray_traverse_miss(ray, |r, id| {
-            if skip(self.cw.primitive_indices[id]) {
+            let t = self.cw.primitive_indices[id];
+            if skip(t) {
+                return f32::INFINITY;
+            }
+            let d = self.rt[id].intersect(r);
+            if d < f32::INFINITY && self.passes(t, r) {
                 f32::INFINITY
             } else {
-                self.rt[id].intersect(r)
+                d
             }
         })
+    }
+
+    /// The fraction of light that crosses the open segment `a`–`b` (ends excluded as in
+    /// [`Self::segment_visible`]): 0 if an opaque triangle lies across it, else the product of
+    /// `1 − c` over the triangles of partial coverage c it crosses (1 when it meets none). The
+    /// runtime's shadow rays: a sun behind a half-covered sheet gives half its light, with no
+    /// noise from the hash [`Self::segment_visible`] uses.
+    pub fn segment_transmittance(&self, a: DVec3, b: DVec3) -> f64 {
+        if self.rt.is_empty() {
+            return 1.0;
+        }
+        let d = (b - a) * self.scale;
+        let len = d.length();
+        let margin = (1e-4 * len).max(1e-6 * LOCAL_EXTENT);
+        if len <= 2.0 * margin {
+            return 1.0;
+        }
+        let ray = Ray::new(
+            self.local(a),
+            ray_direction(d / len),
+            margin as f32,
+            (len - margin) as f32,
+        );
+        let mut through = 1.0f64;
+        let missed = self.cw.ray_traverse_miss(ray, |r, id| {
+            let d = self.rt[id].intersect(r);
+            let c = self.coverage(self.cw.primitive_indices[id]);
+            if d < f32::INFINITY && c < 1.0 {
+                through *= 1.0 - f64::from(c);
+                f32::INFINITY
+            } else {
+                d
+            }
+        });
+        if missed { through } else { 0.0 }
     }
 
     /// The first triangle a ray meets, both sides counting, at a distance in `[t_min, t_max]`
@@ -400,7 +526,7 @@ impl Occluders {
         t_min: f64,
         t_max: f64,
     ) -> Option<Hit> {
-        self.closest_hit_passing(origin, direction, t_min, t_max, &|_| false)
+        self.closest_hit_passing(origin, direction, t_min, t_max, &|_| false, Sieve::Hash)
     }
 
     /// [`Self::closest_hit`] from a point on a surface: it passes through every triangle whose
@@ -414,7 +540,14 @@ impl Occluders {
         direction: DVec3,
         t_max: f64,
     ) -> Option<Hit> {
-        self.closest_hit_passing(origin, direction, 0.0, t_max, &|t| self.holds(t, origin))
+        self.closest_hit_passing(
+            origin,
+            direction,
+            0.0,
+            t_max,
+            &|t| self.holds(t, origin),
+            Sieve::Hash,
+        )
     }
 
     /// What a ray from a point on a surface sees ([`Self::closest_hit_from_surface`]): the hit
@@ -428,7 +561,13 @@ impl Occluders {
         t_max: f64,
     ) -> Option<(Hit, bool)> {
         let hit = self.closest_hit_from_surface(origin, direction, t_max)?;
-        let (hit, front) = self.facing_sheet(origin, direction, hit, &|t| self.holds(t, origin));
+        let (hit, front) = self.facing_sheet(
+            origin,
+            direction,
+            hit,
+            &|t| self.holds(t, origin),
+            Sieve::Hash,
+        );
         Some((hit, front && !self.touches(hit.triangle, origin)))
     }
 
@@ -443,7 +582,7 @@ impl Occluders {
         t_max: f64,
     ) -> Option<(Hit, bool)> {
         let hit = self.closest_hit(origin, direction, t_min, t_max)?;
-        Some(self.facing_sheet(origin, direction, hit, &|_| false))
+        Some(self.facing_sheet(origin, direction, hit, &|_| false, Sieve::Hash))
     }
 
     /// `hit` (the first triangle met along `direction`, passing those `pass` names) as the
@@ -461,15 +600,21 @@ impl Occluders {
         direction: DVec3,
         hit: Hit,
         pass: &dyn Fn(u32) -> bool,
+        sieve: Sieve,
     ) -> (Hit, bool) {
         if self.front(hit.triangle).dot(direction) < 0.0 {
             return (hit, true);
         }
         let near = hit.distance * (1.0 - SHEET_GAP);
         let far = hit.distance * (1.0 + SHEET_GAP);
-        let sheet = self.closest_hit_passing(origin, direction, near, far, &|t| {
-            pass(t) || self.front(t).dot(direction) >= 0.0
-        });
+        let sheet = self.closest_hit_passing(
+            origin,
+            direction,
+            near,
+            far,
+            &|t| pass(t) || self.front(t).dot(direction) >= 0.0,
+            sieve,
+        );
         match sheet {
             Some(front) => (front, true),
             None => (hit, false),
@@ -483,6 +628,7 @@ impl Occluders {
         t_min: f64,
         t_max: f64,
         pass: &dyn Fn(u32) -> bool,
+        sieve: Sieve,
     ) -> Option<Hit> {
         let len = direction.length();
         if self.rt.is_empty() || !(len > 0.0) || !len.is_finite() {
@@ -492,7 +638,7 @@ impl Occluders {
         let o = self.local(origin);
         let t_max = (t_max * self.scale).min(f64::from(f32::MAX));
         let ray = Ray::new(o, dir, (t_min * self.scale) as f32, t_max as f32);
-        let (id, t) = self.first_hit(ray, pass)?;
+        let (id, t) = self.first_hit(ray, pass, sieve)?;
         let (u, v) = self.rt[id].barycentrics(&ray);
         Some(Hit {
             distance: f64::from(t) / self.scale,
@@ -504,14 +650,20 @@ impl Occluders {
 
     /// The first triangle `ray` (local coordinates) meets, except those `pass` (given a
     /// triangle's index in the list given) lets it through: its CWBVH primitive index and the
-    /// local distance. `pass` is asked only about triangles the ray meets.
-    fn first_hit(&self, ray: Ray, pass: &dyn Fn(u32) -> bool) -> Option<(usize, f32)> {
+    /// local distance. `pass` is asked only about triangles the ray meets; `sieve` says which
+    /// triangles of partial coverage it goes through.
+    fn first_hit(
+        &self,
+        ray: Ray,
+        pass: &dyn Fn(u32) -> bool,
+        sieve: Sieve,
+    ) -> Option<(usize, f32)> {
         let mut hit = obvhs::ray::RayHit::none();
         let prims = &self.cw.primitive_indices;
         self.cw
             .ray_traverse(ray, &mut hit, |r, id| {
                 let t = self.rt[id].intersect(r);
-                if t < f32::INFINITY && pass(prims[id]) {
+                if t < f32::INFINITY && (pass(prims[id]) || self.sifts(sieve, prims[id], r)) {
                     f32::INFINITY
                 } else {
                     t
@@ -569,11 +721,16 @@ impl Occluders {
         }
         let dir = ray_direction(d / len);
         let ray = Ray::new(self.local(from), dir, 0.0, (len * (1.0 + SHEET_GAP)) as f32);
-        let Some((id, t)) = self.first_hit(ray, &|t| self.holds(t, from)) else {
+        let Some((id, t)) =
+            self.first_hit(ray, &|t| self.holds(t, from), Sieve::HashExcept(target))
+        else {
             return true;
         };
         let met = self.cw.primitive_indices[id];
         if met == target {
+            // Met whatever its coverage: the form factors scale by the target's coverage
+            // themselves, on both sides of a pair (`form_factor::coverage`); triangles of
+            // partial coverage on the way pass their share of the rays.
             return !self.covered(target, to);
         }
         if f64::from(t) < len * (1.0 - SHEET_GAP) {
@@ -641,14 +798,21 @@ impl Occluders {
         for &t in tilts.iter().chain(&grazing) {
             let d = normal + t;
             // A ray that leaves with a front face met: exposed, whatever the other rays meet.
-            let Some(hit) = self.closest_hit_from_surface(x, d, 10.0 * self.extent) else {
+            let Some(hit) = self.closest_hit_passing(
+                x,
+                d,
+                0.0,
+                10.0 * self.extent,
+                &|t| self.holds(t, x),
+                Sieve::All,
+            ) else {
                 if !fronts.is_empty() {
                     return false;
                 }
                 back = false;
                 continue;
             };
-            let (shown, front) = self.facing_sheet(x, d, hit, &|t| self.holds(t, x));
+            let (shown, front) = self.facing_sheet(x, d, hit, &|t| self.holds(t, x), Sieve::All);
             match (front && !self.touches(shown.triangle, x), shown == hit) {
                 (true, true) if !back => return false,
                 (true, true) => fronts.push((
@@ -699,7 +863,7 @@ impl Occluders {
                 && self.front(t).dot(normal) < 0.0
                 && !self.twinned.get(t as usize).copied().unwrap_or(false))
         };
-        self.first_hit(ray, &against).is_some()
+        self.first_hit(ray, &against, Sieve::All).is_some()
     }
 
     /// The corners of triangle `t` (its index in the list given).

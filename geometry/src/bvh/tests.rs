@@ -361,3 +361,109 @@ fn quad_y(lo: f64, hi: f64, y: f64) -> Vec<[DVec3; 3]> {
     let [a, b, c, d] = [(lo, lo), (lo, hi), (hi, hi), (hi, lo)].map(|(x, z)| dvec3(x, y, z));
     vec![[a, b, c], [a, c, d]]
 }
+
+/// A floor quad at z = 0 facing up, a sheet of coverage `c` facing up at z = 0.5, and (with
+/// `second`) another of coverage `c` at z = 0.75.
+fn covered_sheets(c: f32, second: bool) -> Occluders {
+    let mut tris = quad(0.0, true);
+    tris.extend(quad(0.5, true));
+    let mut coverage = vec![1.0, 1.0, c, c];
+    if second {
+        tris.extend(quad(0.75, true));
+        coverage.extend([c, c]);
+    }
+    Occluders::from_triangles(&tris).with_coverage(coverage)
+}
+
+/// Points on a 64 × 64 grid inside the unit square at height `z`.
+fn grid(z: f64) -> impl Iterator<Item = DVec3> {
+    (0..64 * 64).map(move |k| {
+        let (i, j) = (k % 64, k / 64);
+        dvec3((i as f64 + 0.5) / 64.0, (j as f64 + 0.5) / 64.0, z)
+    })
+}
+
+#[test]
+fn partial_coverage_lets_its_share_of_rays_through() {
+    // 4096 rays of a hash: the fraction through has a standard deviation of
+    // sqrt(0.3·0.7/4096) = 0.007; 0.03 is four of them.
+    let occ = covered_sheets(0.3, false);
+    let through = grid(0.01)
+        .filter(|&p| occ.segment_visible(p, p + dvec3(0.0, 0.0, 1.0)))
+        .count() as f64
+        / 4096.0;
+    assert!((through - 0.7).abs() < 0.03, "{through}");
+    // Closest hits from below meet the sheet with probability 0.3.
+    let met = grid(0.01)
+        .filter(|&p| {
+            occ.closest_hit(p, dvec3(0.0, 0.0, 1.0), 0.0, 10.0)
+                .is_some_and(|h| h.triangle >= 2)
+        })
+        .count() as f64
+        / 4096.0;
+    assert!((met - 0.3).abs() < 0.03, "{met}");
+    // The same ray asks the same question every time.
+    let p = dvec3(0.3, 0.6, 0.01);
+    let d = dvec3(0.0, 0.0, 1.0);
+    assert_eq!(
+        occ.closest_hit(p, d, 0.0, 10.0),
+        occ.closest_hit(p, d, 0.0, 10.0)
+    );
+}
+
+#[test]
+fn transmittance_multiplies_over_the_sheets_crossed() {
+    // Exact: (1 − 0.4) per sheet, in f64 from an f32 coverage (0.4f32 = 0.4000000059...).
+    // The points lie off the quads' diagonals: a ray through an edge meets both triangles
+    // (`EDGE_SLACK`) and would count a sheet twice.
+    let occ = covered_sheets(0.4, true);
+    let up = |p: DVec3| occ.segment_transmittance(p, p + dvec3(0.0, 0.0, 2.0));
+    assert!((up(dvec3(0.3, 0.6, 0.01)) - 0.36).abs() < 1e-6);
+    assert!((up(dvec3(0.3, 0.6, 0.6)) - 0.6).abs() < 1e-6);
+    assert_eq!(up(dvec3(0.3, 0.6, 0.8)), 1.0);
+    // An opaque triangle across it: nothing.
+    let opaque =
+        |p: DVec3| occ.segment_transmittance(p + dvec3(0.0, 0.0, 2.0), p - dvec3(0.0, 0.0, 0.5));
+    assert_eq!(opaque(dvec3(0.3, 0.3, 0.0)), 0.0);
+    // Without coverage every segment is all or nothing.
+    let plain = Occluders::from_triangles(&quad(0.5, true));
+    assert_eq!(
+        plain.segment_transmittance(dvec3(0.5, 0.5, 0.0), dvec3(0.5, 0.5, 1.0)),
+        0.0
+    );
+    assert_eq!(
+        plain.segment_transmittance(dvec3(1.5, 0.5, 0.0), dvec3(1.5, 0.5, 1.0)),
+        1.0
+    );
+}
+
+#[test]
+fn a_target_of_partial_coverage_is_reached_a_sheet_on_the_way_passes_its_share() {
+    // From the floor to the lower sheet (triangles 2 and 3, coverage 0.25): every ray
+    // reaches it (the form factors scale by the target's coverage themselves); to the upper
+    // one (4 and 5) through the lower: three quarters (four-sigma bound as above,
+    // sqrt(0.25·0.75/4096) = 0.0068).
+    let occ = covered_sheets(0.25, true);
+    let reached = |z: f64, first: u32| {
+        grid(0.0)
+            .filter(|&p| {
+                let to = dvec3(1.0 - p.x, 1.0 - p.y, z);
+                let t = if to.x >= to.y { first } else { first + 1 };
+                occ.reaches(p, to, t)
+            })
+            .count() as f64
+            / 4096.0
+    };
+    assert_eq!(reached(0.5, 2), 1.0);
+    let through = reached(0.75, 4);
+    assert!((through - 0.75).abs() < 0.03, "{through}");
+    // A sheet with holes buries nothing: the floor under a sheet of coverage 0.999 facing
+    // up (the floor's rays meet its back, as the inside of a slab) is as open as under none.
+    let mut tris = quad(0.0, true);
+    tris.extend(quad(0.001, true));
+    let solid = Occluders::from_triangles(&tris);
+    let holed = Occluders::from_triangles(&tris).with_coverage(vec![1.0, 1.0, 0.999, 0.999]);
+    let x = dvec3(0.5, 0.5, 0.0);
+    assert!(solid.buried(x, dvec3(0.0, 0.0, 1.0)));
+    assert!(!holed.buried(x, dvec3(0.0, 0.0, 1.0)));
+}

@@ -214,6 +214,11 @@ pub struct RadFile<'a> {
     /// Each object's own gather row in the patches it shares, if the bake stored them
     /// (`None`: every object takes its patches' bounced light).
     pub parts: Option<PartRows<'a>>,
+    /// The coverage of each of the mesh's triangles, if some is below 1 (glTF `alphaMode`
+    /// MASK or BLEND): the fraction of the triangle that is there, in (0, 1]. Shadow rays
+    /// take `1 − c` of the light through a triangle of coverage c. A file with it has the
+    /// MESH section, one value a triangle.
+    pub coverage: Option<Cow<'a, [f32]>>,
 }
 
 fn align(x: u64) -> u64 {
@@ -335,6 +340,19 @@ impl<'a> RadFile<'a> {
             let samples = self.mesh.as_ref().map_or(0, |m| m.samples.len());
             parts.validate(n, self.objects.len(), samples)?;
         }
+        if let Some(coverage) = &self.coverage {
+            let triangles = self.mesh.as_ref().map_or(0, |m| m.triangles.len());
+            if coverage.len() != triangles {
+                return Err(RadError::Count {
+                    section: SectionKind::Coverage,
+                    expected: triangles as u64,
+                    found: coverage.len() as u64,
+                });
+            }
+            if let Some(i) = coverage.iter().position(|c| !(*c > 0.0 && *c <= 1.0)) {
+                return Err(bad(SectionKind::Coverage, i, "coverage not in (0, 1]"));
+            }
+        }
         self.matrix.validate()
     }
 
@@ -360,6 +378,7 @@ impl<'a> RadFile<'a> {
                 values: Cow::Owned(s.values.into_owned()),
             }),
             parts: self.parts.map(PartRows::into_owned),
+            coverage: self.coverage.map(|c| Cow::Owned(c.into_owned())),
         }
     }
 }

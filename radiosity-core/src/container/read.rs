@@ -129,6 +129,19 @@ impl<'a> RadFile<'a> {
             parts: sec(SectionKind::Parts)
                 .map(PartRows::from_bytes)
                 .transpose()?,
+            coverage: sec(SectionKind::Coverage)
+                .map(|b| {
+                    if b.len() % 4 == 0 {
+                        Ok(cast::<f32>(b))
+                    } else {
+                        Err(RadError::SectionLength {
+                            kind: SectionKind::Coverage,
+                            expected: (b.len() as u64).next_multiple_of(4),
+                            found: b.len() as u64,
+                        })
+                    }
+                })
+                .transpose()?,
         };
         file.validate()?;
         Ok(file)

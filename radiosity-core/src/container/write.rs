@@ -86,6 +86,9 @@ impl RadFile<'_> {
         if let Some(p) = &parts {
             sections.push((SectionKind::Parts, p));
         }
+        if let Some(c) = &self.coverage {
+            sections.push((SectionKind::Coverage, bytemuck::cast_slice(c)));
+        }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());
         let mut pos = table_end;

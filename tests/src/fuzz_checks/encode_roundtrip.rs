@@ -159,6 +159,7 @@ pub fn rad_file_around(
         probes: None,
         sky: None,
         parts: None,
+        coverage: None,
     }
 }
 

@@ -394,3 +394,46 @@ fn corrupt_corrections_are_refused_with_their_section() {
         "{padding}"
     );
 }
+
+#[test]
+fn coverage_round_trips_and_bad_values_are_refused_with_their_index() {
+    let file = sample_file(37, 3, Format::Bc1, 16);
+    let bytes = file.to_bytes().unwrap();
+    let parsed = RadFile::parse(&bytes).unwrap();
+    assert_eq!(parsed.coverage, file.coverage);
+    // The second triangle's coverage: 0 (nothing there: the bake leaves such triangles out),
+    // NaN, above 1, negative.
+    for v in [0.0, f32::NAN, 1.5, -0.25] {
+        let e = corrupt_section(SectionKind::Coverage, |b| set_f32(b, 4, v));
+        assert_eq!(
+            e,
+            RadError::Invalid {
+                section: SectionKind::Coverage,
+                index: 1,
+                reason: "coverage not in (0, 1]"
+            },
+            "{v}"
+        );
+    }
+    // One value a mesh triangle, and a file with coverage has a mesh.
+    let mut short = file.clone();
+    short.coverage = Some(Cow::Owned(vec![1.0; 3]));
+    assert!(matches!(
+        short.to_bytes(),
+        Err(RadError::Count {
+            section: SectionKind::Coverage,
+            ..
+        })
+    ));
+    let mut meshless = file;
+    meshless.mesh = None;
+    meshless.parts = None;
+    assert!(matches!(
+        meshless.to_bytes(),
+        Err(RadError::Count {
+            section: SectionKind::Coverage,
+            expected: 0,
+            ..
+        })
+    ));
+}

@@ -90,7 +90,7 @@ impl Loader<'_> {
         let material = self.material(&prim.material())?;
         let world_pos = self.world_positions(&pos_acc, instance.world, &pwhat)?;
         let uv = self.texcoords(prim, material, world_pos.len(), &pwhat)?;
-        let colours = self.colours(prim, world_pos.len(), &pwhat)?;
+        let (colours, alpha) = self.colours(prim, world_pos.len(), &pwhat)?;
         let indices = self.indices(prim, world_pos.len(), &pwhat)?;
         if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
             self.scene.report.warnings.push(format!(
@@ -102,7 +102,7 @@ impl Loader<'_> {
         }
         let corners = triangle_corners(mode, &indices);
         self.add_colours(world_pos.len(), colours);
-        self.add_triangles(instance, prim, material, &corners, &world_pos, uv);
+        self.add_triangles(instance, prim, material, &corners, &world_pos, uv, alpha);
         Ok(())
     }
 
@@ -192,16 +192,18 @@ impl Loader<'_> {
         ))
     }
 
-    /// The primitive's `COLOR_0` (RGB; the alpha of a VEC4 is not a reflectance), which
-    /// multiplies the base colour, or `None` without one. Each channel finite and not negative.
+    /// The primitive's `COLOR_0` RGB, which multiplies the base colour, and the alpha of a
+    /// VEC4 one, which multiplies `baseColorFactor` alpha (used under `alphaMode` MASK and
+    /// BLEND), each `None` without. Each value finite and not negative.
+    #[allow(clippy::type_complexity)]
     fn colours(
         &mut self,
         prim: &::gltf::Primitive<'_>,
         nverts: usize,
         pwhat: &str,
-    ) -> Result<Option<Vec<[f64; 3]>>, BakeError> {
+    ) -> Result<(Option<Vec<[f64; 3]>>, Option<Vec<f64>>), BakeError> {
         let Some(acc) = prim.get(&Semantic::Colors(0)) else {
-            return Ok(None);
+            return Ok((None, None));
         };
         let dims = match acc.dimensions() {
             Dimensions::Vec4 => Dimensions::Vec4,
@@ -221,6 +223,7 @@ impl Loader<'_> {
         }
         let norm = acc.normalized() || acc.data_type() != DataType::F32;
         let mut out = Vec::with_capacity(e.count);
+        let mut alpha = (dims == Dimensions::Vec4).then(|| Vec::with_capacity(e.count));
         for v in 0..e.count {
             let c = [0, 1, 2].map(|k| e.get(v, k, norm));
             if c.iter().any(|x| !x.is_finite() || *x < 0.0) {
@@ -230,8 +233,17 @@ impl Loader<'_> {
                 )));
             }
             out.push(c);
+            if let Some(alpha) = &mut alpha {
+                let a = e.get(v, 3, norm);
+                if !(a.is_finite() && a >= 0.0) {
+                    return Err(self.err(format!(
+                        "{pwhat}: COLOR_0 alpha of vertex {v} is {a}, not an alpha (finite, not negative)"
+                    )));
+                }
+                alpha.push(a);
+            }
         }
-        Ok(Some(out))
+        Ok((Some(out), alpha))
     }
 
     /// Keeps `Scene::vertex_colours` aligned with the positions once any primitive has colours:
@@ -291,6 +303,7 @@ impl Loader<'_> {
         corners: &[[u32; 3]],
         world_pos: &[DVec3],
         uv: Option<Vec<[f64; 2]>>,
+        alpha: Option<Vec<f64>>,
     ) {
         let base = self.scene.positions.len() as u32;
         self.scene.positions.extend_from_slice(world_pos);
@@ -335,7 +348,8 @@ impl Loader<'_> {
         }
         for c in all {
             let texcoords = has_uv.then(|| c.map(|v| uv_base + v));
-            let coverage = self.coverage(material, texcoords);
+            let corner_alpha = alpha.as_ref().map(|a| c.map(|v| a[v as usize]));
+            let coverage = self.coverage(material, texcoords, corner_alpha);
             if coverage <= 0.0 {
                 self.cut_out_triangles += 1;
                 continue;
@@ -367,26 +381,46 @@ impl Loader<'_> {
     }
 
     /// The alpha coverage of a triangle of `material` with texture coordinates `texcoords`
-    /// (indices into the scene's): 1 for an opaque material; for MASK the fraction of the
-    /// triangle whose alpha (texture × `baseColorFactor` alpha) is at or above `alphaCutoff`;
-    /// for BLEND its mean alpha.
-    fn coverage(&self, material: u32, texcoords: Option<[u32; 3]>) -> f64 {
+    /// (indices into the scene's) and `COLOR_0` alpha `corner_alpha` at its corners: 1 for
+    /// an opaque material; for MASK the fraction of the triangle whose alpha (texture ×
+    /// `baseColorFactor` alpha × `COLOR_0` alpha, the last interpolated) is at or above
+    /// `alphaCutoff`; for BLEND its mean alpha (clamped to 1: `COLOR_0` may exceed it).
+    fn coverage(
+        &self,
+        material: u32,
+        texcoords: Option<[u32; 3]>,
+        corner_alpha: Option<[f64; 3]>,
+    ) -> f64 {
         let Some(&(factor, cutoff)) = self.alpha_of.get(&material) else {
             return 1.0;
         };
+        let factor = corner_alpha.map_or([factor; 3], |a| a.map(|a| a * factor));
         let texture = self.scene.materials[material as usize]
             .texture
             .map(|t| &self.scene.textures[t as usize]);
-        match (texture, texcoords) {
+        let c = match (texture, texcoords) {
             (Some(t), Some(tc)) if t.has_alpha() => {
                 let uv = tc.map(|i| self.scene.texcoords[i as usize]);
                 t.coverage_over_triangle(uv, factor, cutoff)
             }
-            _ => match cutoff {
-                Some(c) => f64::from(u8::from(factor >= c)),
-                None => factor,
+            // No alpha texture: alpha is linear over the triangle. Uniform alpha gives the
+            // exact answer at once; a varying one is sampled on a 16-part lattice (256
+            // points: a MASK edge crossing the triangle is placed within 1/16 of it).
+            _ if factor[0] == factor[1] && factor[1] == factor[2] => match cutoff {
+                Some(c) => f64::from(u8::from(factor[0] >= c)),
+                None => factor[0],
             },
-        }
+            _ => {
+                let (mut acc, mut n) = (0.0, 0.0);
+                crate::scene::texture::barycentric_lattice(16, |w| {
+                    let a = w[0] * factor[0] + w[1] * factor[1] + w[2] * factor[2];
+                    acc += cutoff.map_or(a, |c| f64::from(u8::from(a >= c)));
+                    n += 1.0;
+                });
+                acc / n
+            }
+        };
+        c.min(1.0)
     }
 
     /// The scene object for node `node`: its name, else its mesh's, else `node<i>`, made

@@ -275,13 +275,6 @@ impl Loader<'_> {
                 self.cut_out_triangles
             ));
         }
-        let partial = self.scene.coverage.iter().filter(|&&c| c < 1.0).count();
-        if partial > 0 {
-            report.warnings.push(format!(
-                "{}: {partial} triangle(s) partly cut out or transparent (alphaMode) are baked opaque",
-                path.display()
-            ));
-        }
         if self.closed_double_sided > 0 {
             report.warnings.push(format!(
                 "{}: {} doubleSided primitive(s) are closed surfaces: only their outside is surface",
