@@ -102,7 +102,7 @@ impl<'a> Starts<'a> {
     }
 }
 
-/// Casts `rays` rays from patch `i` and adds one to `row[j]` for each that reaches patch `j`.
+/// Casts `rays` rays from patch `i` and calls `hit(j)` for each that reaches patch `j`.
 /// `buried`: the survey of the patch's first [`BURIED_POINTS`] starts, empty where it found
 /// none buried; then ray `k` starts at start `k mod BURIED_POINTS`, and none from a buried
 /// one (a start inside a solid, a step's top under the step above, meets the faces inside
@@ -117,7 +117,7 @@ fn cast_row(
     i: usize,
     rays: u32,
     buried: &[u32],
-    row: &mut [f32],
+    mut hit: impl FnMut(usize),
 ) {
     let Some(starts) = Starts::new(patches, i) else {
         return;
@@ -140,7 +140,7 @@ fn cast_row(
         if let Some((h, true)) = occ.first_surface_from_surface(x, d, far)
             && let Some(j) = owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance)
         {
-            row[j] += 1.0;
+            hit(j);
         }
     }
 }
@@ -171,7 +171,7 @@ pub(super) fn cast(
                 return;
             }
             let buried = burial.get(i).map_or(&[][..], Vec::as_slice);
-            cast_row(patches, &owners, occ, i, rays, buried, row);
+            cast_row(patches, &owners, occ, i, rays, buried, |j| row[j] += 1.0);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(p) = progress
                 && !p(d, n)
@@ -202,6 +202,152 @@ pub(super) fn cast(
         }
     }
     n as u64 * u64::from(rays)
+}
+
+/// A form-factor matrix by rows of its non-zero entries (compressed sparse rows), each row's
+/// columns increasing: what [`cast`] computes, without the n² floats a dense matrix needs (a
+/// level of 65 536 patches would need 17 GB; its rays hit a few hundred patches a row).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SparseFormFactors {
+    /// Patches.
+    pub n: usize,
+    /// Row `i`'s entries are `row_ptr[i]..row_ptr[i + 1]` of [`Self::cols`] and
+    /// [`Self::values`].
+    pub row_ptr: Vec<usize>,
+    /// Column of each entry.
+    pub cols: Vec<u32>,
+    /// `F_ij` of each entry.
+    pub values: Vec<f32>,
+    /// Rays cast.
+    pub rays_cast: u64,
+}
+
+impl SparseFormFactors {
+    /// Row `i`: `(j, F_ij)` for its non-zero entries, `j` increasing.
+    pub fn row(&self, i: usize) -> impl Iterator<Item = (usize, f32)> + '_ {
+        let r = self.row_ptr[i]..self.row_ptr[i + 1];
+        self.cols[r.clone()]
+            .iter()
+            .zip(&self.values[r])
+            .map(|(&j, &v)| (j as usize, v))
+    }
+
+    /// Entries in all.
+    pub fn nnz(&self) -> usize {
+        self.cols.len()
+    }
+}
+
+/// [`cast`] into [`SparseFormFactors`]: the same rays and the same pooling of each pair's two
+/// sides, so every entry is bit for bit the dense matrix's. Each row's hits are counted by
+/// patch; a pair hit from one side only gets its entry on both (the pooled exchange is shared).
+pub(super) fn cast_sparse(
+    patches: &Patches,
+    occ: &Occluders,
+    rays: u32,
+    burial: &[Vec<u32>],
+    coverage: Option<&[f64]>,
+    progress: Option<Progress<'_>>,
+) -> SparseFormFactors {
+    let n = patches.len();
+    assert!(rays < 1 << 24, "ray counts must be exact in f32");
+    let owners = Owners::new(patches);
+    let done = AtomicUsize::new(0);
+    let stopped = AtomicBool::new(false);
+    // Hits of each row, as (patch, count) with patches increasing.
+    let counts: Vec<Vec<(u32, u32)>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if stopped.load(Ordering::Relaxed) {
+                return Vec::new();
+            }
+            let buried = burial.get(i).map_or(&[][..], Vec::as_slice);
+            let mut hits: Vec<u32> = Vec::new();
+            cast_row(patches, &owners, occ, i, rays, buried, |j| {
+                hits.push(j as u32)
+            });
+            hits.sort_unstable();
+            let mut row: Vec<(u32, u32)> = Vec::new();
+            for j in hits {
+                match row.last_mut() {
+                    Some((k, c)) if *k == j => *c += 1,
+                    _ => row.push((j, 1)),
+                }
+            }
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(p) = progress
+                && !p(d, n)
+            {
+                stopped.store(true, Ordering::Relaxed);
+            }
+            row
+        })
+        .collect();
+    // The other side of each pair: row i of the transpose holds (j, hits from j to i).
+    let mut transpose: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+    for (j, row) in counts.iter().enumerate() {
+        for &(i, c) in row {
+            transpose[i as usize].push((j as u32, c));
+        }
+    }
+    let r = f64::from(rays);
+    // As [`cast`]: a patch of coverage c exchanges over c·A.
+    let area = |i: usize| patches.patches[i].area * coverage.map_or(1.0, |c| c[i]);
+    let rows: Vec<Vec<(u32, f32)>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (own, other) = (&counts[i], &transpose[i]);
+            let mut out = Vec::with_capacity(own.len().max(other.len()));
+            let (mut a, mut b) = (0, 0);
+            while a < own.len() || b < other.len() {
+                let ja = own.get(a).map_or(u32::MAX, |e| e.0);
+                let jb = other.get(b).map_or(u32::MAX, |e| e.0);
+                let j = ja.min(jb);
+                let mine = if ja == j {
+                    a += 1;
+                    own[a - 1].1
+                } else {
+                    0
+                };
+                let theirs = if jb == j {
+                    b += 1;
+                    other[b - 1].1
+                } else {
+                    0
+                };
+                let ju = j as usize;
+                let v = if ju == i {
+                    (f64::from(mine) / r) as f32
+                } else {
+                    // Counts below 2^24 are exact in f32, as the dense matrix holds them.
+                    let hits = f64::from(mine as f32) + f64::from(theirs as f32);
+                    let (ai, aj) = (area(i), area(ju));
+                    let g = hits / (r / ai + r / aj);
+                    (g / ai) as f32
+                };
+                out.push((j, v));
+            }
+            out
+        })
+        .collect();
+    let mut row_ptr = Vec::with_capacity(n + 1);
+    row_ptr.push(0);
+    let nnz: usize = rows.iter().map(Vec::len).sum();
+    let (mut cols, mut values) = (Vec::with_capacity(nnz), Vec::with_capacity(nnz));
+    for row in rows {
+        for (j, v) in row {
+            cols.push(j);
+            values.push(v);
+        }
+        row_ptr.push(cols.len());
+    }
+    SparseFormFactors {
+        n,
+        row_ptr,
+        cols,
+        values,
+        rays_cast: n as u64 * u64::from(rays),
+    }
 }
 
 #[cfg(test)]

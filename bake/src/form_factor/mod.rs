@@ -67,6 +67,7 @@ mod flat;
 mod params;
 mod sampling;
 
+pub use cast::SparseFormFactors;
 pub(crate) use cast::Starts;
 pub use clustered::{NEAR_RAYS, PAIR_RAYS_PER_FORM_FACTOR};
 pub use exact::EXACT_PAIR_RAYS;
@@ -662,6 +663,29 @@ pub(crate) fn form_factors_surveyed(
     }
     let sites = ctx.sites.iter().filter(|s| s.is_some()).count();
     FormFactors::new(patches, matrix, rays_cast, sites, clustered.into_inner())
+}
+
+/// The ray-cast form factors ([`ManyPieces::Rays`]) as sparse rows: entry for entry the
+/// matrix [`form_factors`] gives for them, without its n² floats. `None` where the rows would
+/// not be ray-cast (the scene has at most [`FormFactorParams::exact_pieces`] pieces, or no
+/// visibility rays or occluders).
+pub fn form_factors_sparse(
+    patches: &Patches,
+    occluders: Option<&Occluders>,
+    params: &FormFactorParams,
+    progress: Option<Progress<'_>>,
+) -> Option<SparseFormFactors> {
+    let (occ, per_patch) = cast_rays(patches, occluders, params)?;
+    let burial = crate::closure::survey(patches, occ);
+    let cover = coverage(patches, Some(occ));
+    Some(cast::cast_sparse(
+        patches,
+        occ,
+        per_patch,
+        &burial,
+        cover.as_deref(),
+        progress,
+    ))
 }
 
 /// Whether `patches` take ray-cast form factors ([`ManyPieces::Rays`], above

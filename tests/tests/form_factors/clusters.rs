@@ -573,3 +573,49 @@ fn ray_cast_rows_count_nothing_from_inside_nested_boxes() {
         "the patches inside the boxes have rows of {mean} on average"
     );
 }
+
+#[test]
+fn sparse_ray_cast_rows_are_the_dense_matrix_entry_for_entry() {
+    // The sparse rows a level too large for one dense matrix takes (`form_factors_sparse`)
+    // come from the same rays and the same pooling as the dense ones: equal bit for bit, and
+    // every non-zero of the dense matrix is one of their entries (blocks resting in a room,
+    // partly buried patches included). A scene whose rows are not ray-cast has none.
+    use radiosity_tests::scenes::{resting_blocks_room, write_scene};
+    let dir = tempfile::tempdir().unwrap();
+    let (quads, mats, _) = resting_blocks_room(0.5);
+    let scene = Scene::load_obj(&write_scene(dir.path(), "resting", &quads, &mats)).unwrap();
+    let patches = simplify(&scene, &VoxelParams::with_patches(400)).unwrap();
+    let occ = scene.occluders();
+    let params = FormFactorParams {
+        exact_pieces: 0,
+        many_pieces: ManyPieces::Rays { per_patch: 1024 },
+        ..FormFactorParams::default()
+    };
+    let dense = form_factors(&patches, Some(&occ), &params, None);
+    let sparse = form_factors_sparse(&patches, Some(&occ), &params, None).expect("ray-cast rows");
+    let n = dense.n;
+    assert_eq!(sparse.n, n);
+    assert_eq!(sparse.rays_cast, dense.rays_cast);
+    let mut rebuilt = vec![0f32; n * n];
+    for i in 0..n {
+        let mut last = None;
+        for (j, v) in sparse.row(i) {
+            assert!(last.is_none_or(|l| l < j), "row {i}: columns increasing");
+            last = Some(j);
+            assert!(v > 0.0, "row {i}: an entry is a non-zero");
+            rebuilt[i * n + j] = v;
+        }
+    }
+    let differ = (0..n * n)
+        .filter(|&k| rebuilt[k].to_bits() != dense.matrix[k].to_bits())
+        .count();
+    assert_eq!(differ, 0, "entries differing from the dense matrix");
+    assert!(
+        sparse.nnz() < n * n / 2,
+        "sparse: {} of {}",
+        sparse.nnz(),
+        n * n
+    );
+    let exact = FormFactorParams::default();
+    assert!(form_factors_sparse(&patches, Some(&occ), &exact, None).is_none());
+}

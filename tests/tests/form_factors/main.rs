@@ -11,7 +11,7 @@ mod rays;
 use bake_support::*;
 use radiosity_bake::form_factor::{
     EXACT_PAIR_RAYS, FormFactorParams, FormFactors, ManyPieces, Visibility, form_factor_rows,
-    form_factors,
+    form_factors, form_factors_sparse,
 };
 use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;
