@@ -67,6 +67,8 @@ pub mod probes;
 
 pub mod sky;
 
+pub mod systems;
+
 // Beside the pipeline.
 pub mod check;
 pub mod error;

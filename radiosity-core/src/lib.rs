@@ -92,6 +92,7 @@ pub mod probes;
 mod quantise;
 pub mod sky;
 mod sparse;
+pub mod systems;
 mod transfer;
 
 pub use bc::{DecodeMode, SurfaceError};

@@ -1,0 +1,232 @@
+//! Cutting a level's patches into systems: pieces of at most a given number of patches, each
+//! to carry its own transfer, chosen so that little light crosses between them
+//! (`docs/decisions/systems.md`).
+//!
+//! The cut is recursive: a set of patches that does not fit is split in two by a plane normal
+//! to one of the axes, its two sides each taking a share of the systems the set needs. Of
+//! every position on every axis that leaves both sides within their share's capacity, the
+//! plane taken is the one across which the least exchange `A_i F_ij` flows (summed over the
+//! pairs it separates, both directions): a wall, a street between blocks, the gap between two
+//! rooms. Every position of an axis is scored at once from the sorted patches: a pair whose
+//! ranks are `r < s` is cut by the positions `r + 1 ..= s`, a difference array over the ranks.
+
+use crate::form_factor::SparseFormFactors;
+use crate::simplify::Patches;
+
+/// Which system each patch belongs to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Partition {
+    /// The system of each patch.
+    pub system: Vec<u32>,
+    /// Systems.
+    pub count: usize,
+}
+
+impl Partition {
+    /// The patches of each system, increasing.
+    pub fn members(&self) -> Vec<Vec<u32>> {
+        let mut out = vec![Vec::new(); self.count];
+        for (i, &s) in self.system.iter().enumerate() {
+            out[s as usize].push(i as u32);
+        }
+        out
+    }
+
+    /// The share of the exchange `Σ A_i F_ij` (over every pair, `i ≠ j`) that flows between
+    /// patches of different systems: the light the systems must pass to each other.
+    pub fn crossing_share(&self, patches: &Patches, ff: &SparseFormFactors) -> f64 {
+        let (mut all, mut crossing) = (0.0, 0.0);
+        for i in 0..ff.n {
+            let a = patches.patches[i].area;
+            for (j, f) in ff.row(i) {
+                if j != i {
+                    let w = a * f64::from(f);
+                    all += w;
+                    if self.system[i] != self.system[j] {
+                        crossing += w;
+                    }
+                }
+            }
+        }
+        if all > 0.0 { crossing / all } else { 0.0 }
+    }
+}
+
+/// Cuts `patches` into systems of at most `max_patches` patches each (at least 1), as few as
+/// that allows, along the planes across which the least light flows (module doc). `ff` are
+/// the patches' form factors.
+///
+/// # Panics
+/// If `ff` is not of `patches`.
+pub fn partition(patches: &Patches, ff: &SparseFormFactors, max_patches: usize) -> Partition {
+    assert_eq!(ff.n, patches.len(), "form factors of these patches");
+    let max = max_patches.max(1);
+    let mut system = vec![0u32; ff.n];
+    let mut count = 0;
+    let mut rank = vec![u32::MAX; ff.n];
+    let all: Vec<u32> = (0..ff.n as u32).collect();
+    let parts = ff.n.div_ceil(max).max(1);
+    cut(
+        patches,
+        ff,
+        all,
+        parts,
+        max,
+        &mut rank,
+        &mut system,
+        &mut count,
+    );
+    Partition { system, count }
+}
+
+/// Cuts `set` into `parts` systems of at most `max` patches, numbered from `*count` on.
+/// `rank` is scratch, `u32::MAX` outside the set being cut.
+#[allow(clippy::too_many_arguments)]
+fn cut(
+    patches: &Patches,
+    ff: &SparseFormFactors,
+    mut set: Vec<u32>,
+    parts: usize,
+    max: usize,
+    rank: &mut [u32],
+    system: &mut [u32],
+    count: &mut usize,
+) {
+    if parts <= 1 || set.len() <= max {
+        for &i in &set {
+            system[i as usize] = *count as u32;
+        }
+        *count += 1;
+        return;
+    }
+    let left_parts = parts / 2;
+    let right_parts = parts - left_parts;
+    let n = set.len();
+    // Positions k (the left side's size) that keep both sides within capacity.
+    let lo = n.saturating_sub(right_parts * max).max(1);
+    let hi = (left_parts * max).min(n - 1);
+    let mut best: Option<(f64, usize, usize)> = None; // (crossing, axis, k)
+    // The proportional split: among positions that cut as little, the nearest to it.
+    let target = n * left_parts / parts;
+    for axis in 0..3 {
+        let key = |i: u32| patches.patches[i as usize].centre[axis];
+        set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+        for (r, &i) in set.iter().enumerate() {
+            rank[i as usize] = r as u32;
+        }
+        // diff[k] accumulates the exchange cut by position k (left side ranks < k).
+        let mut diff = vec![0.0f64; n + 1];
+        for &i in &set {
+            let ri = rank[i as usize] as usize;
+            let a = patches.patches[i as usize].area;
+            for (j, f) in ff.row(i as usize) {
+                let rj = rank[j] as usize;
+                if rj == u32::MAX as usize || rj == ri {
+                    continue;
+                }
+                let (r, s) = (ri.min(rj), ri.max(rj));
+                let w = a * f64::from(f);
+                diff[r + 1] += w;
+                diff[s + 1] -= w;
+            }
+        }
+        let mut run = 0.0;
+        for (k, d) in diff.iter().enumerate().take(hi + 1) {
+            run += d;
+            if k >= lo {
+                let better = best.is_none_or(|(c, _, bk)| {
+                    run < c - 1e-9 * c.abs()
+                        || (run <= c + 1e-9 * c.abs() && k.abs_diff(target) < bk.abs_diff(target))
+                });
+                if better {
+                    best = Some((run, axis, k));
+                }
+            }
+        }
+    }
+    for &i in &set {
+        rank[i as usize] = u32::MAX;
+    }
+    let (_, axis, k) = best.expect("a feasible position: parts · max ≥ the set's size");
+    let key = |i: u32| patches.patches[i as usize].centre[axis];
+    set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+    let right = set.split_off(k);
+    cut(patches, ff, set, left_parts, max, rank, system, count);
+    cut(patches, ff, right, right_parts, max, rank, system, count);
+}
+
+/// A level numbered system by system: what a systems bake stores besides each system's own
+/// transfer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Split {
+    /// `order[k]`: the patch at position `k` of the level's numbering (systems one after
+    /// another, each's patches increasing).
+    pub order: Vec<u32>,
+    /// Each system's positions.
+    pub ranges: Vec<std::ops::Range<usize>>,
+    /// The form factors between systems, in the level's numbering.
+    pub coupling: radiosity_core::systems::Coupling<'static>,
+}
+
+impl Split {
+    /// Numbers the patches of `partition` system by system and takes the entries of `ff`
+    /// between systems as the coupling.
+    pub fn new(ff: &SparseFormFactors, partition: &Partition) -> Self {
+        let members = partition.members();
+        let mut order = Vec::with_capacity(ff.n);
+        let mut ranges = Vec::with_capacity(members.len());
+        for m in &members {
+            let start = order.len();
+            order.extend_from_slice(m);
+            ranges.push(start..order.len());
+        }
+        let mut position = vec![0u32; ff.n];
+        for (k, &i) in order.iter().enumerate() {
+            position[i as usize] = k as u32;
+        }
+        let (mut row_ptr, mut cols, mut values) = (vec![0u32], Vec::new(), Vec::new());
+        for &i in &order {
+            let s = partition.system[i as usize];
+            let mut row: Vec<(u32, f32)> = ff
+                .row(i as usize)
+                .filter(|&(j, _)| partition.system[j] != s)
+                .map(|(j, f)| (position[j], f))
+                .collect();
+            row.sort_unstable_by_key(|e| e.0);
+            for (j, f) in row {
+                cols.push(j);
+                values.push(f);
+            }
+            row_ptr.push(cols.len() as u32);
+        }
+        Self {
+            order,
+            ranges,
+            coupling: radiosity_core::systems::Coupling {
+                row_ptr: row_ptr.into(),
+                cols: cols.into(),
+                values: values.into(),
+            },
+        }
+    }
+
+    /// System `s`'s own form factors `F_ss`, dense, in its own numbering (position minus its
+    /// range's start): what its transfer is computed from.
+    pub fn own_block(&self, ff: &SparseFormFactors, s: usize) -> crate::transfer::Dense {
+        let r = self.ranges[s].clone();
+        let m = r.len();
+        let mut local = std::collections::HashMap::with_capacity(m);
+        for (k, &i) in self.order[r.clone()].iter().enumerate() {
+            local.insert(i as usize, k);
+        }
+        let mut values = vec![0.0f64; m * m];
+        for (k, &i) in self.order[r].iter().enumerate() {
+            for (j, f) in ff.row(i as usize) {
+                if let Some(&l) = local.get(&j) {
+                    values[k * m + l] = f64::from(f);
+                }
+            }
+        }
+        crate::transfer::Dense::new(m, values)
+    }
+}

@@ -1,0 +1,210 @@
+//! Systems: a level's patches cut into pieces, each with its own multi-bounce transfer, passing
+//! light to each other through the rows of the form factors between them
+//! (`docs/decisions/systems.md`).
+//!
+//! The patches are numbered so that each system's are one range. For system `s`, with the
+//! level's first exitance `x = E + ρ∘H_d`, its own transfer `M_ss = (I − F_ss·C_s)⁻¹·F_ss` and
+//! the others' exitance `B_t`, the irradiance the others give it is `g_s = Σ_{t≠s} F_st·B_t`
+//! ([`Coupling`]), and exactly
+//!
+//! ```text
+//! y_s = g_s + M_ss · (x_s + ρ_s ∘ g_s)
+//! ```
+//!
+//! since `(I − F_ss·C_s)⁻¹ = I + M_ss·C_s`. [`Systems::update`] applies it to one system with
+//! the exitance the others have now; updating the systems in turn is block Gauss–Seidel on
+//! `I − F·C`, which converges to the one-matrix answer `y = M·x` whatever the cut (a regular
+//! splitting of a non-singular M-matrix when every row of `F·C` sums below one).
+
+use crate::{Gather, GatherError, Rgb};
+use alloc::borrow::Cow;
+use alloc::vec;
+use alloc::vec::Vec;
+use core::ops::Range;
+
+/// The form factors from each patch to the patches of other systems, in compressed sparse
+/// rows over the level's patches: `F_ij` for `i` and `j` in different systems.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Coupling<'a> {
+    /// Row `i`'s entries are `row_ptr[i]..row_ptr[i + 1]` (`patches + 1` values).
+    pub row_ptr: Cow<'a, [u32]>,
+    /// Column of each entry: a patch of another system.
+    pub cols: Cow<'a, [u32]>,
+    /// `F_ij` of each entry.
+    pub values: Cow<'a, [f32]>,
+}
+
+impl Coupling<'_> {
+    /// `out[k] = Σ_j F_ij · exitance[j]` for the rows `i = rows.start + k`.
+    ///
+    /// # Panics
+    /// If `rows` or a column lies outside the level, or `out` is not `rows.len()` long.
+    pub fn incoming(&self, rows: Range<usize>, exitance: &[Rgb], out: &mut [Rgb]) {
+        assert_eq!(out.len(), rows.len(), "one output a row");
+        for (o, i) in out.iter_mut().zip(rows) {
+            let r = self.row_ptr[i] as usize..self.row_ptr[i + 1] as usize;
+            let mut acc = Rgb::ZERO;
+            for (&j, &f) in self.cols[r.clone()].iter().zip(&self.values[r]) {
+                acc += exitance[j as usize] * f;
+            }
+            *o = acc;
+        }
+    }
+}
+
+/// Why [`Systems::new`] refused its parts.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SystemsError {
+    /// The ranges do not tile `0..patches` in order, or a gather's size is not its range's.
+    Ranges,
+    /// The coupling's rows, columns or values do not fit the level, or a column lies in its
+    /// row's own system.
+    Coupling,
+    /// Not one reflectance per patch.
+    Reflectance,
+}
+
+impl core::fmt::Display for SystemsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            SystemsError::Ranges => {
+                "system ranges do not tile the level or do not match their matrices"
+            }
+            SystemsError::Coupling => "coupling rows do not fit the level's systems",
+            SystemsError::Reflectance => "not one reflectance per patch",
+        })
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for SystemsError {}
+
+/// A level lit system by system: each system's gather, the coupling between them and the
+/// light as it stands (exitance `B = x + ρ∘y` and gathered irradiance `y` per patch).
+pub struct Systems<G> {
+    gathers: Vec<G>,
+    ranges: Vec<Range<usize>>,
+    coupling: Coupling<'static>,
+    reflectance: Vec<Rgb>,
+    /// The first exitance the light was last updated with, per patch.
+    first: Vec<Rgb>,
+    gathered: Vec<Rgb>,
+    exitance: Vec<Rgb>,
+}
+
+impl<G: Gather> Systems<G> {
+    /// The level of `gathers` (system `s`'s transfer over the patches `ranges[s]`, which tile
+    /// `0..n` in order), `coupling` between them and each patch's `reflectance`; no light yet.
+    pub fn new(
+        gathers: Vec<G>,
+        ranges: Vec<Range<usize>>,
+        coupling: Coupling<'static>,
+        reflectance: Vec<Rgb>,
+    ) -> Result<Self, SystemsError> {
+        let n = ranges.last().map_or(0, |r| r.end);
+        let tiled = ranges.first().is_none_or(|r| r.start == 0)
+            && ranges.windows(2).all(|w| w[0].end == w[1].start)
+            && ranges.iter().all(|r| r.start <= r.end)
+            && gathers.len() == ranges.len()
+            && gathers
+                .iter()
+                .zip(&ranges)
+                .all(|(g, r)| g.patches() == r.len());
+        if !tiled {
+            return Err(SystemsError::Ranges);
+        }
+        if reflectance.len() != n {
+            return Err(SystemsError::Reflectance);
+        }
+        let system_of = |i: usize| ranges.partition_point(|r| r.end <= i);
+        let c = &coupling;
+        let rows_ok = c.row_ptr.len() == n + 1
+            && c.row_ptr.first() == Some(&0)
+            && c.row_ptr.windows(2).all(|w| w[0] <= w[1])
+            && c.row_ptr[n] as usize == c.cols.len()
+            && c.cols.len() == c.values.len()
+            && c.values.iter().all(|v| v.is_finite() && *v >= 0.0);
+        let cols_ok = rows_ok
+            && (0..n).all(|i| {
+                let s = system_of(i);
+                c.cols[c.row_ptr[i] as usize..c.row_ptr[i + 1] as usize]
+                    .iter()
+                    .all(|&j| (j as usize) < n && system_of(j as usize) != s)
+            });
+        if !cols_ok {
+            return Err(SystemsError::Coupling);
+        }
+        Ok(Self {
+            gathers,
+            ranges,
+            coupling,
+            reflectance,
+            first: vec![Rgb::ZERO; n],
+            gathered: vec![Rgb::ZERO; n],
+            exitance: vec![Rgb::ZERO; n],
+        })
+    }
+
+    /// Systems.
+    pub fn len(&self) -> usize {
+        self.ranges.len()
+    }
+
+    /// Whether the level has no system.
+    pub fn is_empty(&self) -> bool {
+        self.ranges.is_empty()
+    }
+
+    /// The patches of system `s`.
+    pub fn range(&self, s: usize) -> Range<usize> {
+        self.ranges[s].clone()
+    }
+
+    /// The gathered irradiance `y` per patch as it stands.
+    pub fn gathered(&self) -> &[Rgb] {
+        &self.gathered
+    }
+
+    /// Updates system `s` for the first exitance `first` (the whole level's, `E + ρ∘H_d`)
+    /// with the other systems' exitance as it stands: `y_s = g_s + M_ss·(x_s + ρ_s∘g_s)`.
+    /// Returns how much the system's exitance changed, `Σ |ΔB|` over its patches and channels.
+    pub fn update(&mut self, s: usize, first: &[Rgb]) -> Result<f32, GatherError> {
+        let n = self.first.len();
+        if first.len() != n {
+            return Err(GatherError::Length {
+                expected: n,
+                exitance: first.len(),
+                irradiance: n,
+            });
+        }
+        let r = self.ranges[s].clone();
+        self.first[r.clone()].copy_from_slice(&first[r.clone()]);
+        let mut g = vec![Rgb::ZERO; r.len()];
+        self.coupling.incoming(r.clone(), &self.exitance, &mut g);
+        let x: Vec<Rgb> = (0..r.len())
+            .map(|k| first[r.start + k] + self.reflectance[r.start + k] * g[k])
+            .collect();
+        let mut y = vec![Rgb::ZERO; r.len()];
+        self.gathers[s].gather(&x, &mut y)?;
+        let mut change = 0.0;
+        for k in 0..r.len() {
+            let i = r.start + k;
+            self.gathered[i] = g[k] + y[k];
+            let b = first[i] + self.reflectance[i] * self.gathered[i];
+            let d = b - self.exitance[i];
+            change += d.r.abs() + d.g.abs() + d.b.abs();
+            self.exitance[i] = b;
+        }
+        Ok(change)
+    }
+
+    /// Updates every system once, in order (block Gauss–Seidel: each sees the exitance the
+    /// ones before it have just taken). Returns the total change of the exitance.
+    pub fn frame(&mut self, first: &[Rgb]) -> Result<f32, GatherError> {
+        let mut change = 0.0;
+        for s in 0..self.ranges.len() {
+            change += self.update(s, first)?;
+        }
+        Ok(change)
+    }
+}
