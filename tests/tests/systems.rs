@@ -1,9 +1,11 @@
 //! Cutting a level into systems (`radiosity_bake::systems`): the cut follows the walls where
 //! light does not cross, within each system's capacity.
 
-use radiosity_bake::form_factor::{FormFactorParams, ManyPieces, form_factors_sparse};
+use radiosity_bake::form_factor::{
+    FormFactorParams, ManyPieces, SparseFormFactors, form_factors_sparse,
+};
 use radiosity_bake::scene::Scene;
-use radiosity_bake::simplify::{VoxelParams, simplify};
+use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
 use radiosity_bake::systems::{Split, partition};
 use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
 use radiosity_core::systems::Systems;
@@ -27,18 +29,24 @@ fn two_rooms(dir: &std::path::Path) -> Scene {
     Scene::load_obj(&write_scene(dir, "rooms", &quads, &mats)).unwrap()
 }
 
-#[test]
-fn systems_are_cut_between_rooms_not_through_them() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = two_rooms(dir.path());
-    let patches = simplify(&scene, &VoxelParams::with_patches(300)).unwrap();
-    let occ = scene.occluders();
+/// `scene` cut into about `patches` patches and their ray-cast form factors (1024 rays a
+/// patch), sparse: what a systems bake starts from.
+fn ray_cast_rows(scene: &Scene, patches: usize) -> (Patches, SparseFormFactors) {
+    let p = simplify(scene, &VoxelParams::with_patches(patches)).unwrap();
     let params = FormFactorParams {
         exact_pieces: 0,
         many_pieces: ManyPieces::Rays { per_patch: 1024 },
         ..FormFactorParams::default()
     };
-    let ff = form_factors_sparse(&patches, Some(&occ), &params, None).unwrap();
+    let ff = form_factors_sparse(&p, Some(&scene.occluders()), &params, None).unwrap();
+    (p, ff)
+}
+
+#[test]
+fn systems_are_cut_between_rooms_not_through_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = two_rooms(dir.path());
+    let (patches, ff) = ray_cast_rows(&scene, 300);
     let n = patches.len();
     let small = (0..n)
         .filter(|&i| patches.patches[i].centre.x < 1.25)
@@ -110,14 +118,7 @@ fn systems_light_converges_to_the_one_matrix_answer() {
     let dir = tempfile::tempdir().unwrap();
     let (quads, mats, _) = resting_blocks_room(0.5);
     let scene = Scene::load_obj(&write_scene(dir.path(), "room", &quads, &mats)).unwrap();
-    let patches = simplify(&scene, &VoxelParams::with_patches(400)).unwrap();
-    let occ = scene.occluders();
-    let params = FormFactorParams {
-        exact_pieces: 0,
-        many_pieces: ManyPieces::Rays { per_patch: 1024 },
-        ..FormFactorParams::default()
-    };
-    let ff = form_factors_sparse(&patches, Some(&occ), &params, None).unwrap();
+    let (patches, ff) = ray_cast_rows(&scene, 400);
     let n = ff.n;
     let rho: Vec<f64> = patches
         .patches
