@@ -90,6 +90,13 @@ pub struct Systems<G> {
     first: Vec<Rgb>,
     gathered: Vec<Rgb>,
     exitance: Vec<Rgb>,
+    /// `weights[s·S + t]`: `Σ F_ij` over `i` in `s`, `j` in `t`: how much of a change of
+    /// `t`'s exitance reaches `s` ([`Self::update_within`]).
+    weights: Vec<f32>,
+    /// Each system's estimate of how far its light lags its inputs.
+    need: Vec<f32>,
+    /// Each system's weight in [`Self::update_within`]'s choice (1: as any other).
+    priority: Vec<f32>,
 }
 
 impl<G: Gather> Systems<G> {
@@ -134,6 +141,16 @@ impl<G: Gather> Systems<G> {
         if !cols_ok {
             return Err(SystemsError::Coupling);
         }
+        let count = ranges.len();
+        let mut weights = vec![0.0f32; count * count];
+        for (s, r) in ranges.iter().enumerate() {
+            for i in r.clone() {
+                let e = c.row_ptr[i] as usize..c.row_ptr[i + 1] as usize;
+                for (&j, &f) in c.cols[e.clone()].iter().zip(&c.values[e]) {
+                    weights[s * count + system_of(j as usize)] += f;
+                }
+            }
+        }
         Ok(Self {
             gathers,
             ranges,
@@ -142,7 +159,73 @@ impl<G: Gather> Systems<G> {
             first: vec![Rgb::ZERO; n],
             gathered: vec![Rgb::ZERO; n],
             exitance: vec![Rgb::ZERO; n],
+            weights,
+            need: vec![0.0; count],
+            priority: vec![1.0; count],
         })
+    }
+
+    /// How much system `s` matters now (the camera is near it: more; far: less), as a
+    /// factor of its need in [`Self::update_within`]'s choice; 0 leaves it until nothing else
+    /// needs an update. Not finite or negative: refused, the weight kept.
+    pub fn set_priority(&mut self, s: usize, weight: f32) -> bool {
+        let ok = weight.is_finite() && weight >= 0.0;
+        if ok {
+            self.priority[s] = weight;
+        }
+        ok
+    }
+
+    /// Each system's estimate of how far its light lags its inputs: the change of its first
+    /// exitance and of the light reaching it from the others since its last update
+    /// (`Σ |Δ|` over its patches and channels, the others' through the coupling's sums).
+    pub fn need(&self) -> &[f32] {
+        &self.need
+    }
+
+    /// Updates systems most in need first (need × priority, [`Self::set_priority`]) while
+    /// `budget()` allows another and some system needs one: the frame under a time budget
+    /// (`budget` asks the clock) or a count. A change of `first` is taken into every
+    /// system's need before the first choice. Returns the systems updated, in order.
+    pub fn update_within(
+        &mut self,
+        first: &[Rgb],
+        budget: &mut dyn FnMut() -> bool,
+    ) -> Result<Vec<usize>, GatherError> {
+        let n = self.first.len();
+        if first.len() != n {
+            return Err(GatherError::Length {
+                expected: n,
+                exitance: first.len(),
+                irradiance: n,
+            });
+        }
+        for (s, r) in self.ranges.iter().enumerate() {
+            for i in r.clone() {
+                let d = first[i] - self.first[i];
+                self.need[s] += d.r.abs() + d.g.abs() + d.b.abs();
+            }
+        }
+        // Counted once: a system left waiting keeps its need, not the change again.
+        self.first.copy_from_slice(first);
+        let mut done = Vec::new();
+        loop {
+            let pick = (0..self.ranges.len())
+                .filter(|&s| self.need[s] > 0.0)
+                .max_by(|&a, &b| {
+                    let key = |s: usize| (self.need[s] * self.priority[s], self.need[s]);
+                    key(a)
+                        .partial_cmp(&key(b))
+                        .unwrap_or(core::cmp::Ordering::Equal)
+                });
+            let Some(s) = pick else { break };
+            if !budget() {
+                break;
+            }
+            self.update(s, first)?;
+            done.push(s);
+        }
+        Ok(done)
     }
 
     /// Systems.
@@ -195,11 +278,26 @@ impl<G: Gather> Systems<G> {
             change += d.r.abs() + d.g.abs() + d.b.abs();
             self.exitance[i] = b;
         }
+        // The others now lag this change by the light it sends them (the coupling's sum
+        // from this system to each, times its mean change a patch).
+        let count = self.ranges.len();
+        let mean = if r.is_empty() {
+            0.0
+        } else {
+            change / r.len() as f32
+        };
+        for t in 0..count {
+            if t != s {
+                self.need[t] += self.weights[t * count + s] * mean;
+            }
+        }
+        self.need[s] = 0.0;
         Ok(change)
     }
 
     /// Updates every system once, in order (block Gauss–Seidel: each sees the exitance the
-    /// ones before it have just taken). Returns the total change of the exitance.
+    /// ones before it have just taken). Returns the total change of the exitance. Each
+    /// system's need ([`Self::need`]) after it is what the ones after it changed.
     pub fn frame(&mut self, first: &[Rgb]) -> Result<f32, GatherError> {
         let mut change = 0.0;
         for s in 0..self.ranges.len() {
