@@ -79,6 +79,11 @@ impl core::fmt::Display for SystemsError {
 #[cfg(feature = "std")]
 impl std::error::Error for SystemsError {}
 
+/// How a level computes `g = F_cross · B` over some rows ([`Coupling::incoming`]'s
+/// signature): the core's runs on one thread; a `std` caller may hand a parallel one to
+/// [`Systems::set_incoming`] (`radiosity_runtime::systems::parallel_incoming`).
+pub type Incoming = fn(&Coupling<'_>, Range<usize>, &[Rgb], &mut [Rgb]);
+
 /// A level lit system by system: each system's gather, the coupling between them and the
 /// light as it stands (exitance `B = x + ρ∘y` and gathered irradiance `y` per patch).
 pub struct Systems<G> {
@@ -97,6 +102,8 @@ pub struct Systems<G> {
     need: Vec<f32>,
     /// Each system's weight in [`Self::update_within`]'s choice (1: as any other).
     priority: Vec<f32>,
+    /// The coupling product.
+    incoming: Incoming,
 }
 
 impl<G: Gather> Systems<G> {
@@ -162,7 +169,14 @@ impl<G: Gather> Systems<G> {
             weights,
             need: vec![0.0; count],
             priority: vec![1.0; count],
+            incoming: |c, rows, b, out| c.incoming(rows, b, out),
         })
+    }
+
+    /// Computes the coupling product with `f` from now on (same values: each row's sum in
+    /// the same order, only spread over threads).
+    pub fn set_incoming(&mut self, f: Incoming) {
+        self.incoming = f;
     }
 
     /// How much system `s` matters now (the camera is near it: more; far: less), as a
@@ -263,7 +277,7 @@ impl<G: Gather> Systems<G> {
         let r = self.ranges[s].clone();
         self.first[r.clone()].copy_from_slice(&first[r.clone()]);
         let mut g = vec![Rgb::ZERO; r.len()];
-        self.coupling.incoming(r.clone(), &self.exitance, &mut g);
+        (self.incoming)(&self.coupling, r.clone(), &self.exitance, &mut g);
         let x: Vec<Rgb> = (0..r.len())
             .map(|k| first[r.start + k] + self.reflectance[r.start + k] * g[k])
             .collect();

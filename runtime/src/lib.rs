@@ -39,6 +39,7 @@ pub mod points;
 pub mod probes;
 pub mod render;
 pub mod scene;
+pub mod systems;
 
 pub use objects::{ObjectLight, ObjectShares, SharedPatch};
 pub use scene::{BakedScene, Frame};

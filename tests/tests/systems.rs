@@ -273,3 +273,26 @@ fn a_budget_updates_the_systems_in_need_first() {
     eprintln!("after 30 budgeted frames: {e:e}");
     assert!(e < 1e-5, "{e}");
 }
+
+#[test]
+fn the_parallel_coupling_product_gives_the_same_light_bit_for_bit() {
+    // `radiosity_runtime::systems::parallel_incoming` sums each row as the core does, only on
+    // other threads: three frames give identical light.
+    let mut serial = RoomLevel::new();
+    let mut parallel = RoomLevel::new();
+    parallel
+        .level
+        .set_incoming(radiosity_runtime::systems::parallel_incoming);
+    let first = serial.first(1, 1.0);
+    for _ in 0..3 {
+        serial.level.frame(&first).unwrap();
+        parallel.level.frame(&first).unwrap();
+    }
+    let bits = |l: &Systems<DenseGather>| -> Vec<u32> {
+        l.gathered()
+            .iter()
+            .flat_map(|v| [v.r.to_bits(), v.g.to_bits(), v.b.to_bits()])
+            .collect()
+    };
+    assert_eq!(bits(&serial.level), bits(&parallel.level));
+}
