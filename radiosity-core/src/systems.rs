@@ -206,14 +206,7 @@ impl<G: Gather> Systems<G> {
         first: &[Rgb],
         budget: &mut dyn FnMut() -> bool,
     ) -> Result<Vec<usize>, GatherError> {
-        let n = self.first.len();
-        if first.len() != n {
-            return Err(GatherError::Length {
-                expected: n,
-                exitance: first.len(),
-                irradiance: n,
-            });
-        }
+        self.check_first(first)?;
         for (s, r) in self.ranges.iter().enumerate() {
             for i in r.clone() {
                 let d = first[i] - self.first[i];
@@ -262,18 +255,25 @@ impl<G: Gather> Systems<G> {
         &self.gathered
     }
 
+    /// Whether `first` has one entry per patch of the level.
+    fn check_first(&self, first: &[Rgb]) -> Result<(), GatherError> {
+        let n = self.first.len();
+        if first.len() == n {
+            Ok(())
+        } else {
+            Err(GatherError::Length {
+                expected: n,
+                exitance: first.len(),
+                irradiance: n,
+            })
+        }
+    }
+
     /// Updates system `s` for the first exitance `first` (the whole level's, `E + ρ∘H_d`)
     /// with the other systems' exitance as it stands: `y_s = g_s + M_ss·(x_s + ρ_s∘g_s)`.
     /// Returns how much the system's exitance changed, `Σ |ΔB|` over its patches and channels.
     pub fn update(&mut self, s: usize, first: &[Rgb]) -> Result<f32, GatherError> {
-        let n = self.first.len();
-        if first.len() != n {
-            return Err(GatherError::Length {
-                expected: n,
-                exitance: first.len(),
-                irradiance: n,
-            });
-        }
+        self.check_first(first)?;
         let r = self.ranges[s].clone();
         self.first[r.clone()].copy_from_slice(&first[r.clone()]);
         let mut g = vec![Rgb::ZERO; r.len()];

@@ -215,6 +215,16 @@ fn systems_light_converges_to_the_one_matrix_answer() {
     assert!(errors[11] < 1e-5, "{errors:?}");
 }
 
+/// A budget of `n` system updates.
+fn updates(n: usize) -> impl FnMut() -> bool {
+    let mut left = n;
+    move || {
+        let go = left > 0;
+        left = left.saturating_sub(1);
+        go
+    }
+}
+
 #[test]
 fn a_budget_updates_the_systems_in_need_first() {
     let mut room = RoomLevel::new();
@@ -246,28 +256,18 @@ fn a_budget_updates_the_systems_in_need_first() {
         .unwrap();
     assert!(room.level.set_priority(least, 1e6));
     assert!(!room.level.set_priority(least, f32::NAN), "refused");
-    let mut one_more = {
-        let mut left = 1;
-        move || {
-            left -= 1;
-            left >= 0
-        }
-    };
     assert_eq!(
-        room.level.update_within(&brighter, &mut one_more).unwrap(),
+        room.level
+            .update_within(&brighter, &mut updates(1))
+            .unwrap(),
         vec![least]
     );
     // Two systems a frame: the light still settles to the one-matrix answer, to f32
     // rounding (measured 2.5e-7 after 30 such frames).
     for _ in 0..30 {
-        let mut two = {
-            let mut left = 2;
-            move || {
-                left -= 1;
-                left >= 0
-            }
-        };
-        room.level.update_within(&brighter, &mut two).unwrap();
+        room.level
+            .update_within(&brighter, &mut updates(2))
+            .unwrap();
     }
     let e = room.error(&brighter);
     eprintln!("after 30 budgeted frames: {e:e}");
