@@ -288,3 +288,42 @@ fn double_sided_sheet_keeps_the_furnace_closed() {
         "one-sided: the sheet's back absorbs ({room1})"
     );
 }
+
+/// A BLEND material of alpha 0.5 bakes with its coverage: the file's COVERAGE section, which
+/// `inspect --json` counts, and visibility rays cast for it, with the reason in the report.
+#[test]
+fn blend_coverage_is_baked_and_inspected() {
+    let src =
+        std::fs::read_to_string(repo("scenes/cornell-box-gltf/CornellBox-Original.gltf")).unwrap();
+    let mut v: Value = serde_json::from_str(&src).unwrap();
+    v["materials"][0]["alphaMode"] = serde_json::json!("BLEND");
+    v["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"][3] = serde_json::json!(0.5);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        repo("scenes/cornell-box-gltf/CornellBox-Original.bin"),
+        dir.path().join("CornellBox-Original.bin"),
+    )
+    .unwrap();
+    let p = dir.path().join("veiled.gltf");
+    std::fs::write(&p, v.to_string()).unwrap();
+    let rad = dir.path().join("veiled.rad");
+    radiosity_ok(&[
+        "bake",
+        p.to_str().unwrap(),
+        "-o",
+        rad.to_str().unwrap(),
+        "--patches",
+        "64",
+    ]);
+    let out = radiosity_ok(&["inspect", rad.to_str().unwrap(), "--json"]);
+    let j: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let partial = j["coverage"]["partial"]
+        .as_u64()
+        .expect("a COVERAGE section");
+    assert!(partial > 0, "{}", j["coverage"]);
+    assert!(j["coverage"]["bytes"].as_u64().unwrap() >= 4 * partial);
+    let why = j["effects"]["occlusion"]["why"]
+        .as_str()
+        .unwrap_or_default();
+    assert!(why.contains("partial coverage"), "{why}");
+}
