@@ -46,11 +46,19 @@ pub enum SectionKind {
     /// Optional coverage of the mesh's triangles (`f32` each, see
     /// [`crate::RadFile::coverage`]).
     Coverage = 19,
+    /// A level's systems ([`crate::container::SystemEntry`] each; version 3, with
+    /// COUPLING and SYSTEM_DATA).
+    Systems = 20,
+    /// The form factors between systems ([`crate::systems::Coupling`]): `[u32; n + 1]` row
+    /// offsets, `[u32; nnz]` columns, `[f32; nnz]` values.
+    Coupling = 21,
+    /// Each system's own `.rad` file, back to back at multiples of 16 bytes.
+    SystemData = 22,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 19] = [
+    pub const ALL: [SectionKind; 22] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -70,6 +78,9 @@ impl SectionKind {
         SectionKind::Sky,
         SectionKind::Parts,
         SectionKind::Coverage,
+        SectionKind::Systems,
+        SectionKind::Coupling,
+        SectionKind::SystemData,
     ];
 
     /// The kind with this code.
@@ -91,6 +102,9 @@ impl SectionKind {
                 | SectionKind::Sky
                 | SectionKind::Parts
                 | SectionKind::Coverage
+                | SectionKind::Systems
+                | SectionKind::Coupling
+                | SectionKind::SystemData
         )
     }
 
@@ -116,6 +130,9 @@ impl SectionKind {
             SectionKind::Sky => "SKY",
             SectionKind::Parts => "PARTS",
             SectionKind::Coverage => "COVERAGE",
+            SectionKind::Systems => "SYSTEMS",
+            SectionKind::Coupling => "COUPLING",
+            SectionKind::SystemData => "SYSTEM_DATA",
         }
     }
 }

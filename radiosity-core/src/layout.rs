@@ -208,6 +208,25 @@ impl MatrixLayout {
         Ok(layout)
     }
 
+    /// The layout of no matrix: a level file's own, whose transfer lives in its systems
+    /// ([`crate::container::LevelSystems`]). No rows, tiles, blocks or scales; `channels`,
+    /// `format` and `max_tile` are its systems' and checked as [`MatrixLayout::new`] does.
+    pub fn none(channels: u32, format: Format, max_tile: u32) -> Result<Self, LayoutError> {
+        // Checked with one row, then emptied: the same refusals as a real layout.
+        let one = Self::new(1, channels, format, max_tile)?;
+        Ok(Self {
+            n: 0,
+            tile_size: 0,
+            tiles_per_side: 0,
+            ..one
+        })
+    }
+
+    /// Whether this is [`MatrixLayout::none`]'s layout (no matrix).
+    pub fn is_none(&self) -> bool {
+        self.n == 0
+    }
+
     /// Patches (rows and columns).
     pub fn n(&self) -> usize {
         self.n as usize

@@ -54,6 +54,7 @@
 //!     sky: None,
 //!     parts: None,
 //!     coverage: None,
+//!     systems: None,
 //! };
 //! let bytes = file.to_bytes().unwrap();
 //! let parsed = RadFile::parse(&bytes).unwrap();

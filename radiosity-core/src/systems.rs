@@ -35,6 +35,42 @@ pub struct Coupling<'a> {
 }
 
 impl Coupling<'_> {
+    /// Whether these rows fit a level whose systems are `ranges` (tiling `0..n` in order):
+    /// `n + 1` increasing offsets from 0 to the entry count, a column and a finite
+    /// non-negative value each entry, every column a patch of the level outside its row's
+    /// own system.
+    pub fn fits(&self, ranges: &[Range<usize>]) -> bool {
+        let n = ranges.last().map_or(0, |r| r.end);
+        let c = self;
+        let rows_ok = c.row_ptr.len() == n + 1
+            && c.row_ptr.first() == Some(&0)
+            && c.row_ptr.windows(2).all(|w| w[0] <= w[1])
+            && c.row_ptr[n] as usize == c.cols.len()
+            && c.cols.len() == c.values.len()
+            && c.values.iter().all(|v| v.is_finite() && *v >= 0.0);
+        rows_ok
+            && ranges.iter().all(|r| {
+                let (a, b) = (c.row_ptr[r.start] as usize, c.row_ptr[r.end] as usize);
+                c.cols[a..b]
+                    .iter()
+                    .all(|&j| (j as usize) < n && !r.contains(&(j as usize)))
+            })
+    }
+
+    /// Entries.
+    pub fn nnz(&self) -> usize {
+        self.cols.len()
+    }
+
+    /// Copies every borrowed part.
+    pub fn into_owned(self) -> Coupling<'static> {
+        Coupling {
+            row_ptr: Cow::Owned(self.row_ptr.into_owned()),
+            cols: Cow::Owned(self.cols.into_owned()),
+            values: Cow::Owned(self.values.into_owned()),
+        }
+    }
+
     /// `out[k] = Σ_j F_ij · exitance[j]` for the rows `i = rows.start + k`.
     ///
     /// # Panics
@@ -130,24 +166,11 @@ impl<G: Gather> Systems<G> {
         if reflectance.len() != n {
             return Err(SystemsError::Reflectance);
         }
-        let system_of = |i: usize| ranges.partition_point(|r| r.end <= i);
-        let c = &coupling;
-        let rows_ok = c.row_ptr.len() == n + 1
-            && c.row_ptr.first() == Some(&0)
-            && c.row_ptr.windows(2).all(|w| w[0] <= w[1])
-            && c.row_ptr[n] as usize == c.cols.len()
-            && c.cols.len() == c.values.len()
-            && c.values.iter().all(|v| v.is_finite() && *v >= 0.0);
-        let cols_ok = rows_ok
-            && (0..n).all(|i| {
-                let s = system_of(i);
-                c.cols[c.row_ptr[i] as usize..c.row_ptr[i + 1] as usize]
-                    .iter()
-                    .all(|&j| (j as usize) < n && system_of(j as usize) != s)
-            });
-        if !cols_ok {
+        if !coupling.fits(&ranges) {
             return Err(SystemsError::Coupling);
         }
+        let system_of = |i: usize| ranges.partition_point(|r| r.end <= i);
+        let c = &coupling;
         let count = ranges.len();
         let mut weights = vec![0.0f32; count * count];
         for (s, r) in ranges.iter().enumerate() {

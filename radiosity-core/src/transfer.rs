@@ -36,6 +36,24 @@ pub struct BlockDecoder {
 /// fills only `[0]`.
 pub type BlockValues = [[f32; 16]; 3];
 
+impl TransferMatrix<'static> {
+    /// No matrix, in `layout` ([`MatrixLayout::none`]): a level file's own, whose transfer
+    /// lives in its systems.
+    pub fn none(layout: MatrixLayout) -> Self {
+        Self {
+            layout,
+            scales: Cow::Owned(Vec::new()),
+            blocks: Cow::Owned(Vec::new()),
+            sparse: SparseRows {
+                row_ptr: Cow::Owned(alloc::vec![0; layout.n() + 1]),
+                cols: Cow::Owned(Vec::new()),
+                values: Cow::Owned(Vec::new()),
+            },
+            corrections: BlockCorrections::empty(layout.n()),
+        }
+    }
+}
+
 impl<'a> TransferMatrix<'a> {
     /// Checks everything a gather relies on: counts, sizes, scales, finite non-negative values,
     /// and the sparse structure. Errors name the section and the index of the first bad item.

@@ -371,6 +371,7 @@ mod tests {
             sky: None,
             parts: None,
             coverage: None,
+            systems: None,
         };
         file.validate().unwrap();
         BakedScene::new(file)

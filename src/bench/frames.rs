@@ -158,6 +158,7 @@ pub(super) fn bench_probes(
         sky: None,
         parts: None,
         coverage: None,
+        systems: None,
     };
     let rt = radiosity_runtime::BakedScene::new(file);
     let direct = bench_direct(&rt)

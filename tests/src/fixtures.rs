@@ -92,6 +92,7 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         sky: Some(sample_sky(n, 2)),
         parts: Some(sample_parts(n, sample_mesh(n).samples.len())),
         coverage: Some(Cow::Owned(sample_coverage(sample_mesh(n).triangles.len()))),
+        systems: None,
     }
 }
 
@@ -322,4 +323,90 @@ pub fn reference_frame(file: &RadFile<'_>, direct: &[Rgb]) -> ReferenceFrame {
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     radiosity_core::finish_frame(&file.patches, direct, &y, &mut h, &mut b);
     ReferenceFrame { y, h, b }
+}
+
+/// A level file cut into systems of `sizes` patches (each a one-system file of those patches
+/// with its own BC1 matrix, in the level's order), a few coupling entries from every patch
+/// to the next system's first patches, the level's patches [`sample_patches`].
+pub fn sample_level(sizes: &[usize]) -> RadFile<'static> {
+    use radiosity_core::container::LevelSystems;
+    use radiosity_core::systems::Coupling;
+    let n: usize = sizes.iter().sum();
+    let patches = sample_patches(n);
+    let objects = vec![Cow::Borrowed("floor"), Cow::Borrowed("wall ünïcode")];
+    let mut files = Vec::new();
+    let mut ranges = Vec::new();
+    let mut start = 0;
+    for (s, &m) in sizes.iter().enumerate() {
+        let dense = transfer_like_matrix(m, 3, 11 + s as u64);
+        let matrix = encode_dense_with(
+            m,
+            3,
+            &dense,
+            &EncodeParams::default(),
+            &ErrorWeights::uniform(),
+            SparseSelection::ErrorDriven,
+        )
+        .expect("system matrix encodes");
+        files.push(RadFile {
+            patches: Cow::Owned(patches[start..start + m].to_vec()),
+            order: Cow::Owned((0..m as u32).collect()),
+            matrix,
+            objects: objects.clone(),
+            bounces: Bounces::Infinite,
+            patch_order: PatchOrder::Spatial,
+            compression_rmse: Some(0.01),
+            lighting_error: None,
+            report: None,
+            mesh: None,
+            probes: None,
+            sky: None,
+            parts: None,
+            coverage: None,
+            systems: None,
+        });
+        ranges.push(start..start + m);
+        start += m;
+    }
+    let (mut row_ptr, mut cols, mut values) = (vec![0u32], Vec::new(), Vec::new());
+    for (s, r) in ranges.iter().enumerate() {
+        let next = &ranges[(s + 1) % ranges.len()];
+        for i in r.clone() {
+            if next != r {
+                for j in next.start..next.end.min(next.start + 3) {
+                    cols.push(j as u32);
+                    values.push(0.01 + 0.001 * (i % 7) as f32);
+                }
+            }
+            row_ptr.push(cols.len() as u32);
+        }
+    }
+    // Columns increase within a row only where the next system lies after this one; the
+    // contract does not ask for sorted columns.
+    let coupling = Coupling {
+        row_ptr: row_ptr.into(),
+        cols: cols.into(),
+        values: values.into(),
+    };
+    let systems = LevelSystems::from_files(&files, coupling).expect("systems serialise");
+    RadFile {
+        patches: Cow::Owned(patches),
+        order: Cow::Owned((0..n as u32).rev().collect()),
+        matrix: TransferMatrix::none(
+            radiosity_core::MatrixLayout::none(3, Format::Bc1, radiosity_core::DEFAULT_MAX_TILE)
+                .expect("a BC1 layout"),
+        ),
+        objects,
+        bounces: Bounces::Infinite,
+        patch_order: PatchOrder::Spatial,
+        compression_rmse: Some(0.01),
+        lighting_error: None,
+        report: Some(Cow::Borrowed("{\"note\":\"level\"}")),
+        mesh: Some(sample_mesh(n)),
+        probes: None,
+        sky: None,
+        parts: None,
+        coverage: None,
+        systems: Some(systems),
+    }
 }

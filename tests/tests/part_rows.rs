@@ -102,6 +102,7 @@ fn shaded_parts_sharing_a_sunlit_patch_gather_their_own_light() {
     let without = BakedScene::new(RadFile {
         parts: None,
         coverage: None,
+        systems: None,
         ..back.clone().into_owned()
     });
     let with = BakedScene::new(back.into_owned());

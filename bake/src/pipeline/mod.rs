@@ -484,6 +484,7 @@ fn second_half(
         sky: None,
         parts: None,
         coverage: None,
+        systems: None,
     };
     let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
     file.parts = part_rows_section(system, &chosen.perm, &mesh, params.sky);

@@ -24,10 +24,12 @@
 compile_error!("the .rad zero-copy parser assumes a little-endian target");
 
 mod read;
+mod systems;
 mod write;
 
 pub(crate) use read::cast;
-pub use read::section_ranges;
+pub use read::{head_len, section_ranges};
+pub use systems::{LevelSystems, SystemEntry};
 pub use write::reseal;
 
 use crate::checksum::Crc32;
@@ -42,9 +44,12 @@ use bytemuck::{Pod, Zeroable};
 
 /// The first 8 bytes of every `.rad` file.
 pub const MAGIC: [u8; 8] = *b"\x89RAD\r\n\x1a\n";
-/// The version this build writes. Version 2 added the block corrections (META's
+/// The newest version this build reads and writes: version 3 added systems (sections
+/// 20–22, [`LevelSystems`]); a file of one matrix is still written as [`PLAIN_VERSION`].
+pub const VERSION: u32 = 3;
+/// The version of a file without systems. Version 2 added the block corrections (META's
 /// `correction_count` and `correction_base`, sections 12–15).
-pub const VERSION: u32 = 2;
+pub const PLAIN_VERSION: u32 = 2;
 /// The oldest version this build reads: version-1 files are version-2 files without block
 /// corrections.
 pub const OLDEST_VERSION: u32 = 1;
@@ -219,6 +224,9 @@ pub struct RadFile<'a> {
     /// take `1 − c` of the light through a triangle of coverage c. A file with it has the
     /// MESH section, one value a triangle.
     pub coverage: Option<Cow<'a, [f32]>>,
+    /// The level's systems, if it is cut into them (`matrix` is then
+    /// [`TransferMatrix::none`]: the transfer lives in each system's own file).
+    pub systems: Option<LevelSystems<'a>>,
 }
 
 fn align(x: u64) -> u64 {
@@ -236,7 +244,10 @@ fn f32_to_opt(v: f32) -> Option<f32> {
 impl<'a> RadFile<'a> {
     /// Patches.
     pub fn n(&self) -> usize {
-        self.matrix.layout.n()
+        match &self.systems {
+            Some(s) => s.n(),
+            None => self.matrix.layout.n(),
+        }
     }
 
     /// Checks everything [`RadFile::parse`] checks beyond the byte structure.
@@ -353,7 +364,28 @@ impl<'a> RadFile<'a> {
                 return Err(bad(SectionKind::Coverage, i, "coverage not in (0, 1]"));
             }
         }
-        self.matrix.validate()
+        match &self.systems {
+            None if self.matrix.layout.is_none() => Err(bad(
+                SectionKind::Meta,
+                0,
+                "a file without systems has no matrix",
+            )),
+            None => self.matrix.validate(),
+            Some(_) if !self.matrix.layout.is_none() => Err(bad(
+                SectionKind::Systems,
+                0,
+                "a level file with its own matrix",
+            )),
+            Some(systems) => {
+                systems.validate(n)?;
+                if systems.is_loaded() {
+                    for s in 0..systems.count() {
+                        systems.system(self, s)?;
+                    }
+                }
+                Ok(())
+            }
+        }
     }
 
     /// Copies every borrowed part, so the file outlives the bytes it was parsed from.
@@ -379,6 +411,7 @@ impl<'a> RadFile<'a> {
             }),
             parts: self.parts.map(PartRows::into_owned),
             coverage: self.coverage.map(|c| Cow::Owned(c.into_owned())),
+            systems: self.systems.map(LevelSystems::into_owned),
         }
     }
 }

@@ -3,8 +3,8 @@
 //! and contents ([`RadFile::parse`]).
 
 use super::{
-    Bounces, Header, MAGIC, Meta, OLDEST_VERSION, PatchOrder, RadFile, SectionEntry, VERSION,
-    align, f32_to_opt, header_checksum,
+    Bounces, Header, LevelSystems, MAGIC, Meta, OLDEST_VERSION, PatchOrder, RadFile, SectionEntry,
+    VERSION, align, f32_to_opt, header_checksum,
 };
 use crate::checksum::crc32;
 use crate::layout::{Format, MatrixLayout};
@@ -21,7 +21,19 @@ impl<'a> RadFile<'a> {
     /// Parses and fully validates a `.rad` file. Never panics and never reads out of bounds,
     /// whatever `bytes` holds.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, RadError> {
-        let s = read_structure(bytes)?;
+        Self::parse_structure(read_structure(bytes, false)?)
+    }
+
+    /// Parses and validates the head of a level file: every section but SYSTEM_DATA, whose
+    /// bytes are not read (`prefix` holds at least the file's first [`head_len`] bytes). The
+    /// systems are then loaded one at a time with [`LevelSystems::accept`] from the bytes at
+    /// [`LevelSystems::file_range`]. A file without systems is parsed whole (`prefix` must
+    /// be all of it).
+    pub fn parse_head(prefix: &'a [u8]) -> Result<Self, RadError> {
+        Self::parse_structure(read_structure(prefix, true)?)
+    }
+
+    fn parse_structure(s: Structure<'a>) -> Result<Self, RadError> {
         let sec = |k: SectionKind| s.sections[k as usize - 1];
         let meta_bytes = sec(SectionKind::Meta).ok_or(RadError::MissingSection {
             kind: SectionKind::Meta,
@@ -44,7 +56,39 @@ impl<'a> RadFile<'a> {
             index: 0,
             reason: "unknown matrix format code",
         })?;
-        let layout = MatrixLayout::new(meta.n, meta.channels, format, meta.max_tile)?;
+        let level = match (sec(SectionKind::Systems), sec(SectionKind::Coupling)) {
+            (None, None) if s.data.is_none() => None,
+            (Some(table), Some(coupling)) if s.data.is_some() => {
+                if s.version < 3 {
+                    return Err(RadError::Invalid {
+                        section: SectionKind::Systems,
+                        index: 0,
+                        reason: "systems in a file before version 3",
+                    });
+                }
+                Some(LevelSystems::from_sections(
+                    table,
+                    coupling,
+                    meta.n as usize,
+                )?)
+            }
+            _ => {
+                let kind = [
+                    SectionKind::Systems,
+                    SectionKind::Coupling,
+                    SectionKind::SystemData,
+                ]
+                .into_iter()
+                .find(|k| sec(*k).is_none() && (*k != SectionKind::SystemData || s.data.is_none()))
+                .unwrap_or(SectionKind::Systems);
+                return Err(RadError::MissingSection { kind });
+            }
+        };
+        let layout = if level.is_some() {
+            MatrixLayout::none(meta.channels, format, meta.max_tile)?
+        } else {
+            MatrixLayout::new(meta.n, meta.channels, format, meta.max_tile)?
+        };
         let bounces = Bounces::from_u32(meta.bounces).ok_or(RadError::Invalid {
             section: SectionKind::Meta,
             index: 0,
@@ -65,7 +109,9 @@ impl<'a> RadFile<'a> {
                 });
             }
         }
-        let (n, ch, nnz) = (meta.n as u64, meta.channels as u64, meta.sparse_nnz as u64);
+        // The level's patches; the matrix's rows (none in a level file).
+        let (n, rows_n) = (meta.n as u64, layout.n() as u64);
+        let (ch, nnz) = (meta.channels as u64, meta.sparse_nnz as u64);
         let corrections = read_corrections(&s, &meta, &layout)?;
         let required = |k: SectionKind| sec(k).ok_or(RadError::MissingSection { kind: k });
         let patches = required(SectionKind::Patches)?;
@@ -81,7 +127,7 @@ impl<'a> RadFile<'a> {
         let blocks = required(SectionKind::Blocks)?;
         expect_len(SectionKind::Blocks, blocks, layout.block_bytes())?;
         let rows = required(SectionKind::SparseRows)?;
-        expect_len(SectionKind::SparseRows, rows, 4 * (n + 1))?;
+        expect_len(SectionKind::SparseRows, rows, 4 * (rows_n + 1))?;
         let cols = required(SectionKind::SparseCols)?;
         expect_len(SectionKind::SparseCols, cols, 4 * nnz)?;
         let values = required(SectionKind::SparseValues)?;
@@ -142,6 +188,14 @@ impl<'a> RadFile<'a> {
                     }
                 })
                 .transpose()?,
+            systems: level.map(|mut l| {
+                if let Some((offset, data)) = s.data {
+                    l.data_offset = offset;
+                    l.data_len = data.1;
+                    l.data = Cow::Borrowed(data.0);
+                }
+                l
+            }),
         };
         file.validate()?;
         Ok(file)
@@ -152,6 +206,8 @@ impl<'a> RadFile<'a> {
 struct Structure<'a> {
     version: u32,
     sections: [Option<&'a [u8]>; SectionKind::ALL.len()],
+    /// SYSTEM_DATA's offset, its bytes (empty when only the head was read) and its length.
+    data: Option<(u64, (&'a [u8], u64))>,
 }
 
 /// The block corrections META announces: all four sections with their exact lengths when
@@ -260,22 +316,40 @@ fn read_table(bytes: &[u8]) -> Result<(Header, Vec<SectionEntry>), RadError> {
     Ok((header, entries))
 }
 
-fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
+/// The bytes a streaming reader needs before [`RadFile::parse_head`]: up to SYSTEM_DATA in a
+/// level file, the whole file otherwise. `prefix` must hold the header and the section table
+/// (`32 + 32 · section_count` bytes; shorter: [`RadError::Truncated`] says how many).
+pub fn head_len(prefix: &[u8]) -> Result<u64, RadError> {
+    let (header, entries) = read_table(prefix)?;
+    Ok(entries
+        .iter()
+        .find(|e| e.kind == SectionKind::SystemData as u32)
+        .map_or(header.file_len, |e| e.offset))
+}
+
+/// The structure of `bytes`; with `head`, of a level file's head: SYSTEM_DATA's place is
+/// checked but its bytes are not read (they need not be in `bytes`).
+fn read_structure(bytes: &[u8], head: bool) -> Result<Structure<'_>, RadError> {
     let (header, entries) = read_table(bytes)?;
+    let head = head
+        && entries
+            .iter()
+            .any(|e| e.kind == SectionKind::SystemData as u32);
     let actual = bytes.len() as u64;
-    if actual < header.file_len {
+    if !head && actual < header.file_len {
         return Err(RadError::Truncated {
             needed: header.file_len,
             actual,
         });
     }
-    if actual > header.file_len {
+    if !head && actual > header.file_len {
         return Err(RadError::TrailingBytes {
             expected: header.file_len,
             actual,
         });
     }
     let mut sections = [None; SectionKind::ALL.len()];
+    let mut data = None;
     let mut pos = 32 + 32 * u64::from(header.section_count);
     let mut last_kind = 0u32;
     for (i, e) in entries.iter().enumerate() {
@@ -309,6 +383,22 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
                 expected,
             });
         }
+        if head && kind == SectionKind::SystemData {
+            // The last section (the highest code): only its place, and the padding before it.
+            if actual < e.offset {
+                return Err(RadError::Truncated {
+                    needed: e.offset,
+                    actual,
+                });
+            }
+            check_padding(bytes, pos, e.offset)?;
+            pos = e.offset.checked_add(e.len).ok_or(RadError::Truncated {
+                needed: u64::MAX,
+                actual,
+            })?;
+            data = Some((e.offset, (&bytes[..0], e.len)));
+            continue;
+        }
         check_padding(bytes, pos, e.offset)?;
         let end = e
             .offset
@@ -318,8 +408,8 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
                 needed: e.offset.saturating_add(e.len),
                 actual,
             })?;
-        let data = &bytes[e.offset as usize..end as usize];
-        let computed = crc32(data);
+        let bytes_of = &bytes[e.offset as usize..end as usize];
+        let computed = crc32(bytes_of);
         if computed != e.checksum {
             return Err(RadError::SectionChecksum {
                 kind,
@@ -328,7 +418,11 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
                 computed,
             });
         }
-        sections[kind as usize - 1] = Some(data);
+        if kind == SectionKind::SystemData {
+            data = Some((e.offset, (bytes_of, e.len)));
+        } else {
+            sections[kind as usize - 1] = Some(bytes_of);
+        }
         pos = end;
     }
     if align(pos) != header.file_len {
@@ -338,7 +432,9 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
             actual,
         });
     }
-    check_padding(bytes, pos, header.file_len)?;
+    if !head {
+        check_padding(bytes, pos, header.file_len)?;
+    }
     for k in SectionKind::ALL {
         if k.required() && sections[k as usize - 1].is_none() {
             return Err(RadError::MissingSection { kind: k });
@@ -347,6 +443,7 @@ fn read_structure(bytes: &[u8]) -> Result<Structure<'_>, RadError> {
     Ok(Structure {
         version: header.version,
         sections,
+        data,
     })
 }
 

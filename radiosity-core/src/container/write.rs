@@ -1,7 +1,8 @@
 //! Serialising ([`RadFile::to_bytes`]) and [`reseal`].
 
 use super::{
-    Header, MAGIC, Meta, RadFile, SectionEntry, VERSION, align, header_checksum, opt_to_f32,
+    Header, MAGIC, Meta, PLAIN_VERSION, RadFile, SectionEntry, VERSION, align, header_checksum,
+    opt_to_f32,
 };
 use crate::checksum::crc32;
 use crate::mesh::Mesh;
@@ -16,9 +17,15 @@ impl RadFile<'_> {
     /// would refuse).
     pub fn to_bytes(&self) -> Result<Vec<u8>, RadError> {
         self.validate()?;
+        if let Some(s) = self.systems.as_ref().filter(|s| !s.is_loaded()) {
+            return Err(RadError::Truncated {
+                needed: s.data_offset + s.data_len,
+                actual: s.data_offset + s.data.len() as u64,
+            });
+        }
         let l = &self.matrix.layout;
         let meta = Meta {
-            n: l.n() as u32,
+            n: self.n() as u32,
             channels: l.channels() as u32,
             format: l.format() as u32,
             max_tile: l.max_tile(),
@@ -89,6 +96,14 @@ impl RadFile<'_> {
         if let Some(c) = &self.coverage {
             sections.push((SectionKind::Coverage, bytemuck::cast_slice(c)));
         }
+        let coupling = self.systems.as_ref().map(|s| s.coupling_bytes());
+        if let (Some(s), Some(c)) = (&self.systems, &coupling) {
+            sections.extend([
+                (SectionKind::Systems, bytemuck::cast_slice(&s.entries)),
+                (SectionKind::Coupling, &c[..]),
+                (SectionKind::SystemData, &s.data[..]),
+            ]);
+        }
         let table_end = 32 + 32 * sections.len() as u64;
         let mut entries = Vec::with_capacity(sections.len());
         let mut pos = table_end;
@@ -108,7 +123,11 @@ impl RadFile<'_> {
         let mut out = alloc::vec![0u8; file_len as usize];
         let mut header = Header {
             magic: MAGIC,
-            version: VERSION,
+            version: if self.systems.is_some() {
+                VERSION
+            } else {
+                PLAIN_VERSION
+            },
             section_count: sections.len() as u32,
             file_len,
             checksum: 0,

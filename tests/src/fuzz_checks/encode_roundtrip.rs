@@ -160,6 +160,7 @@ pub fn rad_file_around(
         sky: None,
         parts: None,
         coverage: None,
+        systems: None,
     }
 }
 
