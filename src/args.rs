@@ -84,6 +84,11 @@ pub(crate) struct BakeArgs {
     /// file: on, off
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub(crate) sky: String,
+    /// Cut the patches into systems, each with its own transfer, light passing between them
+    /// at run time: off (one matrix), auto (systems of at most 4096 patches above 8192
+    /// patches), or a count (docs/decisions/systems.md)
+    #[arg(long, value_name = "off|auto|N", default_value = "auto")]
+    pub(crate) systems: String,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.
     #[arg(skip)]
@@ -107,6 +112,7 @@ impl BakeArgs {
             direct_points: None,
             shadow_points: None,
             sky: "on".into(),
+            systems: "auto".into(),
             given: Vec::new(),
         }
     }

@@ -27,6 +27,7 @@ pub(crate) fn flags(args: &BakeArgs) -> BakeFlags {
         probes: Some("none".into()),
         probe_rank: None,
         sky: Some(args.sky.clone()),
+        systems: Some(args.systems.as_str().into()),
     }
 }
 

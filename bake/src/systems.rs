@@ -12,6 +12,13 @@
 
 use crate::form_factor::SparseFormFactors;
 use crate::simplify::Patches;
+use glam::DVec3;
+
+/// The patches as the cut sees them.
+struct Sites<'a> {
+    centres: &'a [DVec3],
+    areas: &'a [f64],
+}
 
 /// Which system each patch belongs to.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,9 +42,15 @@ impl Partition {
     /// The share of the exchange `Σ A_i F_ij` (over every pair, `i ≠ j`) that flows between
     /// patches of different systems: the light the systems must pass to each other.
     pub fn crossing_share(&self, patches: &Patches, ff: &SparseFormFactors) -> f64 {
+        let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+        self.crossing_share_sites(&areas, ff)
+    }
+
+    /// [`Self::crossing_share`] for patches of these `areas`.
+    pub fn crossing_share_sites(&self, areas: &[f64], ff: &SparseFormFactors) -> f64 {
         let (mut all, mut crossing) = (0.0, 0.0);
         for i in 0..ff.n {
-            let a = patches.patches[i].area;
+            let a = areas[i];
             for (j, f) in ff.row(i) {
                 if j != i {
                     let w = a * f64::from(f);
@@ -59,7 +72,26 @@ impl Partition {
 /// # Panics
 /// If `ff` is not of `patches`.
 pub fn partition(patches: &Patches, ff: &SparseFormFactors, max_patches: usize) -> Partition {
-    assert_eq!(ff.n, patches.len(), "form factors of these patches");
+    let centres: Vec<DVec3> = patches.patches.iter().map(|p| p.centre).collect();
+    let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    partition_sites(&centres, &areas, ff, max_patches)
+}
+
+/// [`partition`] for patches given by their `centres` and `areas`.
+///
+/// # Panics
+/// If `ff`, `centres` and `areas` are not of the same patches.
+pub fn partition_sites(
+    centres: &[DVec3],
+    areas: &[f64],
+    ff: &SparseFormFactors,
+    max_patches: usize,
+) -> Partition {
+    assert!(
+        ff.n == centres.len() && ff.n == areas.len(),
+        "form factors of these patches"
+    );
+    let sites = Sites { centres, areas };
     let max = max_patches.max(1);
     let mut system = vec![0u32; ff.n];
     let mut count = 0;
@@ -67,7 +99,7 @@ pub fn partition(patches: &Patches, ff: &SparseFormFactors, max_patches: usize) 
     let all: Vec<u32> = (0..ff.n as u32).collect();
     let parts = ff.n.div_ceil(max).max(1);
     cut(
-        patches,
+        &sites,
         ff,
         all,
         parts,
@@ -83,7 +115,7 @@ pub fn partition(patches: &Patches, ff: &SparseFormFactors, max_patches: usize) 
 /// `rank` is scratch, `u32::MAX` outside the set being cut.
 #[allow(clippy::too_many_arguments)]
 fn cut(
-    patches: &Patches,
+    patches: &Sites<'_>,
     ff: &SparseFormFactors,
     mut set: Vec<u32>,
     parts: usize,
@@ -109,7 +141,7 @@ fn cut(
     // The proportional split: among positions that cut as little, the nearest to it.
     let target = n * left_parts / parts;
     for axis in 0..3 {
-        let key = |i: u32| patches.patches[i as usize].centre[axis];
+        let key = |i: u32| patches.centres[i as usize][axis];
         set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
         for (r, &i) in set.iter().enumerate() {
             rank[i as usize] = r as u32;
@@ -118,7 +150,7 @@ fn cut(
         let mut diff = vec![0.0f64; n + 1];
         for &i in &set {
             let ri = rank[i as usize] as usize;
-            let a = patches.patches[i as usize].area;
+            let a = patches.areas[i as usize];
             for (j, f) in ff.row(i as usize) {
                 let rj = rank[j] as usize;
                 if rj == u32::MAX as usize || rj == ri {
@@ -148,7 +180,7 @@ fn cut(
         rank[i as usize] = u32::MAX;
     }
     let (_, axis, k) = best.expect("a feasible position: parts · max ≥ the set's size");
-    let key = |i: u32| patches.patches[i as usize].centre[axis];
+    let key = |i: u32| patches.centres[i as usize][axis];
     set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
     let right = set.split_off(k);
     cut(patches, ff, set, left_parts, max, rank, system, count);

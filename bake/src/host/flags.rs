@@ -4,7 +4,7 @@
 use crate::BakeError;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
-use crate::pipeline::{BakeParams, FormatChoice};
+use crate::pipeline::{BakeParams, FormatChoice, SystemsChoice};
 use crate::probes::{ProbeRank, ProbeSpec};
 use crate::scene::{LoadOptions, Scene};
 use crate::simplify::VoxelParams;
@@ -74,10 +74,12 @@ pub struct BakeFlags {
     pub probe_rank: Option<Word>,
     /// Sky visibility: `on` (the default) or `off`.
     pub sky: Option<String>,
+    /// Systems: `auto` (the default), `off` or a count.
+    pub systems: Option<Word>,
 }
 
 /// The keys of [`BakeFlags`] in JSON.
-const KEYS: [&str; 15] = [
+const KEYS: [&str; 16] = [
     "patches",
     "voxel",
     "bounces",
@@ -93,6 +95,7 @@ const KEYS: [&str; 15] = [
     "probes",
     "probe_rank",
     "sky",
+    "systems",
 ];
 
 /// Refuses with a flag's message.
@@ -197,6 +200,23 @@ impl BakeFlags {
             "on" => true,
             "off" => false,
             other => return refuse(format!("--sky must be on or off, not {other:?}")),
+        };
+        p.systems = match self
+            .systems
+            .as_ref()
+            .map_or("auto".into(), Word::text)
+            .as_str()
+        {
+            "auto" => SystemsChoice::Auto,
+            "off" => SystemsChoice::Off,
+            other => match other.parse::<usize>() {
+                Ok(k) if k >= 1 => SystemsChoice::Count(k),
+                _ => {
+                    return refuse(format!(
+                        "--systems must be off, auto or a count of at least 1, not {other:?}"
+                    ));
+                }
+            },
         };
         Ok((p, capped_loading(self.max_reflectance)?))
     }

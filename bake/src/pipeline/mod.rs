@@ -7,12 +7,14 @@
 
 mod params;
 mod report;
+mod systems;
 
 pub use crate::closure::Exposure;
 pub use crate::dark::{DarkCheck, check_dark};
 pub use params::{BakeParams, FormatChoice, Hooks};
 pub use radiosity_runtime::{ObjectShares, SharedPatch};
 pub use report::{BakeReport, Bytes, ClosureReport, store};
+pub use systems::{AUTO_ONE_MATRIX, AUTO_SYSTEM_PATCHES, SystemsChoice, SystemsReport};
 
 use report::{BakeSummary, Measured};
 
@@ -418,6 +420,9 @@ fn second_half(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<BakeOutput, BakeError> {
+    if let Some(count) = params.systems.count_for(system.len()) {
+        return systems::second_half_systems(scene, system, f, count, params, hooks);
+    }
     let mut timings = system.timings_ms.clone();
     let t_all = Instant::now();
     let mut clock = Instant::now();
@@ -430,7 +435,14 @@ fn second_half(
     let n = system.live.len();
 
     hooks.start("transfer")?;
-    let (mut m, transfer) = transfer_step(system, f, params, &mut effects, hooks)?;
+    let (mut m, transfer) = transfer_step(
+        &system.reflectance,
+        channels,
+        f,
+        params,
+        &mut effects,
+        hooks,
+    )?;
     lap("transfer", &mut timings);
 
     let (format, encode_params) = encode_params_for(params, channels);
@@ -566,23 +578,18 @@ fn part_rows_section(
 /// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,
 /// and the `bounces` decision in `effects`.
 fn transfer_step(
-    system: &Discretised,
+    reflectance: &[[f64; 3]],
+    channels: usize,
     f: Cow<'_, Dense>,
     params: &BakeParams,
     effects: &mut Effects,
     hooks: Hooks<'_>,
 ) -> Result<(Vec<f32>, crate::transfer::TransferReport), BakeError> {
-    let (m, transfer) = transfer(
-        f,
-        &system.reflectance,
-        system.channels,
-        params.bounces,
-        hooks.progress,
-    )
-    .map_err(|e| match e {
-        TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
-        other => BakeError::InvalidParams(other.to_string()),
-    })?;
+    let (m, transfer) = transfer(f, reflectance, channels, params.bounces, hooks.progress)
+        .map_err(|e| match e {
+            TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
+            other => BakeError::InvalidParams(other.to_string()),
+        })?;
     effects.insert(
         "bounces",
         Effect::new(

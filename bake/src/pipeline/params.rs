@@ -64,6 +64,8 @@ pub struct BakeParams {
     /// Measure and store each patch's and probe's sky visibility ([`crate::sky`]), so that a
     /// sky or environment light can light the file. On by default.
     pub sky: bool,
+    /// One matrix, or the patches cut into systems ([`super::SystemsChoice`]).
+    pub systems: super::SystemsChoice,
 }
 
 impl Default for BakeParams {
@@ -84,6 +86,7 @@ impl Default for BakeParams {
             probes: ProbeSpec::None,
             probe_rank: ProbeRank::Auto,
             sky: true,
+            systems: super::SystemsChoice::Off,
         }
     }
 }

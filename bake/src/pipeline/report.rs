@@ -95,6 +95,9 @@ pub struct BakeReport {
     pub probes: Option<crate::probes::ProbeReport>,
     /// The sky visibility's measurement (`None` under `--sky off`).
     pub sky: Option<crate::sky::SkyReport>,
+    /// The cut into systems (absent for one matrix).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub systems: Option<super::SystemsReport>,
 }
 
 /// Closure measurements.
@@ -319,6 +322,7 @@ pub(super) fn report(
             .collect(),
         probes: None,
         sky: None,
+        systems: None,
     }
 }
 

@@ -1,0 +1,360 @@
+//! The second half of a bake cut into systems (`--systems`, `docs/decisions/systems.md`): the
+//! live patches' F cut along the planes of least exchange ([`crate::systems::partition`]),
+//! each system's own multi-bounce transfer and encoding, the form factors between systems
+//! kept whole as the coupling (nothing truncated), and one level file ([`LevelSystems`]).
+
+use super::report::{self, BakeSummary, Measured};
+use super::{
+    BakeOutput, BakeParams, Discretised, Hooks, encode_error, encode_params_for, file_mesh,
+    part_rows_section, transfer_step,
+};
+use crate::BakeError;
+use crate::effects::Effect;
+use crate::encode::{ErrorWeights, SparseSelection, encode_dense_with};
+use crate::form_factor::SparseFormFactors;
+use crate::order::{Candidate, OrderKind};
+use crate::scene::Scene;
+use crate::systems::{Split, partition_sites};
+use crate::transfer::{BounceSpec, Dense};
+use radiosity_core::container::LevelSystems;
+use radiosity_core::{Bounces, DecodeMode, MatrixLayout, PatchOrder, RadFile, Rgb, TransferMatrix};
+use serde::Serialize;
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// How a bake cuts its patches into systems.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SystemsChoice {
+    /// One matrix for the whole scene (the bake as it always was).
+    #[default]
+    Off,
+    /// Into this many systems (at least 1; at most one a patch).
+    Count(usize),
+    /// Systems of at most [`AUTO_SYSTEM_PATCHES`] patches where the live patches are more
+    /// than [`AUTO_ONE_MATRIX`], one matrix otherwise.
+    Auto,
+}
+
+/// The most patches [`SystemsChoice::Auto`] bakes as one matrix: its transfer costs n³
+/// (about 4 min at 8192 patches on two cores, 23 min at 16 384), where systems of 4096 cost
+/// about 30 s each (`docs/decisions/systems.md`).
+pub const AUTO_ONE_MATRIX: usize = 8192;
+/// The largest system [`SystemsChoice::Auto`] makes.
+pub const AUTO_SYSTEM_PATCHES: usize = 4096;
+
+impl SystemsChoice {
+    /// The systems for `n` live patches: `None` for one matrix.
+    pub fn count_for(self, n: usize) -> Option<usize> {
+        match self {
+            SystemsChoice::Off => None,
+            SystemsChoice::Count(k) => Some(k),
+            SystemsChoice::Auto => (n > AUTO_ONE_MATRIX).then(|| n.div_ceil(AUTO_SYSTEM_PATCHES)),
+        }
+    }
+}
+
+/// What a systems bake reports (`report.systems`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SystemsReport {
+    /// Systems.
+    pub count: usize,
+    /// Patches of each system, in the level's order.
+    pub sizes: Vec<usize>,
+    /// Share of the exchange `Σ A_i F_ij` that crosses between systems (carried by the
+    /// coupling, not by any system's transfer).
+    pub crossing_share: f64,
+    /// Entries of the coupling.
+    pub coupling_entries: usize,
+    /// Share of the exchange dropped between systems: 0, every crossing entry is kept.
+    pub dropped_share: f64,
+    /// Bytes of the systems' matrices (blocks, sparse entries, corrections) and of the
+    /// coupling.
+    pub matrix_bytes: usize,
+    /// Bytes of the coupling.
+    pub coupling_bytes: usize,
+}
+
+/// F among the live patches as sparse rows (its non-zero entries, in f32 as the form factors
+/// were computed).
+fn sparse_of(f: &Dense) -> SparseFormFactors {
+    let n = f.n;
+    let (mut row_ptr, mut cols, mut values) = (vec![0usize], Vec::new(), Vec::new());
+    for i in 0..n {
+        for (j, &v) in f.row(i).iter().enumerate() {
+            if v > 0.0 {
+                cols.push(j as u32);
+                values.push(v as f32);
+            }
+        }
+        row_ptr.push(cols.len());
+    }
+    SparseFormFactors {
+        n,
+        row_ptr,
+        cols,
+        values,
+        rays_cast: 0,
+    }
+}
+
+/// [`super::second_half`] for `count` systems: each system's own transfer and encoding, in a
+/// level file.
+pub(super) fn second_half_systems(
+    scene: &Scene,
+    system: &Discretised,
+    f: Cow<'_, Dense>,
+    count: usize,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
+    let mut timings = system.timings_ms.clone();
+    let t_all = Instant::now();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
+        timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
+        clock = Instant::now();
+    };
+    let n = system.len();
+    let channels = system.channels;
+    let mut effects = system.effects.clone();
+    if count == 0 || count > n {
+        return Err(BakeError::InvalidParams(format!(
+            "systems must be 1 to the {n} patches, not {count}"
+        )));
+    }
+
+    let probes_note = match params.probes {
+        crate::probes::ProbeSpec::None => None,
+        crate::probes::ProbeSpec::Auto => Some(
+            "a level cut into systems has no probes yet (their rows would gather across systems)",
+        ),
+        _ => {
+            return Err(BakeError::InvalidParams(
+                "probes are not baked into a level cut into systems yet: give --probes none or --systems off".into(),
+            ));
+        }
+    };
+    hooks.start("systems")?;
+    let ff = sparse_of(&f);
+    drop(f);
+    let centres: Vec<glam::DVec3> = system
+        .live
+        .iter()
+        .map(|&i| system.patches.patches[i].centre)
+        .collect();
+    let areas: Vec<f64> = system
+        .live
+        .iter()
+        .map(|&i| system.patches.patches[i].area)
+        .collect();
+    let cut = partition_sites(&centres, &areas, &ff, n.div_ceil(count));
+    let crossing_share = cut.crossing_share_sites(&areas, &ff);
+    let split = Split::new(&ff, &cut);
+    lap("systems", &mut timings);
+
+    let (format, encode_params) = encode_params_for(params, channels);
+    // Every bounce inside each system: the light between systems converges to the
+    // infinite-bounce answer at run time, and one count of bounces serves the whole level.
+    let own_params = BakeParams {
+        bounces: match params.bounces {
+            BounceSpec::Auto { .. } => BounceSpec::Infinite,
+            b => b,
+        },
+        ..params.clone()
+    };
+    let (mut transfer_ms, mut encode_ms) = (0.0, 0.0);
+    let (mut err2, mut norm2) = (0.0f64, 0.0f64);
+    let mut files = Vec::with_capacity(split.ranges.len());
+    let mut bounces = Bounces::Infinite;
+    let mut matrix_bytes = 0;
+    for (s, r) in split.ranges.iter().enumerate() {
+        hooks.start(&format!("system {} of {}", s + 1, split.ranges.len()))?;
+        let members = &split.order[r.clone()];
+        let block = split.own_block(&ff, s);
+        let reflectance: Vec<[f64; 3]> = members
+            .iter()
+            .map(|&k| system.reflectance[k as usize])
+            .collect();
+        let t = Instant::now();
+        let (m, transfer) = transfer_step(
+            &reflectance,
+            channels,
+            Cow::Owned(block),
+            &own_params,
+            &mut effects,
+            hooks,
+        )?;
+        transfer_ms += t.elapsed().as_secs_f64() * 1e3;
+        bounces = transfer.bounces;
+        let t = Instant::now();
+        let patches: Vec<radiosity_core::Patch> = members
+            .iter()
+            .map(|&k| system.core_patches[k as usize])
+            .collect();
+        let emission: Vec<Rgb> = patches.iter().map(|p| p.emission).collect();
+        let matrix = encode_dense_with(
+            r.len(),
+            channels,
+            &m,
+            &encode_params,
+            &ErrorWeights::for_emitters(&emission),
+            SparseSelection::ErrorDriven,
+        )
+        .map_err(encode_error)?;
+        encode_ms += t.elapsed().as_secs_f64() * 1e3;
+        let decoded = matrix.decode_dense(DecodeMode::D3d10);
+        let (e, d) = m.iter().zip(&decoded).fold((0.0, 0.0), |(e, d), (a, b)| {
+            let (a, b) = (f64::from(*a), f64::from(*b));
+            (e + (a - b) * (a - b), d + a * a)
+        });
+        err2 += e;
+        norm2 += d;
+        matrix_bytes += matrix.blocks.len() + matrix.sparse.bytes() + matrix.corrections.bytes();
+        files.push(RadFile {
+            patches: Cow::Owned(patches),
+            order: Cow::Owned((0..r.len() as u32).collect()),
+            matrix,
+            objects: objects_of(scene),
+            bounces: transfer.bounces,
+            patch_order: PatchOrder::Natural,
+            compression_rmse: Some(if d > 0.0 { (e / d).sqrt() as f32 } else { 0.0 }),
+            lighting_error: None,
+            report: None,
+            mesh: None,
+            probes: None,
+            sky: None,
+            parts: None,
+            coverage: None,
+            systems: None,
+        });
+    }
+    timings.insert("transfer", transfer_ms);
+    timings.insert("encode", encode_ms);
+    lap("system_matrices", &mut timings);
+    let rmse = if norm2 > 0.0 {
+        (err2 / norm2).sqrt()
+    } else {
+        0.0
+    };
+
+    let coupling_entries = split.coupling.cols.len();
+    let coupling_bytes = 4 * (split.coupling.row_ptr.len() + 2 * coupling_entries);
+    let systems = LevelSystems::from_files(&files, split.coupling.clone())
+        .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?;
+    drop(files);
+    let patch_source: Vec<u32> = split
+        .order
+        .iter()
+        .map(|&k| system.live[k as usize] as u32)
+        .collect();
+    let layout = MatrixLayout::none(channels as u32, format, encode_params.max_tile)
+        .map_err(|e| BakeError::InvalidParams(e.to_string()))?;
+    let mut file = RadFile {
+        patches: Cow::Owned(
+            split
+                .order
+                .iter()
+                .map(|&k| system.core_patches[k as usize])
+                .collect(),
+        ),
+        order: Cow::Owned(split.order.clone()),
+        matrix: TransferMatrix::none(layout),
+        objects: objects_of(scene),
+        bounces,
+        patch_order: PatchOrder::Natural,
+        compression_rmse: Some(rmse as f32),
+        lighting_error: None,
+        report: None,
+        mesh: None,
+        probes: None,
+        sky: None,
+        parts: None,
+        coverage: None,
+        systems: Some(systems),
+    };
+    let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
+    file.parts = part_rows_section(system, &split.order, &mesh, params.sky);
+    file.mesh = Some(mesh);
+    file.coverage = scene
+        .coverage
+        .iter()
+        .any(|&c| c < 1.0)
+        .then(|| Cow::Owned(scene.coverage.clone()));
+    lap("level", &mut timings);
+    let sizes: Vec<usize> = split.ranges.iter().map(|r| r.len()).collect();
+    effects.insert(
+        "systems",
+        Effect::new(
+            true,
+            format!(
+                "{n} patches cut into {} systems of {:?} patches along the planes of least exchange: {:.2}% of the exchange crosses between them, carried by {coupling_entries} coupling entries (none dropped); each system has its own transfer",
+                sizes.len(),
+                sizes,
+                100.0 * crossing_share
+            ),
+        ),
+    );
+    if let Some(why) = probes_note {
+        effects.insert("probes", Effect::new(false, why.to_owned()));
+    }
+    let discretise_ms: f64 = system.timings_ms.values().sum();
+    timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
+    let chosen = Candidate {
+        kind: OrderKind::None,
+        perm: split.order.clone(),
+        error: crate::order::ErrorEstimate {
+            relative: rmse,
+            squared_error: err2,
+            squared_norm: norm2,
+            relative_std: 0.0,
+            blocks_encoded: 0,
+            blocks_nonzero: 0,
+            exact: true,
+            code_rms: None,
+        },
+        order_ms: 0.0,
+        measure_ms: 0.0,
+    };
+    let measured = Measured {
+        rmse,
+        lighting_error: None,
+        compression_rmse: BTreeMap::from([(OrderKind::None.name().to_owned(), rmse)]),
+        compression_code_rmse: BTreeMap::new(),
+    };
+    let summary = BakeSummary {
+        format,
+        chosen: &chosen,
+        bounces,
+        measured,
+        effects,
+        timings,
+        sample_objects,
+    };
+    let mut report = report::report(scene, system, &file, summary);
+    report.bytes.blocks = matrix_bytes;
+    report.systems = Some(SystemsReport {
+        count: sizes.len(),
+        sizes,
+        crossing_share,
+        coupling_entries,
+        dropped_share: 0.0,
+        matrix_bytes,
+        coupling_bytes,
+    });
+    let report = report::store(&mut file, report)?;
+    let out = BakeOutput {
+        file,
+        report,
+        patch_source,
+    };
+    crate::sky::attach(out, params.sky, hooks)
+}
+
+fn objects_of(scene: &Scene) -> Vec<Cow<'static, str>> {
+    scene
+        .objects
+        .iter()
+        .map(|o| Cow::Owned(o.clone()))
+        .collect()
+}
