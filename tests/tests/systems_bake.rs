@@ -66,7 +66,10 @@ fn systems_reach_the_one_matrix_light_and_off_is_the_old_bake() {
     assert_eq!(systems.count(), 3);
     assert_eq!(level.n(), single.file.n());
     let report = cut.report.systems.as_ref().unwrap();
-    assert!(report.crossing_share > 0.05, "light crosses the cuts: {report:?}");
+    assert!(
+        report.crossing_share > 0.05,
+        "light crosses the cuts: {report:?}"
+    );
     assert_eq!(report.dropped_share, 0.0);
     // Written and read back, the level is the same.
     let bytes = level.to_bytes().unwrap();
@@ -111,5 +114,9 @@ fn systems_reach_the_one_matrix_light_and_off_is_the_old_bake() {
     // Gauss–Seidel frames of a closed room (reflectance 0.7, the error shrinking by about
     // 0.7× a frame at worst) only f32 rounding of two routes through 300 patches remains.
     assert!(w > 0.0);
-    assert!(e / w < 1e-4, "steady state {:.2e} off the one matrix", e / w);
+    assert!(
+        e / w < 1e-4,
+        "steady state {:.2e} off the one matrix",
+        e / w
+    );
 }

@@ -269,7 +269,7 @@ impl<'a> LevelSystems<'a> {
         n: usize,
     ) -> Result<Self, RadError> {
         let size = core::mem::size_of::<SystemEntry>();
-        if table.len() % size != 0 {
+        if !table.len().is_multiple_of(size) {
             return Err(RadError::SectionLength {
                 kind: SectionKind::Systems,
                 expected: (table.len() as u64).next_multiple_of(size as u64),
