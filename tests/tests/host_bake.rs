@@ -134,6 +134,8 @@ fn bad_options_are_refused_before_any_work_naming_the_key() {
         (r#"{"probes": "nowhere.json"}"#, "--probes"),
         (r#"{"bounces": 0}"#, "--bounces"),
         (r#"{"shadow_points": 65}"#, "--shadow-points"),
+        (r#"{"systems": 0}"#, "--systems"),
+        (r#"{"systems": "many"}"#, "--systems"),
         ("[1, 2]", "bad bake options"),
     ] {
         let msg = match BakeFlags::from_json(json) {
@@ -151,6 +153,15 @@ fn bad_options_are_refused_before_any_work_naming_the_key() {
         .params()
         .unwrap();
     assert_eq!((p.direct_points, p.shadow_points), (2, 8));
+    use radiosity_bake::pipeline::SystemsChoice;
+    for (json, want) in [
+        ("{}", SystemsChoice::Auto),
+        (r#"{"systems": "off"}"#, SystemsChoice::Off),
+        (r#"{"systems": 8}"#, SystemsChoice::Count(8)),
+        (r#"{"systems": "8"}"#, SystemsChoice::Count(8)),
+    ] {
+        assert_eq!(flags(json).params().unwrap().0.systems, want, "{json}");
+    }
     let dir = tempfile::tempdir().unwrap();
     let err = bake_file(
         &cornell(),
