@@ -87,7 +87,7 @@ pub(crate) struct BakeArgs {
     /// Cut the patches into systems, each with its own transfer, light passing between them
     /// at run time: off (one matrix), auto (systems of at most 4096 patches above 8192
     /// patches), or a count (docs/decisions/systems.md)
-    #[arg(long, value_name = "off|auto|N", default_value = "auto")]
+    #[arg(long, value_name = "off|auto|N", default_value = "off")]
     pub(crate) systems: String,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.
@@ -112,7 +112,7 @@ impl BakeArgs {
             direct_points: None,
             shadow_points: None,
             sky: "on".into(),
-            systems: "auto".into(),
+            systems: "off".into(),
             given: Vec::new(),
         }
     }
