@@ -26,7 +26,23 @@ fn check_parsed(bytes: &[u8]) {
     assert_eq!(again, file, "written file parses to a different RadFile");
     // Writing is a function of the parsed value: writing the re-parsed file gives the same bytes.
     assert_eq!(again.to_bytes().ok(), Some(out), "second write differs");
-    // A parsed file is ready to gather from (DESIGN: validated, so no decode can go wrong).
+    // A parsed file is ready to gather from (DESIGN: validated, so no decode can go wrong): a
+    // level file through each of its systems' files.
+    match &file.systems {
+        Some(systems) => {
+            for s in 0..systems.count() {
+                let one = systems
+                    .system(&file, s)
+                    .unwrap_or_else(|e| panic!("a parsed level's system {s} fails: {e}"));
+                check_gather(one.into_owned());
+            }
+        }
+        None => check_gather(file),
+    }
+}
+
+/// Gathers ones through `file`'s matrix and checks the light.
+fn check_gather(file: RadFile<'_>) {
     let n = file.n();
     // Block entries decode to finite, non-negative values; sparse values are only required to
     // be finite, because they store exact minus decoded and may be negative. So the sum of a

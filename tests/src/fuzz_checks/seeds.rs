@@ -186,6 +186,13 @@ fn parse_container_seeds(rng: &mut XorShift, seeds: &mut Vec<Seed>) {
         let file = rad_file_around(m, case.bounces, case.patch_order, case.report);
         files.push((name.into(), file.to_bytes().expect("seed writes")));
     }
+    // A level file (version 3): two systems, their coupling, each system's own file.
+    files.push((
+        "level-2-systems".into(),
+        crate::fixtures::sample_level(&[3, 2])
+            .to_bytes()
+            .expect("level seed writes"),
+    ));
     for (name, bytes) in &files {
         seeds.push(Seed {
             target: "parse_container",
