@@ -4,8 +4,8 @@
 //! error that says why, never a silent fallback (only `auto` chooses).
 
 use anyhow::bail;
-use radiosity_backend_wgpu::{Backend, Chosen};
 use radiosity_backend_cpu::CpuGather;
+use radiosity_backend_wgpu::{Backend, Chosen};
 use radiosity_core::{RadFile, TransferMatrix};
 use radiosity_runtime::systems::Level;
 

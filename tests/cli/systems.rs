@@ -40,5 +40,13 @@ fn solve_lights_a_level_file_and_reports_its_systems() {
         &radiosity(&["solve", p, "--backend", "gpu"]),
         "cannot light a level",
     );
-    assert_one_line_error(&radiosity(&["render", p, "-o", dir.path().join("x.png").to_str().unwrap()]), "level file");
+    assert_one_line_error(
+        &radiosity(&[
+            "render",
+            p,
+            "-o",
+            dir.path().join("x.png").to_str().unwrap(),
+        ]),
+        "level file",
+    );
 }

@@ -302,11 +302,7 @@ fn the_parallel_coupling_product_gives_the_same_light_bit_for_bit() {
 /// `g = F·(x + C·y)`, `y = g + M·(x + C·g)` is
 /// `(I − F·C − M·C·F·C)·y = F·x + M·x + M·C·F·x`, solved by Gaussian elimination with
 /// partial pivoting. `coupled = false` leaves the coupling out (each system alone).
-fn level_direct(
-    level: &radiosity_core::RadFile<'_>,
-    x: &[Rgb],
-    coupled: bool,
-) -> Vec<[f64; 3]> {
+fn level_direct(level: &radiosity_core::RadFile<'_>, x: &[Rgb], coupled: bool) -> Vec<[f64; 3]> {
     use radiosity_core::DecodeMode;
     let sys = level.systems.as_ref().unwrap();
     let n = level.n();
@@ -407,10 +403,7 @@ fn a_level_lit_to_the_steady_state_is_its_block_system_solved_directly() {
 
     let want = level_direct(&level, &x, true);
     let alone = level_direct(&level, &x, false);
-    let scale = want
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let scale = want.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
     assert!(scale > 0.1, "the level is lit: {scale}");
     let err = |a: &[[f64; 3]]| {
         lit.gathered()
@@ -450,9 +443,10 @@ fn a_one_matrix_file_is_not_a_level() {
     assert!(matches!(r, Err(LevelError::NotALevel)));
     // A constructor's error is passed on with its system.
     let level = radiosity_tests::fixtures::sample_level(&[4, 6]);
-    let r = Level::<CpuGather<'static>>::new(&level, |s, _| if s == 1 { Err("no") } else {
-        Err("first")
-    });
+    let r = Level::<CpuGather<'static>>::new(
+        &level,
+        |s, _| if s == 1 { Err("no") } else { Err("first") },
+    );
     assert!(matches!(r, Err(LevelError::Gather(0, "first"))));
     let mut lit = Level::new(&level, |_, one| {
         Ok::<_, std::convert::Infallible>(CpuGather::new(one.matrix.clone().into_owned()))
