@@ -12,6 +12,7 @@ use serde_json::json;
 use std::path::Path;
 
 pub(crate) fn export(file: &RadFile<'_>, dir: &Path) -> anyhow::Result<usize> {
+    crate::backend::refuse_level(file, "--export-dds")?;
     crate::output::create_dir(dir)?;
     let m = &file.matrix;
     let l = &m.layout;

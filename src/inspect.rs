@@ -79,6 +79,12 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "sky": !p.sky.is_empty(),
             "bytes": p.to_bytes().len(),
         })),
+        "systems": file.systems.as_ref().map(|sys| json!({
+            "count": sys.count(),
+            "sizes": sys.ranges().iter().map(|r| r.len()).collect::<Vec<_>>(),
+            "coupling_entries": sys.coupling.nnz(),
+            "bytes": sys.data_len,
+        })),
         "coverage": file.coverage.as_ref().map(|c| json!({
             "partial": c.iter().filter(|&&c| c < 1.0).count(),
             "bytes": 4 * c.len(),
@@ -109,6 +115,19 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         l.format(),
         l.channels()
     );
+    if let Some(sys) = &file.systems {
+        let sizes: Vec<usize> = sys.ranges().iter().map(|r| r.len()).collect();
+        let (lo, hi) = (
+            sizes.iter().min().copied().unwrap_or(0),
+            sizes.iter().max().copied().unwrap_or(0),
+        );
+        outln!(
+            "  systems      {} (a level: {lo} to {hi} patches each, {} coupling entries, systems' files {:.3} MiB)",
+            sys.count(),
+            sys.coupling.nnz(),
+            mib(&s["systems"]["bytes"])
+        );
+    }
     outln!("  order        {}", file.patch_order.name());
     outln!(
         "  tiles        {} of up to {}²",

@@ -43,6 +43,7 @@ pub(crate) fn run(
     };
     let loaded = crate::scene::load(input, args, false)?;
     let rt = &loaded.runtime;
+    crate::backend::refuse_level(&rt.file, "render")?;
     rt.mesh("rendering")?;
     let cam = match cam_from_file {
         Some(c) => c,

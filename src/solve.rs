@@ -20,6 +20,11 @@ pub(crate) struct Inputs<'a> {
     pub(crate) points: Option<&'a Path>,
 }
 
+/// A level's steady state: the relative change of the exitance in a frame at most this.
+const LEVEL_TOLERANCE: f32 = 1e-4;
+/// A level's frames at most.
+const LEVEL_MAX_FRAMES: usize = 100;
+
 pub(crate) fn run(
     input: &Path,
     args: &BakeArgs,
@@ -57,26 +62,47 @@ pub(crate) fn run(
     first_exitance(&file.patches, &direct, &mut x);
     // The backend prints its choice: choose it once the input to the gather is known good, so
     // a failure before it stays one `error:` line.
-    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
-    let t = Instant::now();
     let mut y = vec![Rgb::ZERO; n];
-    let edit_json = match edit {
-        Some(edit) => {
-            let summary = json!({
-                "objects": materials.as_ref().map_or(0, Vec::len),
-                "patches": edit.len(),
-                "bytes": edit.bytes(),
-            });
-            EditedGather::new(&mut *chosen.gather, edit)
-                .map_err(|e| anyhow::anyhow!("materials: {e}"))?
-                .gather(&x, &mut y)?;
-            Some(summary)
-        }
-        None => {
-            chosen.gather.gather(&x, &mut y)?;
-            None
-        }
-    };
+    let (kind, gather_name, edit_json, systems_json);
+    let t;
+    if file.systems.is_some() {
+        // A level: each system's CPU gather, lit block by block to the steady state.
+        let mut level = crate::backend::choose_level(backend, file)?;
+        t = Instant::now();
+        let frames = level.steady(&x, LEVEL_TOLERANCE, LEVEL_MAX_FRAMES)?;
+        y.copy_from_slice(level.gathered());
+        kind = "cpu";
+        gather_name = "cpu-systems".to_owned();
+        edit_json = None;
+        systems_json = Some(json!({
+            "count": level.count(),
+            "frames": frames,
+            "change": level.change(),
+        }));
+    } else {
+        let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
+        t = Instant::now();
+        edit_json = match edit {
+            Some(edit) => {
+                let summary = json!({
+                    "objects": materials.as_ref().map_or(0, Vec::len),
+                    "patches": edit.len(),
+                    "bytes": edit.bytes(),
+                });
+                EditedGather::new(&mut *chosen.gather, edit)
+                    .map_err(|e| anyhow::anyhow!("materials: {e}"))?
+                    .gather(&x, &mut y)?;
+                Some(summary)
+            }
+            None => {
+                chosen.gather.gather(&x, &mut y)?;
+                None
+            }
+        };
+        kind = chosen.kind;
+        gather_name = chosen.gather.name().to_owned();
+        systems_json = None;
+    }
     timings.insert("gather", t.elapsed().as_secs_f64() * 1e3);
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
@@ -107,8 +133,8 @@ pub(crate) fn run(
             "patches": n,
             "lights": lights.len(),
             "bounces": match file.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
-            "backend": chosen.kind,
-            "gather": chosen.gather.name(),
+            "backend": kind,
+            "gather": gather_name,
             "objects": objects,
             "effects": effects,
             "timings_ms": timings,
@@ -116,6 +142,9 @@ pub(crate) fn run(
         let mut out = out;
         if let Some(m) = edit_json {
             out["materials"] = m;
+        }
+        if let Some(sys) = systems_json {
+            out["systems"] = sys;
         }
         if let Some(answers) = &answers {
             out["points"] = answers
@@ -129,9 +158,17 @@ pub(crate) fn run(
         outln!(
             "{} ({n} patches, {} gather {:.2} ms)",
             input.display(),
-            chosen.gather.name(),
+            gather_name,
             timings["gather"]
         );
+        if let Some(sys) = &systems_json {
+            outln!(
+                "{} systems lit to the steady state in {} frame(s) (last relative change {:.2e})",
+                sys["count"],
+                sys["frames"],
+                sys["change"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
         outln!(
             "{:<24} {:>12} {:>12} {:>36} {:>36}",
             "object",
@@ -231,6 +268,7 @@ fn edit_materials(
     runtime: &mut radiosity_runtime::BakedScene,
     materials: &[radiosity_runtime::materials::MaterialEdit],
 ) -> anyhow::Result<ReflectanceEdit> {
+    crate::backend::refuse_level(&runtime.file, "a reflectance edit (--materials)")?;
     let file = &mut runtime.file;
     if let Bounces::Finite(k) = file.bounces {
         eprintln!(

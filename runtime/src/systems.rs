@@ -1,8 +1,9 @@
 //! The `std` side of the core's systems ([`radiosity_core::systems`]): the coupling product
-//! spread over threads.
+//! spread over threads, and [`Level`]: a level file's systems built into gathers and lit to
+//! the steady state.
 
-use radiosity_core::Rgb;
-use radiosity_core::systems::Coupling;
+use radiosity_core::systems::{Coupling, Systems, SystemsError};
+use radiosity_core::{Gather, GatherError, RadFile, Rgb};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -18,4 +19,175 @@ pub fn parallel_incoming(c: &Coupling<'_>, rows: Range<usize>, exitance: &[Rgb],
             let start = rows.start + k * CHUNK;
             c.incoming(start..start + chunk.len(), exitance, chunk);
         });
+}
+
+/// Why [`Level::new`] could not light a level file.
+#[derive(Debug)]
+pub enum LevelError<E> {
+    /// The file is a one-matrix `.rad` file, not a level (no SYSTEMS section).
+    NotALevel,
+    /// The file is a level's head only: its systems' files are not loaded.
+    NotLoaded,
+    /// System `s`'s own file could not be parsed or does not belong to the level.
+    System(usize, radiosity_core::RadError),
+    /// The constructor refused system `s`'s gather.
+    Gather(usize, E),
+    /// The gathers, the coupling or the reflectance do not fit the level.
+    Systems(SystemsError),
+}
+
+impl<E: std::fmt::Display> std::fmt::Display for LevelError<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LevelError::NotALevel => {
+                f.write_str("this .rad file has no systems (a one-matrix file, not a level)")
+            }
+            LevelError::NotLoaded => {
+                f.write_str("only the level's head is loaded, not its systems' files")
+            }
+            LevelError::System(s, e) => write!(f, "system {s} of the level: {e}"),
+            LevelError::Gather(s, e) => write!(f, "system {s}'s gather: {e}"),
+            LevelError::Systems(e) => write!(f, "level: {e}"),
+        }
+    }
+}
+
+impl<E: std::fmt::Debug + std::fmt::Display> std::error::Error for LevelError<E> {}
+
+/// A level file (`.rad` version 3, its transfer split into systems) ready to light: one
+/// gather per system, built by the caller from that system's own `.rad` file, lit block by
+/// block through the core's [`Systems`] (block Gauss–Seidel over the systems with the
+/// coupling between them). The patches are the level's, in the level's numbering.
+pub struct Level<G> {
+    systems: Systems<G>,
+    reflectance: Vec<Rgb>,
+    frames: usize,
+    change: f32,
+}
+
+impl<G: Gather> Level<G> {
+    /// The level of `file`: `make(s, system_file)` builds system `s`'s gather from its own
+    /// one-system `.rad` file (patches: the level's [`LevelSystems::range`]`(s)`, in order);
+    /// the reflectance is the level's patches'. The coupling product runs over rayon's
+    /// threads ([`parallel_incoming`]). No light yet.
+    ///
+    /// [`LevelSystems::range`]: radiosity_core::container::LevelSystems::range
+    pub fn new<E>(
+        file: &RadFile<'_>,
+        mut make: impl FnMut(usize, &RadFile<'_>) -> Result<G, E>,
+    ) -> Result<Self, LevelError<E>> {
+        let sys = file.systems.as_ref().ok_or(LevelError::NotALevel)?;
+        if !sys.is_loaded() {
+            return Err(LevelError::NotLoaded);
+        }
+        if sys.n() != file.n() {
+            return Err(LevelError::Systems(SystemsError::Ranges));
+        }
+        let mut gathers = Vec::with_capacity(sys.count());
+        for s in 0..sys.count() {
+            let one = sys.system(file, s).map_err(|e| LevelError::System(s, e))?;
+            gathers.push(make(s, &one).map_err(|e| LevelError::Gather(s, e))?);
+        }
+        let reflectance: Vec<Rgb> = file.patches.iter().map(|p| p.reflectance).collect();
+        let mut systems = Systems::new(
+            gathers,
+            sys.ranges(),
+            sys.coupling.clone().into_owned(),
+            reflectance.clone(),
+        )
+        .map_err(LevelError::Systems)?;
+        systems.set_incoming(parallel_incoming);
+        Ok(Self {
+            systems,
+            reflectance,
+            frames: 0,
+            change: f32::INFINITY,
+        })
+    }
+
+    /// Lights the level for the first exitance `first` (`E + ρ∘H_d` per patch, the input a
+    /// one-matrix gather takes) until the relative change of the exitance in a frame
+    /// (`Σ|ΔB| / Σ|B|` over patches and channels, every system updated once) is at most
+    /// `tolerance`, or `max_frames` frames. Returns the frames taken; [`Self::change`] is the
+    /// last frame's relative change (not below `tolerance` when `max_frames` ran out). A
+    /// `tolerance` that is negative or NaN is never met: `max_frames` frames.
+    pub fn steady(
+        &mut self,
+        first: &[Rgb],
+        tolerance: f32,
+        max_frames: usize,
+    ) -> Result<usize, GatherError> {
+        let mut frames = 0;
+        while frames < max_frames {
+            let change = self.systems.frame(first)?;
+            frames += 1;
+            self.frames += 1;
+            let total: f32 = first
+                .iter()
+                .zip(self.systems.gathered())
+                .zip(&self.reflectance)
+                .map(|((&x, &y), &rho)| {
+                    let b = x + rho * y;
+                    b.r.abs() + b.g.abs() + b.b.abs()
+                })
+                .sum();
+            self.change = if change == 0.0 {
+                0.0
+            } else if total > 0.0 {
+                change / total
+            } else {
+                f32::INFINITY
+            };
+            if !change.is_finite() {
+                let g = self.systems.gathered();
+                let index = g
+                    .iter()
+                    .position(|v| !(v.r.is_finite() && v.g.is_finite() && v.b.is_finite()))
+                    .unwrap_or(0);
+                return Err(GatherError::NonFinite { index });
+            }
+            if self.change <= tolerance {
+                break;
+            }
+        }
+        Ok(frames)
+    }
+
+    /// The gathered irradiance `y` per patch of the level (as a one-matrix gather gives it:
+    /// the total irradiance is `H_d + y`).
+    pub fn gathered(&self) -> &[Rgb] {
+        self.systems.gathered()
+    }
+
+    /// The relative change of the exitance in the last frame ([`Self::steady`]); infinite
+    /// before any frame.
+    pub fn change(&self) -> f32 {
+        self.change
+    }
+
+    /// Frames lit since the level was built.
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// Systems of the level.
+    pub fn count(&self) -> usize {
+        self.systems.len()
+    }
+
+    /// Patches of the level.
+    pub fn patches(&self) -> usize {
+        self.reflectance.len()
+    }
+
+    /// The core's systems, for a frame under a budget ([`Systems::update_within`]) or a
+    /// system's priority.
+    pub fn systems_mut(&mut self) -> &mut Systems<G> {
+        &mut self.systems
+    }
+
+    /// The core's systems.
+    pub fn systems(&self) -> &Systems<G> {
+        &self.systems
+    }
 }

@@ -14,6 +14,7 @@ mod points;
 mod runtime;
 mod solve_physics;
 mod sunset;
+mod systems;
 
 use radiosity_core::Format;
 use radiosity_tests::fixtures::sample_file;
