@@ -351,7 +351,8 @@ fn rad_variants(good: &[u8]) -> Vec<(String, Vec<u8>, &'static str)> {
     b[32..64].fill(0);
     v.push(("zeroed-section-table".into(), b, ""));
     let mut b = good.to_vec();
-    b[8] ^= 0x02;
+    // A version no reader knows (1 → 5: versions 1 to 3 are all read).
+    b[8] ^= 0x04;
     v.push(("flipped-version".into(), b, "version"));
     // Semantic corruptions behind valid checksums.
     let at = |k: SectionKind| {
