@@ -87,7 +87,7 @@ pub(crate) struct BakeArgs {
     /// Cut the patches into systems, each with its own transfer, light passing between them
     /// at run time: off (one matrix), auto (systems of at most 4096 patches above 8192
     /// patches), or a count (docs/decisions/systems.md)
-    #[arg(long, value_name = "off|auto|N", default_value = "off")]
+    #[arg(long, value_name = "off|auto|N", default_value = "auto")]
     pub(crate) systems: String,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.
@@ -112,7 +112,7 @@ impl BakeArgs {
             direct_points: None,
             shadow_points: None,
             sky: "on".into(),
-            systems: "off".into(),
+            systems: "auto".into(),
             given: Vec::new(),
         }
     }
@@ -133,7 +133,7 @@ impl BakeArgs {
     }
 }
 
-/// `--patches N`: a whole number from 1 to [`radiosity_bake::limits::MAX_PATCHES`] (a negative or
+/// `--patches N`: a whole number from 1 to [`radiosity_bake::limits::MAX_LEVEL_PATCHES`] (a negative or
 /// zero count gets this message, not clap's "unexpected argument").
 pub(crate) fn patch_count(s: &str) -> Result<usize, String> {
     let n: i128 = s

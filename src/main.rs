@@ -371,6 +371,7 @@ fn main() -> ExitCode {
         } => radiosity_bake::limits::check_patches(
             patches,
             radiosity_bake::transfer::BounceSpec::Infinite,
+            radiosity_bake::pipeline::SystemsChoice::Off,
         )
         .map_err(anyhow::Error::from)
         .and_then(|()| bench::run(patches, json, runs)),

@@ -78,6 +78,7 @@ pub(crate) fn run(
             "count": level.count(),
             "frames": frames,
             "change": level.change(),
+            "frame_ms": t.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64,
         }));
     } else {
         let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
@@ -163,9 +164,10 @@ pub(crate) fn run(
         );
         if let Some(sys) = &systems_json {
             outln!(
-                "{} systems lit to the steady state in {} frame(s) (last relative change {:.2e})",
+                "{} systems lit to the steady state in {} frame(s) of {:.1} ms (last relative change {:.2e})",
                 sys["count"],
                 sys["frames"],
+                sys["frame_ms"].as_f64().unwrap_or(f64::NAN),
                 sys["change"].as_f64().unwrap_or(f64::NAN)
             );
         }

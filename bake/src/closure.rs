@@ -3,13 +3,14 @@
 //! [`escape_check`]); and the matching correction of F ([`closure_effect`]).
 
 use crate::effects::Effect;
+use crate::exchange::Exchange;
 use crate::form_factor::Starts;
 use crate::geometry::Occluders;
 use crate::hemisphere::{cosine_direction, patch_point_at, patch_rng};
 use crate::pipeline::{BakeParams, ClosureReport};
 use crate::simplify::Patches;
 use crate::simplify::runtime_mesh::direct_points;
-use crate::transfer::{Dense, cap_row_sums, closure_of_sums, enforce_closure};
+use crate::transfer::closure_of_sums;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -46,7 +47,7 @@ pub struct Exposure {
 pub(crate) fn expose(
     patches: &mut Patches,
     occ: Option<&Occluders>,
-    f: &mut Dense,
+    f: &mut Exchange,
     burial: &[Vec<u32>],
     points: &[u32],
 ) -> Exposure {
@@ -90,7 +91,7 @@ pub(crate) fn expose(
             exposure.buried_area[o as usize] += b;
         }
     }
-    let n = f.n;
+    let mut gone = vec![false; patches.len()];
     for (i, &b) in exposure.share.iter().enumerate() {
         if b <= 0.0 {
             continue;
@@ -99,18 +100,16 @@ pub(crate) fn expose(
         let e = 1.0 - b;
         if e <= 0.0 {
             exposure.wholly += 1;
-            for j in 0..n {
-                f.values[i * n + j] = 0.0;
-                f.values[j * n + i] = 0.0;
-            }
+            gone[i] = true;
             continue;
         }
         exposure.partly += 1;
         p.area *= e;
-        for v in &mut f.values[i * n..(i + 1) * n] {
-            *v /= e;
-        }
+        f.divide_row(i, e);
     }
+    // Zeroing the buried rows and columns after the division is the same as before it: a
+    // zero divided stays zero.
+    f.bury(&gone);
     // Which of the points the runtime samples direct light at (`runtime_mesh::runtime_mesh`)
     // lie buried, in the partly buried patches: as the surveyed starts say (`by_survey`),
     // asked where they cannot tell.
@@ -174,7 +173,7 @@ pub(crate) fn expose(
 /// above 1 are capped where they would create energy.
 pub(crate) fn closure_effect(
     patches: &Patches,
-    f: &mut Dense,
+    f: &mut Exchange,
     areas: &[f64],
     exposure: &Exposure,
     params: &BakeParams,
@@ -190,8 +189,9 @@ pub(crate) fn closure_effect(
     // (`row_check::BURIED_FIRST`) misses keeps a row short by that sliver (0.955–0.968 at
     // 4358 patches on the same room with a 32-point look, 0.992 at worst with 64).
     let partly = |i: usize| exposure.share.get(i).is_some_and(|&b| b > 0.0 && b < 1.0);
-    let sums: Vec<f64> = (0..f.n).map(|i| f.row(i).iter().sum()).collect();
-    let rest = (0..f.n).filter(|&i| !partly(i) && sums[i] > 0.0);
+    let n = f.n();
+    let sums: Vec<f64> = (0..n).map(|i| f.row_sum(i)).collect();
+    let rest = (0..n).filter(|&i| !partly(i) && sums[i] > 0.0);
     let closure = if rest.clone().next().is_some() {
         closure_of_sums(rest.map(|i| sums[i]), tol)
     } else {
@@ -200,7 +200,7 @@ pub(crate) fn closure_effect(
     let mut report = ClosureReport {
         min_row_sum: closure.min_row_sum,
         max_row_sum: closure.max_row_sum,
-        max_row_patch: (0..f.n).max_by(|&a, &b| sums[a].total_cmp(&sums[b])),
+        max_row_patch: (0..n).max_by(|&a, &b| sums[a].total_cmp(&sums[b])),
         correction: 0.0,
         escaped: None,
     };
@@ -210,7 +210,7 @@ pub(crate) fn closure_effect(
     );
     if exposure.partly > 0 {
         let buried: f64 = exposure.buried_area.iter().sum();
-        let (lo, hi) = (0..f.n)
+        let (lo, hi) = (0..n)
             .filter(|&i| partly(i))
             .fold((f64::INFINITY, 0f64), |(lo, hi), i| {
                 (lo.min(sums[i]), hi.max(sums[i]))
@@ -242,11 +242,11 @@ pub(crate) fn closure_effect(
             e.share() <= ESCAPE_LIMIT
         };
     if closed {
-        enforce_closure(f, areas);
+        f.enforce_closure(areas);
         // The largest relative change of a row sum, apart from and among the partly buried.
         let (mut rest, mut buried) = (0f64, 0f64);
         for (i, b) in sums.iter().enumerate().filter(|(_, b)| **b > 0.0) {
-            let change = (f.row(i).iter().sum::<f64>() - b).abs() / b;
+            let change = (f.row_sum(i) - b).abs() / b;
             let m = if partly(i) { &mut buried } else { &mut rest };
             *m = m.max(change);
         }
@@ -266,8 +266,8 @@ pub(crate) fn closure_effect(
     // reciprocity. Excesses within the tolerance are quadrature error and stay (capping the
     // Cornell box's 1% near-field excess raised its BC1 lighting error from 3.8% to 5.1%),
     // unless some row's reflected light would then reach 1: the transfer could not converge.
-    if report.max_row_sum > 1.0 + tol || largest_gain(f, patches) >= 1.0 {
-        report.correction = cap_row_sums(f, areas);
+    if report.max_row_sum > 1.0 + tol || f.largest_gain(patches) >= 1.0 {
+        report.correction = f.cap_row_sums(areas);
     }
     let why = format!(
         "{range}: light escapes{opening}; {}",
@@ -283,28 +283,6 @@ pub(crate) fn closure_effect(
     (report, Effect::new(false, why))
 }
 
-/// The largest row sum of `F^C` (`Σ_j F_ij ρ_j`, over channels): a bound of the share of
-/// light kept per bounce.
-pub(crate) fn largest_gain(f: &Dense, patches: &Patches) -> f64 {
-    let rho: Vec<[f64; 3]> = patches
-        .patches
-        .iter()
-        .map(|p| p.reflectance.to_array().map(f64::from))
-        .collect();
-    (0..f.n)
-        .map(|i| {
-            (0..3)
-                .map(|c| {
-                    f.row(i)
-                        .iter()
-                        .zip(&rho)
-                        .map(|(v, r)| v * r[c])
-                        .sum::<f64>()
-                })
-                .fold(0.0, f64::max)
-        })
-        .fold(0.0, f64::max)
-}
 /// Cosine-weighted hemisphere rays in all for [`escape_check`], spread over the patches in
 /// proportion to their area: an opening of 0.1% of the area lets about 16 of them out.
 pub(crate) const ESCAPE_RAYS: u64 = 16_384;

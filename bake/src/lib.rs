@@ -48,6 +48,8 @@ pub(crate) mod hemisphere;
 pub mod effects;
 
 pub(crate) mod closure;
+/// F during the discretisation, dense or as sparse rows.
+pub(crate) mod exchange;
 
 pub(crate) mod dark;
 /// Each object's own gather row in the patches it shares.

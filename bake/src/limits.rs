@@ -3,12 +3,25 @@
 //! machine passes.
 
 use crate::BakeError;
+use crate::pipeline::SystemsChoice;
 use crate::transfer::BounceSpec;
 
-/// Largest patch target on any machine. A target is hit within +10%, and the matrix's n²
-/// entries must stay countable in 32 bits (the sparse rows' offsets are `u32`): 1.1 · 58 000
-/// = 63 800 patches, 4.07e9 entries < 2³².
+/// Largest patch target of a bake into one matrix on any machine. A target is hit within
+/// +10%, and the matrix's n² entries must stay countable in 32 bits (the sparse rows' offsets
+/// are `u32`): 1.1 · 58 000 = 63 800 patches, 4.07e9 entries < 2³².
 pub const MAX_PATCHES: usize = 58_000;
+
+/// Largest patch target of a level cut into systems (`--systems`): the level's patch indices
+/// and its coupling's entry count stay within `u32` with room to spare; memory refuses far
+/// sooner on most machines ([`level_peak_bytes`]).
+pub const MAX_LEVEL_PATCHES: usize = 1 << 20;
+
+/// Bytes per patch of a level's sparse form factors at their peak, over its systems' dense
+/// transfers: the ray-cast rows' counts, their transpose and pooled rows, then the f64 rows
+/// the burial and closure correct and the f32 live rows they leave. MEASURED on a city of
+/// 65 536 patches (`docs/decisions/systems.md`): about 600 entries a row at 4096 rays a
+/// patch, peak RSS less the largest system's transfer about 20 kB a patch.
+const LEVEL_BYTES_PER_PATCH: f64 = 24_000.0;
 
 /// How far over its target a bake may land (the simplification hits it within ±10%).
 const OVERSHOOT: f64 = 1.1;
@@ -64,16 +77,26 @@ pub(crate) fn physical_memory() -> Option<u64> {
     kib.checked_mul(1024)
 }
 
-/// Why a patch target is above [`MAX_PATCHES`] (`None` when it is not).
+/// Estimated peak memory in bytes of a level aimed at `patches` patches cut into systems as
+/// `systems` says: its sparse form factors ([`LEVEL_BYTES_PER_PATCH`]) and the dense
+/// transfer of its largest system (a tenth over the even share, as the cut lands).
+pub(crate) fn level_peak_bytes(patches: usize, systems: usize, bounces: BounceSpec) -> f64 {
+    let n = patches as f64 * OVERSHOOT;
+    let largest = n / systems.max(1) as f64 * OVERSHOOT;
+    LEVEL_BYTES_PER_PATCH * n + bytes_per_entry(bounces) * largest * largest
+}
+
+/// Why a patch target is above [`MAX_LEVEL_PATCHES`], the most any bake takes (`None` when it
+/// is not).
 pub fn above_ceiling(patches: usize) -> Option<String> {
-    (patches > MAX_PATCHES).then(|| {
+    (patches > MAX_LEVEL_PATCHES).then(|| {
         format!(
-            "more than any bake can hold: at most {MAX_PATCHES} (a bake of n patches stores n² matrix entries, counted in 32 bits)"
+            "more than any bake can hold: at most {MAX_LEVEL_PATCHES} (patch indices and coupling entries are counted in 32 bits)"
         )
     })
 }
 
-/// Refuses a patch target above [`MAX_PATCHES`].
+/// Refuses a patch target above [`MAX_LEVEL_PATCHES`].
 pub(crate) fn check_ceiling(patches: usize) -> Result<(), BakeError> {
     match above_ceiling(patches) {
         Some(why) => Err(BakeError::Flag(format!("--patches {patches} is {why}"))),
@@ -81,14 +104,34 @@ pub(crate) fn check_ceiling(patches: usize) -> Result<(), BakeError> {
     }
 }
 
-/// Refuses a patch target the bake cannot hold: above [`MAX_PATCHES`], or whose estimated
-/// peak ([`bake_peak_bytes`]) exceeds `memory` bytes of physical memory (when known).
+/// Refuses a patch target the bake cannot hold: above [`MAX_LEVEL_PATCHES`], above
+/// [`MAX_PATCHES`] for one matrix, or whose estimated peak ([`bake_peak_bytes`], or
+/// [`level_peak_bytes`] where `systems` cuts the target into systems) exceeds `memory` bytes
+/// of physical memory (when known).
 pub(crate) fn check_patches_in(
     patches: usize,
     memory: Option<u64>,
     bounces: BounceSpec,
+    systems: SystemsChoice,
 ) -> Result<(), BakeError> {
     check_ceiling(patches)?;
+    if let Some(count) = systems.count_for(patches) {
+        let peak = level_peak_bytes(patches, count, bounces);
+        return match memory {
+            Some(memory) if peak > memory as f64 => Err(BakeError::Flag(format!(
+                "--patches {patches} in {count} systems needs about {:.1} GB at the bake's peak (sparse form factors of {:.0} kB a patch and the largest system's dense transfer), more than this machine's {:.1} GB of memory: cut it into more systems or aim at fewer patches",
+                peak / 1e9,
+                LEVEL_BYTES_PER_PATCH / 1e3,
+                memory as f64 / 1e9,
+            ))),
+            _ => Ok(()),
+        };
+    }
+    if patches > MAX_PATCHES {
+        return Err(BakeError::Flag(format!(
+            "--patches {patches} is more than one matrix can hold: at most {MAX_PATCHES} (a bake of n patches stores n² matrix entries, counted in 32 bits); cut the level into systems with --systems auto"
+        )));
+    }
     if let Some(memory) = memory {
         let peak = bake_peak_bytes(patches, bounces);
         if peak > memory as f64 {
@@ -106,8 +149,12 @@ pub(crate) fn check_patches_in(
 }
 
 /// [`check_patches_in`] this machine's physical memory.
-pub fn check_patches(patches: usize, bounces: BounceSpec) -> Result<(), BakeError> {
-    check_patches_in(patches, physical_memory(), bounces)
+pub fn check_patches(
+    patches: usize,
+    bounces: BounceSpec,
+    systems: SystemsChoice,
+) -> Result<(), BakeError> {
+    check_patches_in(patches, physical_memory(), bounces, systems)
 }
 
 #[cfg(test)]
@@ -130,8 +177,9 @@ mod tests {
         assert!(bake_peak_bytes(fit + 200, auto) > gb23 as f64, "{fit}");
         // A 16384-patch bake fits a 23 GB machine (it did not at 68 bytes a pair).
         assert!(fit >= 16_384, "{fit}");
-        check_patches_in(fit, Some(gb23), auto).unwrap();
-        let err = check_patches_in(50_000, Some(gb23), auto)
+        let off = SystemsChoice::Off;
+        check_patches_in(fit, Some(gb23), auto, off).unwrap();
+        let err = check_patches_in(50_000, Some(gb23), auto, off)
             .unwrap_err()
             .to_string();
         assert!(
@@ -142,11 +190,40 @@ mod tests {
         );
         let series = largest_fitting(gb23, BounceSpec::Fixed(5));
         assert!(series < fit, "{series} vs {fit}");
-        let err = check_patches_in(10_000_000, None, auto)
+        let err = check_patches_in(10_000_000, None, auto, off)
             .unwrap_err()
             .to_string();
-        assert!(err.contains("at most 58000"), "{err}");
-        check_patches_in(50_000, None, auto).unwrap();
+        assert!(err.contains("at most 1048576"), "{err}");
+        let err = check_patches_in(60_000, None, auto, off)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("at most 58000") && err.contains("--systems auto"),
+            "{err}"
+        );
+        check_patches_in(50_000, None, auto, off).unwrap();
+    }
+
+    #[test]
+    fn a_level_is_estimated_by_its_sparse_rows_and_largest_system() {
+        let auto = BounceSpec::default();
+        let gb8 = 8_000_000_000;
+        // 65 536 patches in systems of 4096: 1.73 GB of sparse rows, 0.7 GB for the largest
+        // system's transfer; the same patches in one matrix would need 147 GB.
+        let level = level_peak_bytes(65_536, 16, auto);
+        assert!((2.0e9..3.0e9).contains(&level), "{level}");
+        check_patches_in(65_536, Some(gb8), auto, SystemsChoice::Auto).unwrap();
+        assert!(check_patches_in(65_536, Some(gb8), auto, SystemsChoice::Off).is_err());
+        // Two systems of 32k patches each need a dense 36k² transfer: refused, with the cure.
+        let err = check_patches_in(65_536, Some(gb8), auto, SystemsChoice::Count(2))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("in 2 systems") && err.contains("more systems"),
+            "{err}"
+        );
+        // Below auto's threshold a target is one matrix, estimated as one.
+        check_patches_in(4096, Some(gb8), auto, SystemsChoice::Auto).unwrap();
     }
 
     #[test]

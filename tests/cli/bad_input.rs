@@ -515,6 +515,19 @@ fn bad_flags_and_output_paths_fail_at_once() {
             "more than any bake can hold",
         ),
         (
+            vec![
+                "bake",
+                "MISSING",
+                "-o",
+                "OUT/out.rad",
+                "--patches",
+                "60000",
+                "--systems",
+                "off",
+            ],
+            "more than one matrix can hold",
+        ),
+        (
             vec!["solve", "MISSING", "--patches", "10000000"],
             "more than any bake can hold",
         ),

@@ -220,6 +220,8 @@ pub struct SparseFormFactors {
     pub values: Vec<f32>,
     /// Rays cast.
     pub rays_cast: u64,
+    /// Rays cast from each patch.
+    pub rays_per_patch: u32,
 }
 
 impl SparseFormFactors {
@@ -347,6 +349,7 @@ pub(super) fn cast_sparse(
         cols,
         values,
         rays_cast: n as u64 * u64::from(rays),
+        rays_per_patch: rays,
     }
 }
 

@@ -675,14 +675,33 @@ pub fn form_factors_sparse(
     params: &FormFactorParams,
     progress: Option<Progress<'_>>,
 ) -> Option<SparseFormFactors> {
+    form_factors_sparse_surveyed(patches, occluders, params, None, progress)
+}
+
+/// [`form_factors_sparse`], with the burial survey ([`crate::closure::survey`]) where the
+/// caller has it.
+pub(crate) fn form_factors_sparse_surveyed(
+    patches: &Patches,
+    occluders: Option<&Occluders>,
+    params: &FormFactorParams,
+    burial: Option<&[Vec<u32>]>,
+    progress: Option<Progress<'_>>,
+) -> Option<SparseFormFactors> {
     let (occ, per_patch) = cast_rays(patches, occluders, params)?;
-    let burial = crate::closure::survey(patches, occ);
+    let own;
+    let burial = match burial {
+        Some(b) => b,
+        None => {
+            own = crate::closure::survey(patches, occ);
+            &own
+        }
+    };
     let cover = coverage(patches, Some(occ));
     Some(cast::cast_sparse(
         patches,
         occ,
         per_patch,
-        &burial,
+        burial,
         cover.as_deref(),
         progress,
     ))

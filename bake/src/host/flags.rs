@@ -137,10 +137,6 @@ impl BakeFlags {
             bounces: parse_bounces(&self.bounces.as_ref().map_or("auto".into(), Word::text))?,
             ..BakeParams::default()
         };
-        if let Some(n) = self.patches {
-            // Before anything is loaded or allocated: the dense matrices must fit in memory.
-            crate::limits::check_patches(n, p.bounces)?;
-        }
         if let Some(v) = voxel_params(self.patches, self.voxel)? {
             p.voxel = v;
         }
@@ -218,6 +214,10 @@ impl BakeFlags {
                 }
             },
         };
+        if let Some(n) = self.patches {
+            // Before anything is loaded or allocated: the matrices must fit in memory.
+            crate::limits::check_patches(n, p.bounces, p.systems)?;
+        }
         Ok((p, capped_loading(self.max_reflectance)?))
     }
 }

@@ -26,9 +26,10 @@ use crate::encode::{
     EncodeError, EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
     default_sparse_fraction, encode_dense_with,
 };
+use crate::exchange::{Exchange, SparseRows, dense_live_sparse};
 use crate::form_factor::{
-    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
-    form_factors_surveyed,
+    FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, SparseFormFactors,
+    Visibility, form_factors_sparse_surveyed, form_factors_surveyed,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -61,8 +62,12 @@ pub struct Discretised {
     pub patches: Patches,
     /// Simplification index of each matrix patch: the patches that see something.
     pub live: Vec<usize>,
-    /// Form factors among the live patches (closure-corrected when the scene is closed).
+    /// Form factors among the live patches (closure-corrected when the scene is closed);
+    /// empty where they are kept as `sparse` rows.
     pub f: Dense,
+    /// The same as sparse rows (f32), in place of `f`, where the bake cuts the level into
+    /// systems and the form factors are ray-cast ([`SystemsChoice`]).
+    pub sparse: Option<SparseFormFactors>,
     /// Reflectance of each live patch.
     pub reflectance: Vec<[f64; 3]>,
     /// The live patches as the core stores them (bake numbering).
@@ -112,7 +117,8 @@ impl Discretised {
 pub fn bake(scene: &Scene, params: &BakeParams, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
     let mut system = discretise(scene, params, hooks)?;
     let f = std::mem::replace(&mut system.f, Dense::new(0, Vec::new()));
-    second_half(scene, &system, Cow::Owned(f), params, hooks)
+    let sparse = system.sparse.take().map(Cow::Owned);
+    second_half(scene, &system, Cow::Owned(f), sparse, params, hooks)
 }
 
 /// The first half of [`bake`]: simplify, plan, form factors, closure, dark patches (uses
@@ -168,28 +174,65 @@ pub fn discretise(
         .unwrap_or_default();
     lap("burial", &mut timings);
     let go_on = |done: usize, total: usize| hooks.report(done, total);
-    let mut ff = form_factors_surveyed(
-        &patches,
-        occluders.as_ref(),
-        &ffp,
-        Some(&burial),
-        Some(&go_on),
-    );
+    // A level cut into systems keeps F as sparse rows where they are ray-cast: the dense n²
+    // matrix of 65 536 patches would need 17 GB in f32.
+    let sparse = if params.systems.count_for(patches.len()).is_some() {
+        form_factors_sparse_surveyed(
+            &patches,
+            occluders.as_ref(),
+            &ffp,
+            Some(&burial),
+            Some(&go_on),
+        )
+    } else {
+        None
+    };
+    let (mut f, ff) = match sparse {
+        Some(s) => {
+            hooks.check()?;
+            let summary = FormFactors {
+                n: s.n,
+                matrix: Vec::new(),
+                rays_cast: s.rays_cast,
+                row_sums: Vec::new(),
+                reciprocity_error: 0.0,
+                pieces: patches.pieces.len(),
+                sites: 0,
+                clustered_pairs: 0,
+                rays_per_patch: s.rays_per_patch,
+            };
+            (Exchange::Sparse(SparseRows::from_f32(s)), summary)
+        }
+        None => {
+            let mut ff = form_factors_surveyed(
+                &patches,
+                occluders.as_ref(),
+                &ffp,
+                Some(&burial),
+                Some(&go_on),
+            );
+            // F in f64 from here on; the f32 matrix goes as soon as it is converted.
+            let dense = Dense::new(
+                patches.len(),
+                std::mem::take(&mut ff.matrix)
+                    .into_iter()
+                    .map(f64::from)
+                    .collect(),
+            );
+            (Exchange::Dense(dense), ff)
+        }
+    };
     // The rows skipped after a cancellation leave the matrix incomplete: it goes no further.
     hooks.check()?;
     lap("form_factors", &mut timings);
     form_factor_effects(&ff, ffp.exact_pieces, &mut effects);
-
     let n_all = patches.len();
-    // F in f64 from here on; the f32 matrix goes as soon as it is converted.
-    let mut f = Dense::new(
-        n_all,
-        std::mem::take(&mut ff.matrix)
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-    );
     let full_areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    // Of F as the form factors left it (the dense matrix measured its own).
+    let reciprocity_error = match &f {
+        Exchange::Dense(_) => ff.reciprocity_error,
+        Exchange::Sparse(_) => f.reciprocity_error(&full_areas),
+    };
     // The checks below cast rays even where nothing occludes (no BVH was built for F: a sheet
     // above a floor blocks no pair of patches, yet shadows the floor from a sun): then one is
     // built, once, when a check first needs it.
@@ -217,7 +260,7 @@ pub fn discretise(
     );
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
-    let raw_sums: Vec<f64> = (0..f.n).map(|i| f.row(i).iter().sum()).collect();
+    let raw_sums: Vec<f64> = (0..n_all).map(|i| f.row_sum(i)).collect();
     let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
     effects.insert("closed", closed);
     lap("closure", &mut timings);
@@ -227,9 +270,7 @@ pub fn discretise(
     // the void (a roof under the open sky), and direct light from a lights file still reaches
     // them and their objects' figures (a tower's roof dropped here took its whole top out of
     // the tower's mean irradiance: −100% on that face in an outdoor scene).
-    let zero: Vec<usize> = (0..n_all)
-        .filter(|&i| !f.row(i).iter().any(|v| *v > 0.0))
-        .collect();
+    let zero: Vec<usize> = (0..n_all).filter(|&i| f.sees_nothing(i)).collect();
     let whole = |i: usize| exposure.share.get(i).is_some_and(|&b| b >= 1.0);
     let live: Vec<usize> = (0..n_all)
         .filter(|&i| !(whole(i) && zero.binary_search(&i).is_ok()))
@@ -285,7 +326,7 @@ pub fn discretise(
                 .into_iter()
                 .enumerate()
                 .map(|(i, rows)| {
-                    let after: f64 = f.row(i).iter().sum();
+                    let after = f.row_sum(i);
                     let scale = if raw_sums[i] > 0.0 {
                         after / raw_sums[i]
                     } else {
@@ -311,7 +352,10 @@ pub fn discretise(
     // Where no patch sees another (one object, a convex one, a single sheet), no light travels
     // between surfaces: the transfer is zero and the file carries everything else (patches,
     // mesh, direct light, probes), so that one code path serves every asset.
-    let f_live = live_rows(f, &live);
+    let (f_live, sparse) = match f {
+        Exchange::Dense(d) => (live_rows(d, &live), None),
+        sparse => (Dense::new(0, Vec::new()), Some(sparse.live_sparse(&live))),
+    };
     let reflectance: Vec<[f64; 3]> = live
         .iter()
         .map(|&i| patches.patches[i].reflectance.to_array().map(f64::from))
@@ -321,6 +365,7 @@ pub fn discretise(
         patches,
         live,
         f: f_live,
+        sparse,
         reflectance,
         core_patches,
         channels,
@@ -331,7 +376,7 @@ pub fn discretise(
         part_rows,
         rays_cast: ff.rays_cast,
         form_factors: params.form_factors.summary(),
-        reciprocity_error: ff.reciprocity_error,
+        reciprocity_error,
         timings_ms: timings,
     })
 }
@@ -408,21 +453,51 @@ pub fn bake_discretised(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<BakeOutput, BakeError> {
-    second_half(scene, system, Cow::Borrowed(&system.f), params, hooks)
+    let sparse = system.sparse.as_ref().map(Cow::Borrowed);
+    second_half(
+        scene,
+        system,
+        Cow::Borrowed(&system.f),
+        sparse,
+        params,
+        hooks,
+    )
 }
 
-/// [`bake_discretised`] with the system's F given apart (`f`), borrowed or owned: an owned F
-/// is consumed by the transfer.
+/// [`bake_discretised`] with the system's F given apart (`f`, or `sparse` where the
+/// discretisation kept sparse rows), borrowed or owned: an owned F is consumed by the
+/// transfer.
 fn second_half(
     scene: &Scene,
     system: &Discretised,
     f: Cow<'_, Dense>,
+    sparse: Option<Cow<'_, SparseFormFactors>>,
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<BakeOutput, BakeError> {
-    if let Some(count) = params.systems.count_for(system.len()) {
-        return systems::second_half_systems(scene, system, f, count, params, hooks);
+    let n = system.len();
+    if let Some(count) = params.systems.count_for(n) {
+        let ff = match sparse {
+            Some(s) => s,
+            None => Cow::Owned(dense_live_sparse(&f, &(0..n).collect::<Vec<_>>())),
+        };
+        drop(f);
+        return systems::second_half_systems(scene, system, ff, count, params, hooks);
     }
+    // Sparse rows kept for systems that the live patches turned out too few to need: one
+    // matrix of their entries (widened from f32).
+    let f = match sparse {
+        Some(s) => {
+            let mut d = vec![0.0; n * n];
+            for i in 0..n {
+                for (j, v) in s.row(i) {
+                    d[i * n + j] = f64::from(v);
+                }
+            }
+            Cow::Owned(Dense::new(n, d))
+        }
+        None => f,
+    };
     let mut timings = system.timings_ms.clone();
     let t_all = Instant::now();
     let mut clock = Instant::now();
@@ -432,7 +507,6 @@ fn second_half(
     };
     let mut effects = system.effects.clone();
     let channels = system.channels;
-    let n = system.live.len();
 
     hooks.start("transfer")?;
     let (mut m, transfer) = transfer_step(

@@ -15,7 +15,7 @@ use crate::form_factor::SparseFormFactors;
 use crate::order::{Candidate, OrderKind};
 use crate::scene::Scene;
 use crate::systems::{Split, partition_sites};
-use crate::transfer::{BounceSpec, Dense};
+use crate::transfer::BounceSpec;
 use radiosity_core::container::LevelSystems;
 use radiosity_core::{Bounces, DecodeMode, MatrixLayout, PatchOrder, RadFile, Rgb, TransferMatrix};
 use serde::Serialize;
@@ -75,35 +75,12 @@ pub struct SystemsReport {
     pub coupling_bytes: usize,
 }
 
-/// F among the live patches as sparse rows (its non-zero entries, in f32 as the form factors
-/// were computed).
-fn sparse_of(f: &Dense) -> SparseFormFactors {
-    let n = f.n;
-    let (mut row_ptr, mut cols, mut values) = (vec![0usize], Vec::new(), Vec::new());
-    for i in 0..n {
-        for (j, &v) in f.row(i).iter().enumerate() {
-            if v > 0.0 {
-                cols.push(j as u32);
-                values.push(v as f32);
-            }
-        }
-        row_ptr.push(cols.len());
-    }
-    SparseFormFactors {
-        n,
-        row_ptr,
-        cols,
-        values,
-        rays_cast: 0,
-    }
-}
-
 /// [`super::second_half`] for `count` systems: each system's own transfer and encoding, in a
 /// level file.
 pub(super) fn second_half_systems(
     scene: &Scene,
     system: &Discretised,
-    f: Cow<'_, Dense>,
+    ff: Cow<'_, SparseFormFactors>,
     count: usize,
     params: &BakeParams,
     hooks: Hooks<'_>,
@@ -136,8 +113,6 @@ pub(super) fn second_half_systems(
         }
     };
     hooks.start("systems")?;
-    let ff = sparse_of(&f);
-    drop(f);
     let centres: Vec<glam::DVec3> = system
         .live
         .iter()
