@@ -61,5 +61,39 @@ fn main() {
         "{n} patches, {} systems; frame ms: {times:.1?}",
         level.count()
     );
+    // Where a frame's time goes: the coupling product over every patch, and every system's
+    // gather, each timed alone (best of three).
+    let sys = file.systems.as_ref().expect("a level");
+    let coupling = sys.coupling.clone().into_owned();
+    let exitance: Vec<Rgb> = xb.clone();
+    let mut out = vec![Rgb::ZERO; n];
+    let best = |f: &mut dyn FnMut()| {
+        (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let coupling_ms = best(&mut || {
+        radiosity_runtime::systems::parallel_incoming(&coupling, 0..n, &exitance, &mut out)
+    });
+    let mut gathers: Vec<(CpuGather<'_>, std::ops::Range<usize>)> = (0..sys.count())
+        .map(|s| {
+            let one = sys.system(&file, s).expect("a system");
+            (CpuGather::new(one.matrix.into_owned()), sys.range(s))
+        })
+        .collect();
+    let gather_ms = best(&mut || {
+        for (g, r) in &mut gathers {
+            let mut y = vec![Rgb::ZERO; r.len()];
+            radiosity_core::Gather::gather(g, &exitance[r.clone()], &mut y).expect("a gather");
+        }
+    });
+    println!(
+        "coupling product ({} entries) {coupling_ms:.1} ms, the systems' gathers {gather_ms:.1} ms",
+        coupling.cols.len()
+    );
     println!("after the sun jumps, % off the steady radiosity per frame: {errs:.3?}");
 }

@@ -85,7 +85,7 @@ pub(crate) struct BakeArgs {
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub(crate) sky: String,
     /// Cut the patches into systems, each with its own transfer, light passing between them
-    /// at run time: off (one matrix), auto (systems of at most 4096 patches above 8192
+    /// at run time: off (one matrix), auto (systems of at most 2048 patches above 8192
     /// patches), or a count (docs/decisions/systems.md)
     #[arg(long, value_name = "off|auto|N", default_value = "auto")]
     pub(crate) systems: String,

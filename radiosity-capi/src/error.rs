@@ -19,6 +19,12 @@ pub(crate) struct Failure {
     pub(crate) message: String,
 }
 
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
 impl Failure {
     pub(crate) fn new(code: i32, message: impl Into<String>) -> Self {
         Self {

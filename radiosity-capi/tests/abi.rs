@@ -547,3 +547,78 @@ fn sky_light_through_the_abi_equals_the_runtime() {
     // SAFETY: freed once, not used after.
     unsafe { rad_scene_free(scene) };
 }
+
+/// A level file (its transfer cut into systems) through the ABI: rad_gather_run lights it to
+/// the steady state and rad_gather_frame runs one frame, each equal to the runtime's `Level`
+/// over the same CPU gathers; the GPU refuses it with a message.
+#[test]
+fn a_level_gathers_through_the_abi_as_the_runtime_lights_it() {
+    use radiosity_backend_cpu::CpuGather;
+    use radiosity_runtime::systems::Level;
+    let file = radiosity_tests::fixtures::sample_level(&[30, 40, 25]);
+    let n = file.n();
+    let scene = scene_of(&file);
+    let x = exitance(n, 7);
+    let cpu_level = || {
+        Level::new(&file, |_, one| {
+            Ok::<_, std::convert::Infallible>(CpuGather::new(one.matrix.clone().into_owned()))
+        })
+        .unwrap()
+    };
+    let mut steady = cpu_level();
+    let frames = steady.steady(&x, 1e-4, 100).unwrap();
+    assert!(frames > 1, "light crosses the systems: {frames} frame(s)");
+    let mut one_frame = cpu_level();
+    one_frame.systems_mut().frame(&x).unwrap();
+    // SAFETY (every call below): `scene` and the gathers are live until freed at the end, and
+    // every array passed has the length given.
+    unsafe {
+        let mut g = null_mut();
+        assert_eq!(
+            rad_gather_new(scene, c"cpu".as_ptr(), &mut g),
+            RAD_OK,
+            "{}",
+            last_error()
+        );
+        assert_eq!(rad_gather_systems(g), 3);
+        assert_eq!(c_str(rad_gather_backend(g)), "cpu");
+        assert!(c_str(rad_gather_name(g)).ends_with("-systems"));
+        let mut y = vec![Rgb::ZERO; n];
+        let code = rad_gather_run(g, as_rad(&x).as_ptr(), as_rad_mut(&mut y).as_mut_ptr(), n);
+        assert_eq!(code, RAD_OK, "{}", last_error());
+        // The same gathers, the same frames in the same order: the same floats.
+        assert_eq!(y, steady.gathered());
+        rad_gather_free(g);
+
+        let mut g = null_mut();
+        assert_eq!(rad_gather_new(scene, c"auto".as_ptr(), &mut g), RAD_OK);
+        let code = rad_gather_frame(g, as_rad(&x).as_ptr(), as_rad_mut(&mut y).as_mut_ptr(), n);
+        assert_eq!(code, RAD_OK, "{}", last_error());
+        assert_eq!(y, one_frame.gathered());
+        assert_ne!(
+            y,
+            steady.gathered(),
+            "one frame is not yet the steady state"
+        );
+        assert_eq!(
+            rad_gather_frame(
+                g,
+                as_rad(&x).as_ptr(),
+                as_rad_mut(&mut y).as_mut_ptr(),
+                n + 1
+            ),
+            RAD_ERR_LENGTH
+        );
+        rad_gather_free(g);
+
+        let mut g = null_mut();
+        assert_eq!(
+            rad_gather_new(scene, c"gpu".as_ptr(), &mut g),
+            RAD_ERR_UNAVAILABLE
+        );
+        assert!(g.is_null());
+        assert!(last_error().contains("level file"), "{}", last_error());
+        assert_eq!(rad_gather_systems(null()), 0);
+        rad_scene_free(scene);
+    }
+}

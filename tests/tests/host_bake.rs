@@ -155,7 +155,7 @@ fn bad_options_are_refused_before_any_work_naming_the_key() {
     assert_eq!((p.direct_points, p.shadow_points), (2, 8));
     use radiosity_bake::pipeline::SystemsChoice;
     for (json, want) in [
-        ("{}", SystemsChoice::Off),
+        ("{}", SystemsChoice::Auto),
         (r#"{"systems": "auto"}"#, SystemsChoice::Auto),
         (r#"{"systems": "off"}"#, SystemsChoice::Off),
         (r#"{"systems": 8}"#, SystemsChoice::Count(8)),

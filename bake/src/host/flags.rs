@@ -74,7 +74,7 @@ pub struct BakeFlags {
     pub probe_rank: Option<Word>,
     /// Sky visibility: `on` (the default) or `off`.
     pub sky: Option<String>,
-    /// Systems: `off` (the default), `auto` or a count.
+    /// Systems: `auto` (the default), `off` or a count.
     pub systems: Option<Word>,
 }
 
@@ -200,7 +200,7 @@ impl BakeFlags {
         p.systems = match self
             .systems
             .as_ref()
-            .map_or("off".into(), Word::text)
+            .map_or("auto".into(), Word::text)
             .as_str()
         {
             "auto" => SystemsChoice::Auto,

@@ -86,7 +86,7 @@ impl Default for BakeParams {
             probes: ProbeSpec::None,
             probe_rank: ProbeRank::Auto,
             sky: true,
-            systems: super::SystemsChoice::Off,
+            systems: super::SystemsChoice::Auto,
         }
     }
 }
