@@ -371,6 +371,46 @@ size_t rad_gather_systems(const struct RadGather *gather);
 void rad_gather_free(struct RadGather *gather);
 
 /*
+ Updates a level's systems most in need first (the change of their own first exitance and
+ of the light the others send them since their last update, times their priority,
+ rad_gather_set_priority) while less than `budget_ms` milliseconds have passed in this call
+ and some system needs an update; `y` is the irradiance after it (systems not updated keep
+ their last light), `*updated` (when not NULL) the systems updated. The frame under a time
+ budget: at least one system when any needs one and `budget_ms` > 0. On a one-matrix gather
+ it is rad_gather_run (one system updated). RAD_ERR_VALUE for a negative or non-finite
+ `budget_ms`; other arguments and statuses as rad_gather_run's.
+
+ # Safety
+
+ As rad_gather_run; `updated` is NULL or writable.
+ */
+int32_t rad_gather_update_within(struct RadGather *gather, const struct RadRgb *x, struct RadRgb *y, size_t n, double budget_ms, size_t *updated);
+
+/*
+ How much system `s` of a level matters now, as a factor of its need in
+ rad_gather_update_within's choice (1 for every system at first; the camera near it: more,
+ far: less; 0 leaves it until nothing else needs an update). RAD_ERR_VALUE for `s` not below
+ rad_gather_systems or a negative or non-finite weight (the weight is kept). On a one-matrix
+ gather system 0 takes any valid weight and changes nothing.
+
+ # Safety
+
+ `gather` is NULL or a live gather not in use by another thread.
+ */
+int32_t rad_gather_set_priority(struct RadGather *gather, size_t s, float weight);
+
+/*
+ The patches of system `s`: `*start` and `*count` (the level's patches `start..start +
+ count`, in the numbering `x` and `y` use; the systems tile `0..n` in order). A one-matrix
+ gather is one system of every patch. RAD_ERR_VALUE for `s` not below rad_gather_systems.
+
+ # Safety
+
+ `gather` is NULL or a live gather; `start` and `count` are NULL or writable.
+ */
+int32_t rad_gather_system_range(const struct RadGather *gather, size_t s, size_t *start, size_t *count);
+
+/*
  Light probes in the scene (0 without, or for a NULL scene, which sets the last error).
 
  # Safety

@@ -42,6 +42,13 @@ impl RadGather {
         }
     }
 
+    fn systems(&self) -> usize {
+        match &self.inner {
+            Inner::One(_) => 1,
+            Inner::Level(l) => l.count(),
+        }
+    }
+
     fn patches(&self) -> usize {
         match &self.inner {
             Inner::One(g) => g.patches(),
@@ -352,10 +359,7 @@ pub unsafe extern "C" fn rad_gather_systems(gather: *const RadGather) -> usize {
     guard("rad_gather_systems", 0, || {
         check_ptr(gather, "gather")?;
         // SAFETY: non-NULL and aligned (checked); the caller promises a live gather.
-        Ok(match &unsafe { &*gather }.inner {
-            Inner::One(_) => 1,
-            Inner::Level(l) => l.count(),
-        })
+        Ok(unsafe { &*gather }.systems())
     })
 }
 
@@ -371,6 +375,143 @@ pub unsafe extern "C" fn rad_gather_free(gather: *mut RadGather) {
             // SAFETY: the caller promises a gather from Box::into_raw (rad_gather_new), freed
             // once.
             drop(unsafe { Box::from_raw(gather) });
+        }
+        Ok(())
+    })
+}
+
+/// Updates a level's systems most in need first (the change of their own first exitance and
+/// of the light the others send them since their last update, times their priority,
+/// rad_gather_set_priority) while less than `budget_ms` milliseconds have passed in this call
+/// and some system needs an update; `y` is the irradiance after it (systems not updated keep
+/// their last light), `*updated` (when not NULL) the systems updated. The frame under a time
+/// budget: at least one system when any needs one and `budget_ms` > 0. On a one-matrix gather
+/// it is rad_gather_run (one system updated). RAD_ERR_VALUE for a negative or non-finite
+/// `budget_ms`; other arguments and statuses as rad_gather_run's.
+///
+/// # Safety
+///
+/// As rad_gather_run; `updated` is NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_update_within(
+    gather: *mut RadGather,
+    x: *const RadRgb,
+    y: *mut RadRgb,
+    n: usize,
+    budget_ms: f64,
+    updated: *mut usize,
+) -> i32 {
+    status("rad_gather_update_within", || {
+        if !(budget_ms.is_finite() && budget_ms >= 0.0) {
+            return Err(Failure::new(
+                RAD_ERR_VALUE,
+                format!("budget_ms must be a finite number of milliseconds ≥ 0, not {budget_ms}"),
+            ));
+        }
+        // SAFETY: the caller promises what rad_gather_run's caller does.
+        let (gather, x, y) = unsafe { gather_args(gather, x, y, n) }?;
+        let count = match &mut gather.inner {
+            Inner::One(g) => {
+                g.gather(&x, y).map_err(failure)?;
+                1
+            }
+            Inner::Level(level) => {
+                let start = std::time::Instant::now();
+                let within = std::time::Duration::from_secs_f64(budget_ms / 1e3);
+                // The first system goes whatever the clock says: a frame always moves.
+                let mut first = budget_ms > 0.0;
+                let mut budget = || std::mem::take(&mut first) || start.elapsed() < within;
+                let done = level
+                    .systems_mut()
+                    .update_within(&x, &mut budget)
+                    .map_err(failure)?;
+                y.copy_from_slice(level.gathered());
+                done.len()
+            }
+        };
+        if !updated.is_null() {
+            // SAFETY: non-NULL; the caller promises it is writable.
+            unsafe { updated.write_unaligned(count) };
+        }
+        Ok(())
+    })
+}
+
+/// How much system `s` of a level matters now, as a factor of its need in
+/// rad_gather_update_within's choice (1 for every system at first; the camera near it: more,
+/// far: less; 0 leaves it until nothing else needs an update). RAD_ERR_VALUE for `s` not below
+/// rad_gather_systems or a negative or non-finite weight (the weight is kept). On a one-matrix
+/// gather system 0 takes any valid weight and changes nothing.
+///
+/// # Safety
+///
+/// `gather` is NULL or a live gather not in use by another thread.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_set_priority(
+    gather: *mut RadGather,
+    s: usize,
+    weight: f32,
+) -> i32 {
+    status("rad_gather_set_priority", || {
+        check_ptr(gather.cast_const(), "gather")?;
+        // SAFETY: non-NULL and aligned (checked); the caller promises a live gather that no
+        // other thread uses.
+        let gather = unsafe { &mut *gather };
+        let count = gather.systems();
+        if s >= count {
+            return Err(Failure::new(
+                RAD_ERR_VALUE,
+                format!("system {s}: the gather has {count} system(s)"),
+            ));
+        }
+        if !(weight.is_finite() && weight >= 0.0) {
+            return Err(Failure::new(
+                RAD_ERR_VALUE,
+                format!("a priority is a finite weight ≥ 0, not {weight}"),
+            ));
+        }
+        if let Inner::Level(l) = &mut gather.inner {
+            l.systems_mut().set_priority(s, weight);
+        }
+        Ok(())
+    })
+}
+
+/// The patches of system `s`: `*start` and `*count` (the level's patches `start..start +
+/// count`, in the numbering `x` and `y` use; the systems tile `0..n` in order). A one-matrix
+/// gather is one system of every patch. RAD_ERR_VALUE for `s` not below rad_gather_systems.
+///
+/// # Safety
+///
+/// `gather` is NULL or a live gather; `start` and `count` are NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn rad_gather_system_range(
+    gather: *const RadGather,
+    s: usize,
+    start: *mut usize,
+    count: *mut usize,
+) -> i32 {
+    status("rad_gather_system_range", || {
+        check_ptr(gather, "gather")?;
+        check_ptr(start.cast_const(), "start")?;
+        check_ptr(count.cast_const(), "count")?;
+        // SAFETY: non-NULL and aligned (checked); the caller promises a live gather.
+        let gather = unsafe { &*gather };
+        let range = match &gather.inner {
+            Inner::One(g) if s == 0 => Some(0..g.patches()),
+            Inner::One(_) => None,
+            Inner::Level(l) => (s < l.count()).then(|| l.systems().range(s)),
+        };
+        let Some(range) = range else {
+            return Err(Failure::new(
+                RAD_ERR_VALUE,
+                format!("system {s}: the gather has {} system(s)", gather.systems()),
+            ));
+        };
+        // SAFETY: non-NULL and aligned (checked); the caller promises both are writable.
+        unsafe {
+            start.write(range.start);
+            count.write(range.len());
         }
         Ok(())
     })

@@ -40,7 +40,8 @@ pub use bake::{RadProgress, rad_bake};
 pub use error::rad_last_error;
 pub use gather::{
     RadGather, rad_gather_backend, rad_gather_frame, rad_gather_free, rad_gather_name,
-    rad_gather_new, rad_gather_run, rad_gather_systems,
+    rad_gather_new, rad_gather_run, rad_gather_set_priority, rad_gather_system_range,
+    rad_gather_systems, rad_gather_update_within,
 };
 pub use probes::{
     RadProbeVisible, rad_probe_irradiance, rad_scene_probe_count, rad_scene_probe_positions,

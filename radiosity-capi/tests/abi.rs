@@ -611,6 +611,76 @@ fn a_level_gathers_through_the_abi_as_the_runtime_lights_it() {
         );
         rad_gather_free(g);
 
+        // Under a budget, with a priority: the systems are those of the file.
+        let mut g = null_mut();
+        assert_eq!(rad_gather_new(scene, c"cpu".as_ptr(), &mut g), RAD_OK);
+        let (mut start, mut count) = (0usize, 0usize);
+        for (s, want) in [(0, 0..30), (1, 30..70), (2, 70..95)] {
+            assert_eq!(
+                rad_gather_system_range(g, s, &mut start, &mut count),
+                RAD_OK
+            );
+            assert_eq!(start..start + count, want);
+        }
+        assert_eq!(
+            rad_gather_system_range(g, 3, &mut start, &mut count),
+            RAD_ERR_VALUE
+        );
+        assert_eq!(rad_gather_set_priority(g, 2, 5.0), RAD_OK);
+        assert_eq!(rad_gather_set_priority(g, 1, f32::NAN), RAD_ERR_VALUE);
+        assert_eq!(rad_gather_set_priority(g, 3, 1.0), RAD_ERR_VALUE);
+        let mut updated = 0usize;
+        // A budget no update fits in still updates the most needed system once: a frame
+        // always moves.
+        let code = rad_gather_update_within(
+            g,
+            as_rad(&x).as_ptr(),
+            as_rad_mut(&mut y).as_mut_ptr(),
+            n,
+            1e-9,
+            &mut updated,
+        );
+        assert_eq!(code, RAD_OK, "{}", last_error());
+        assert_eq!(updated, 1);
+        let mut first = cpu_level();
+        first.systems_mut().set_priority(2, 5.0);
+        first.systems_mut().update(2, &x).unwrap();
+        assert_eq!(y, first.gathered(), "the prioritised system went first");
+        // A generous budget runs until no system needs light: the steady state's fixed point.
+        let code = rad_gather_update_within(
+            g,
+            as_rad(&x).as_ptr(),
+            as_rad_mut(&mut y).as_mut_ptr(),
+            n,
+            1e4,
+            &mut updated,
+        );
+        assert_eq!(code, RAD_OK);
+        assert!(updated > 3, "{updated} updates");
+        let area: Vec<f64> = file.patches.iter().map(|p| f64::from(p.area)).collect();
+        let h = |v: &Rgb| f64::from(v.r + v.g + v.b);
+        let (e, w) = y
+            .iter()
+            .zip(steady.gathered())
+            .zip(&area)
+            .fold((0.0, 0.0), |(e, w), ((a, b), s)| {
+                (e + s * (h(a) - h(b)).abs(), w + s * h(b))
+            });
+        // Both within 1e-4 of the fixed point (steady's tolerance), so within 2e-4 of each other.
+        assert!(e / w < 2e-4, "{}", e / w);
+        assert_eq!(
+            rad_gather_update_within(
+                g,
+                as_rad(&x).as_ptr(),
+                as_rad_mut(&mut y).as_mut_ptr(),
+                n,
+                -1.0,
+                null_mut()
+            ),
+            RAD_ERR_VALUE
+        );
+        rad_gather_free(g);
+
         let mut g = null_mut();
         assert_eq!(
             rad_gather_new(scene, c"gpu".as_ptr(), &mut g),
