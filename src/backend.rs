@@ -4,9 +4,8 @@
 //! error that says why, never a silent fallback (only `auto` chooses).
 
 use anyhow::bail;
-use radiosity_backend_cpu::CpuGather;
 use radiosity_backend_wgpu::{Backend, Chosen};
-use radiosity_core::{RadFile, TransferMatrix};
+use radiosity_core::{Gather, RadFile, TransferMatrix};
 use radiosity_runtime::systems::Level;
 
 /// The backend asked for and where the request came from.
@@ -29,34 +28,51 @@ fn requested(flag: Option<&str>) -> anyhow::Result<(Backend, String, &'static st
 pub(crate) fn refuse_level(file: &RadFile<'_>, what: &str) -> anyhow::Result<()> {
     if let Some(sys) = &file.systems {
         bail!(
-            "{what} does not take a level file ({} systems, no one-matrix transfer); light it with `radiosity solve LEVEL.rad --backend cpu`",
+            "{what} does not take a level file ({} systems, no one-matrix transfer); light it with `radiosity solve LEVEL.rad`",
             sys.count()
         );
     }
     Ok(())
 }
 
-/// A level file's systems, each with the CPU backend's gather, ready to light (`solve`):
-/// `auto` and `cpu` give it; `gpu` and `reference` cannot run a level and are refused.
-pub(crate) fn choose_level(
-    flag: Option<&str>,
-    file: &RadFile<'_>,
-) -> anyhow::Result<Level<CpuGather<'static>>> {
-    let (backend, requested, source) = requested(flag)?;
-    if !matches!(backend, Backend::Auto | Backend::Cpu) {
-        bail!(
-            "backend {requested} (from {source}) cannot light a level file (systems): use --backend cpu"
-        );
-    }
-    let level = Level::new(file, |_, one| {
-        Ok::<_, std::convert::Infallible>(CpuGather::new(one.matrix.clone().into_owned()))
+/// A level lit by one gather a system, with the backend it runs on and the gather's name.
+pub(crate) type ChosenLevel = (Level<Box<dyn Gather>>, &'static str, String);
+
+/// A level file's systems, each with the requested backend's gather (on the GPU each system
+/// on a device of its own; `auto` decides for the first system and the others follow), ready
+/// to light (`solve`); the light between systems crosses on the CPU.
+pub(crate) fn choose_level(flag: Option<&str>, file: &RadFile<'_>) -> anyhow::Result<ChosenLevel> {
+    let (mut backend, requested, source) = requested(flag)?;
+    let mut first: Option<(String, &'static str, String)> = None;
+    let level = Level::new(file, |s, one| {
+        let why = format!("requested by {source}");
+        let chosen = radiosity_backend_wgpu::choose(backend, one.matrix.clone().into_owned(), &why)
+            .map_err(|e| {
+                anyhow::anyhow!(
+                    "backend {requested} (from {source}) is not available for system {s} of the level: {}",
+                    e.0
+                )
+            })?;
+        if s == 0 {
+            backend = Backend::from_name(chosen.kind).unwrap_or(Backend::Cpu);
+            first = Some((
+                chosen.detail.clone(),
+                chosen.kind,
+                format!("{}-systems", chosen.gather.name()),
+            ));
+        }
+        Ok::<_, anyhow::Error>(chosen.gather)
     })
-    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    .map_err(|e| match e {
+        radiosity_runtime::systems::LevelError::Gather(_, e) => e,
+        other => anyhow::anyhow!("{other}"),
+    })?;
+    let (detail, kind, name) = first.unwrap_or_default();
     eprintln!(
-        "backend: cpu ({} systems of a level, requested by {source})",
+        "backend: {kind} ({} systems of a level; {detail})",
         level.count()
     );
-    Ok(level)
+    Ok((level, kind, name))
 }
 
 pub(crate) fn choose(

@@ -67,12 +67,12 @@ pub(crate) fn run(
     let t;
     if file.systems.is_some() {
         // A level: each system's CPU gather, lit block by block to the steady state.
-        let mut level = crate::backend::choose_level(backend, file)?;
+        let (mut level, chosen, name) = crate::backend::choose_level(backend, file)?;
         t = Instant::now();
         let frames = level.steady(&x, LEVEL_TOLERANCE, LEVEL_MAX_FRAMES)?;
         y.copy_from_slice(level.gathered());
-        kind = "cpu";
-        gather_name = "cpu-systems".to_owned();
+        kind = chosen;
+        gather_name = name;
         edit_json = None;
         systems_json = Some(json!({
             "count": level.count(),

@@ -57,33 +57,22 @@ impl RadGather {
     }
 }
 
-/// A level's gather: every system's matrix on `backend` ("cpu", "reference", or "auto",
-/// which takes the CPU), its light between systems through the coupling.
+/// A level's gather: every system's matrix on `backend` (each GPU system on a device of its
+/// own; "auto" chooses for the first system and the others follow it), its light between
+/// systems through the coupling, on the CPU.
 fn build_level(file: &RadFile<'_>, backend: &str) -> Result<RadGather, Failure> {
-    let kind = match Backend::from_name(backend) {
-        Some(Backend::Auto | Backend::Cpu) => "cpu",
-        Some(Backend::Reference) => "reference",
-        Some(Backend::Gpu) => {
-            return Err(Failure::new(
-                RAD_ERR_UNAVAILABLE,
-                "a level file (systems) runs on the cpu or reference backend, not yet on the gpu",
-            ));
-        }
-        None => {
-            return Err(Failure::new(
-                RAD_ERR_BACKEND,
-                format!("unknown backend {backend:?}: use auto, cpu, gpu or reference"),
-            ));
-        }
-    };
+    let mut kind = backend_kind(backend)?;
+    let mut ran_on = c"cpu";
     let mut first = None;
-    let level = Level::new(file, |_, one| {
-        let g = build(&one.matrix.clone().into_owned(), kind)?;
-        first.get_or_insert_with(|| g.name.clone());
-        match g.inner {
-            Inner::One(g) => Ok(g),
-            Inner::Level(_) => unreachable!("a system's file has one matrix"),
+    let level = Level::new(file, |s, one| {
+        let (g, on) = build_one(&one.matrix.clone().into_owned(), kind)?;
+        if s == 0 {
+            // The others follow the first system's choice.
+            ran_on = on;
+            kind = backend_kind(&on.to_string_lossy())?;
+            first = Some(g.name().to_owned());
         }
+        Ok(g)
     })
     .map_err(
         |e: radiosity_runtime::systems::LevelError<Failure>| match e {
@@ -94,14 +83,11 @@ fn build_level(file: &RadFile<'_>, backend: &str) -> Result<RadGather, Failure> 
             other => Failure::new(RAD_ERR_VALUE, other.to_string()),
         },
     )?;
-    let name = format!(
-        "{}-systems",
-        first.map_or(String::new(), |n| n.to_string_lossy().into_owned())
-    );
+    let name = format!("{}-systems", first.unwrap_or_default()).replace('\0', " ");
     Ok(RadGather {
         inner: Inner::Level(Box::new(level)),
         name: CString::new(name).unwrap_or_default(),
-        backend: if kind == "cpu" { c"cpu" } else { c"reference" },
+        backend: ran_on,
     })
 }
 
@@ -126,12 +112,26 @@ fn quiet_device_select() {
 }
 
 fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, Failure> {
-    let Some(kind) = Backend::from_name(backend) else {
-        return Err(Failure::new(
+    let kind = backend_kind(backend)?;
+    let (gather, name) = build_one(matrix, kind)?;
+    Ok(RadGather::new(gather, name))
+}
+
+/// The backend a name asks for; RAD_ERR_BACKEND for another name.
+fn backend_kind(backend: &str) -> Result<Backend, Failure> {
+    Backend::from_name(backend).ok_or_else(|| {
+        Failure::new(
             RAD_ERR_BACKEND,
             format!("unknown backend {backend:?}: use auto, cpu, gpu or reference"),
-        ));
-    };
+        )
+    })
+}
+
+/// One matrix's gather on `kind`, with the backend it runs on.
+fn build_one(
+    matrix: &TransferMatrix<'static>,
+    kind: Backend,
+) -> Result<(Box<dyn Gather>, &'static CStr), Failure> {
     if matches!(kind, Backend::Auto | Backend::Gpu) {
         quiet_device_select();
     }
@@ -143,7 +143,7 @@ fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, F
         "reference" => c"reference",
         _ => c"cpu",
     };
-    Ok(RadGather::new(chosen.gather, name))
+    Ok((chosen.gather, name))
 }
 
 /// Makes a gather over `scene`'s matrix on `backend`: "cpu" (the SIMD CPU gather), "gpu" (the
@@ -152,8 +152,9 @@ fn build(matrix: &TransferMatrix<'static>, backend: &str) -> Result<RadGather, F
 /// the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
 /// RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
 /// Over a level file (its transfer cut into systems, rad_gather_systems above 1) each system
-/// gathers on "cpu" or "reference" ("auto" takes the CPU; "gpu" is RAD_ERR_UNAVAILABLE), the
-/// light between systems through the level's coupling (rad_gather_run, rad_gather_frame).
+/// gathers on `backend` (on the GPU each on a device of its own; "auto" decides for the first
+/// system and the others follow), the light between systems through the level's coupling on
+/// the CPU (rad_gather_run, rad_gather_frame, rad_gather_update_within).
 /// On a machine without a desktop login (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
 /// gather sets NODEVICE_SELECT=1 unless the host set it, so that Mesa's device-select layer
 /// keeps quiet on stderr; a host reading the environment from other threads at that moment
@@ -268,6 +269,13 @@ fn failure(e: GatherError) -> Failure {
     }
 }
 
+/// A gather call's arguments, checked: the gather, `x` and `y`.
+type GatherArgs<'a> = (
+    &'a mut RadGather,
+    std::borrow::Cow<'a, [Rgb]>,
+    &'a mut [Rgb],
+);
+
 /// Reads a gather call's arguments: the gather, and `x` checked (n patches, each exitance
 /// finite and non-negative), copied away from `y`.
 ///
@@ -279,14 +287,7 @@ unsafe fn gather_args<'a>(
     x: *const RadRgb,
     y: *mut RadRgb,
     n: usize,
-) -> Result<
-    (
-        &'a mut RadGather,
-        std::borrow::Cow<'a, [Rgb]>,
-        &'a mut [Rgb],
-    ),
-    Failure,
-> {
+) -> Result<GatherArgs<'a>, Failure> {
     check_ptr(gather.cast_const(), "gather")?;
     // SAFETY: non-NULL and aligned (checked); the caller promises a live gather that no other
     // thread uses.

@@ -35,11 +35,27 @@ fn solve_lights_a_level_file_and_reports_its_systems() {
     assert_eq!(v["systems"]["count"], 3);
     assert_eq!(v["systems"]["sizes"], serde_json::json!([9, 14, 5]));
     assert!(v["systems"]["coupling_entries"].as_u64().unwrap() > 0);
-    // A backend that cannot run a level says so in one line.
-    assert_one_line_error(
-        &radiosity(&["solve", p, "--backend", "gpu"]),
-        "cannot light a level",
-    );
+    let cpu = v_objects(&radiosity_ok(&["solve", p, "--json", "--backend", "cpu"]));
+    // Each system on the reference backend, or on the GPU where an adapter is found (CI
+    // installs a software one): the same light within the steady tolerance (1e-4 a frame's
+    // change, each backend's own f32 summation order).
+    let reference = radiosity_ok(&["solve", p, "--json", "--backend", "reference"]);
+    let v: serde_json::Value = serde_json::from_slice(&reference.stdout).unwrap();
+    assert_eq!(v["gather"], "reference-systems");
+    close(&v_objects(&reference), &cpu);
+    let gpu = radiosity(&["solve", p, "--json", "--backend", "gpu"]);
+    if gpu.status.success() {
+        let v: serde_json::Value = serde_json::from_slice(&gpu.stdout).unwrap();
+        assert!(v["gather"].as_str().unwrap().starts_with("gpu"), "{v}");
+        close(&v_objects(&gpu), &cpu);
+    } else {
+        assert_one_line_error(&gpu, "not available");
+        assert_ne!(
+            std::env::var("CI").as_deref(),
+            Ok("true"),
+            "CI has a software adapter"
+        );
+    }
     assert_one_line_error(
         &radiosity(&[
             "render",
@@ -49,4 +65,24 @@ fn solve_lights_a_level_file_and_reports_its_systems() {
         ]),
         "level file",
     );
+}
+
+/// Each object's irradiance (three channels) from `solve --json`.
+fn v_objects(out: &std::process::Output) -> Vec<f64> {
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    v["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|o| o["irradiance"].as_array().unwrap().clone())
+        .map(|c| c.as_f64().unwrap())
+        .collect()
+}
+
+/// Within twice the steady tolerance (each run within 1e-4 of the fixed point).
+fn close(a: &[f64], b: &[f64]) {
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(b) {
+        assert!((x - y).abs() <= 2e-4 * y.abs().max(1e-6), "{x} vs {y}");
+    }
 }
