@@ -4,8 +4,8 @@
 //! error that says why, never a silent fallback (only `auto` chooses).
 
 use anyhow::bail;
-use radiosity_backend_wgpu::{Backend, Chosen};
-use radiosity_core::{Gather, RadFile, TransferMatrix};
+use radiosity_backend_wgpu::{Backend, Chosen, GpuOptions, WgpuLevel};
+use radiosity_core::{Gather, RadFile, Rgb, TransferMatrix};
 use radiosity_runtime::systems::Level;
 
 /// The backend asked for and where the request came from.
@@ -35,44 +35,107 @@ pub(crate) fn refuse_level(file: &RadFile<'_>, what: &str) -> anyhow::Result<()>
     Ok(())
 }
 
-/// A level lit by one gather a system, with the backend it runs on and the gather's name.
-pub(crate) type ChosenLevel = (Level<Box<dyn Gather>>, &'static str, String);
+/// A level lit on the CPU or the reference backend (one gather a system, the light between
+/// systems through the threaded coupling product) or on the GPU (every system and the
+/// coupling on one device: `WgpuLevel`).
+pub(crate) enum LevelLight {
+    Systems(Level<Box<dyn Gather>>),
+    Gpu(WgpuLevel),
+}
 
-/// A level file's systems, each with the requested backend's gather (on the GPU each system
-/// on a device of its own; `auto` decides for the first system and the others follow), ready
-/// to light (`solve`); the light between systems crosses on the CPU.
-pub(crate) fn choose_level(flag: Option<&str>, file: &RadFile<'_>) -> anyhow::Result<ChosenLevel> {
-    let (mut backend, requested, source) = requested(flag)?;
-    let mut first: Option<(String, &'static str, String)> = None;
-    let level = Level::new(file, |s, one| {
-        let why = format!("requested by {source}");
-        let chosen = radiosity_backend_wgpu::choose(backend, one.matrix.clone().into_owned(), &why)
-            .map_err(|e| {
-                anyhow::anyhow!(
-                    "backend {requested} (from {source}) is not available for system {s} of the level: {}",
-                    e.0
-                )
-            })?;
-        if s == 0 {
-            backend = Backend::from_name(chosen.kind).unwrap_or(Backend::Cpu);
-            first = Some((
-                chosen.detail.clone(),
-                chosen.kind,
-                format!("{}-systems", chosen.gather.name()),
-            ));
+impl LevelLight {
+    /// Frames to a relative change of at most `tolerance`, or `max_frames`.
+    pub(crate) fn steady(
+        &mut self,
+        first: &[Rgb],
+        tolerance: f32,
+        max_frames: usize,
+    ) -> anyhow::Result<usize> {
+        Ok(match self {
+            LevelLight::Systems(l) => l.steady(first, tolerance, max_frames)?,
+            LevelLight::Gpu(l) => l.steady(first, tolerance, max_frames)?,
+        })
+    }
+
+    /// The gathered irradiance after the last frame.
+    pub(crate) fn gathered(&self) -> &[Rgb] {
+        match self {
+            LevelLight::Systems(l) => l.gathered(),
+            LevelLight::Gpu(l) => l.gathered(),
         }
-        Ok::<_, anyhow::Error>(chosen.gather)
-    })
-    .map_err(|e| match e {
-        radiosity_runtime::systems::LevelError::Gather(_, e) => e,
-        other => anyhow::anyhow!("{other}"),
-    })?;
-    let (detail, kind, name) = first.unwrap_or_default();
-    eprintln!(
-        "backend: {kind} ({} systems of a level; {detail})",
-        level.count()
-    );
-    Ok((level, kind, name))
+    }
+
+    /// Systems.
+    pub(crate) fn count(&self) -> usize {
+        match self {
+            LevelLight::Systems(l) => l.count(),
+            LevelLight::Gpu(l) => l.count(),
+        }
+    }
+
+    /// The last frame's relative change.
+    pub(crate) fn change(&self) -> f32 {
+        match self {
+            LevelLight::Systems(l) => l.change(),
+            LevelLight::Gpu(l) => l.change(),
+        }
+    }
+}
+
+/// A level lit on the chosen backend, with the backend's name and the gather's.
+pub(crate) type ChosenLevel = (LevelLight, &'static str, String);
+
+/// A level file ready to light (`solve`) on the requested backend: `gpu` on one device
+/// (`WgpuLevel`), `auto` there where a hardware GPU is found, else (and for `cpu` and
+/// `reference`) one gather a system with the light between systems on the CPU.
+pub(crate) fn choose_level(flag: Option<&str>, file: &RadFile<'_>) -> anyhow::Result<ChosenLevel> {
+    let (backend, requested, source) = requested(flag)?;
+    let systems = |backend: Backend, why: String| -> anyhow::Result<ChosenLevel> {
+        let mut name = String::new();
+        let level = Level::new(file, |s, one| {
+            let chosen =
+                radiosity_backend_wgpu::choose(backend, one.matrix.clone().into_owned(), &why)
+                    .map_err(|e| anyhow::anyhow!("backend {requested} (from {source}): {}", e.0))?;
+            if s == 0 {
+                name = format!("{}-systems", chosen.gather.name());
+            }
+            Ok::<_, anyhow::Error>(chosen.gather)
+        })
+        .map_err(|e| match e {
+            radiosity_runtime::systems::LevelError::Gather(_, e) => e,
+            other => anyhow::anyhow!("{other}"),
+        })?;
+        let kind = if backend == Backend::Reference {
+            "reference"
+        } else {
+            "cpu"
+        };
+        eprintln!(
+            "backend: {kind} ({} systems of a level; {why})",
+            level.count()
+        );
+        Ok((LevelLight::Systems(level), kind, name))
+    };
+    let gpu = |level: WgpuLevel, why: &str| -> anyhow::Result<ChosenLevel> {
+        eprintln!(
+            "backend: gpu ({} systems of a level on one device; {why})",
+            level.count()
+        );
+        let name = level.name().to_owned();
+        Ok((LevelLight::Gpu(level), "gpu", name))
+    };
+    let options = GpuOptions::default();
+    match backend {
+        Backend::Gpu => match WgpuLevel::new(file, &options) {
+            Ok(level) => gpu(level, &format!("requested by {source}")),
+            Err(e) => bail!("backend gpu (from {source}) is not available: {e}"),
+        },
+        Backend::Auto => match radiosity_backend_wgpu::auto_level(file, &options) {
+            Ok(level) => gpu(level, "auto: a hardware GPU is present"),
+            Err(reason) => systems(Backend::Cpu, reason),
+        },
+        other => systems(other, format!("requested by {source}")),
+    }
 }
 
 pub(crate) fn choose(

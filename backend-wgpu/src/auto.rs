@@ -30,3 +30,20 @@ pub fn auto_gather(
         }
     }
 }
+
+/// The level `auto` lights on the GPU ([`crate::WgpuLevel`]): on the first hardware adapter,
+/// else `Err` with the reason to use the CPU instead, as [`auto_gather`] says it.
+pub fn auto_level(
+    file: &radiosity_core::RadFile<'_>,
+    options: &GpuOptions,
+) -> Result<crate::WgpuLevel, String> {
+    let all = adapters();
+    match all.iter().find(|a| a.info.is_hardware()) {
+        Some(adapter) => crate::WgpuLevel::on_adapter(file, adapter, options)
+            .map_err(|e| format!("auto: the GPU cannot run the level ({e})")),
+        None if all.is_empty() => Err("auto: no GPU adapter".to_owned()),
+        None => Err(
+            "auto: no hardware GPU, only software rasterisers (--backend gpu uses them)".to_owned(),
+        ),
+    }
+}

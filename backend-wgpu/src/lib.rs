@@ -122,18 +122,20 @@ mod device;
 mod edited_host;
 mod frame_timing;
 mod gather;
+mod level;
 mod light_probes;
 mod plan;
 mod shader;
 pub mod texture_unit;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
-pub use auto::auto_gather;
+pub use auto::{auto_gather, auto_level};
 pub use choice::{Backend, Chosen, Unavailable, choose};
 pub use corner::{CornerBuffers, CornerPass};
 pub use edited_host::EditedHostGather;
 pub use frame_timing::{HostFrameTimes, time_host_frame};
 pub use gather::{HostGather, HostGatherBuffers, WgpuGather};
+pub use level::{HostLevel, HostLevelBuffers, WgpuLevel};
 pub use light_probes::{PROBE_OUT_BYTES, ProbeBuffers, ProbePass};
 pub use radiosity_core::DecodeMode;
 

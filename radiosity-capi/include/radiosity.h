@@ -284,9 +284,11 @@ const char *rad_last_error(void);
  (the scalar oracle) or "auto" (as the command line chooses: a hardware GPU that can hold
  the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
  RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
- Over a level file (its transfer cut into systems, rad_gather_systems above 1) each system
- gathers on "cpu" or "reference" ("auto" takes the CPU; "gpu" is RAD_ERR_UNAVAILABLE), the
- light between systems through the level's coupling (rad_gather_run, rad_gather_frame).
+ Over a level file (its transfer cut into systems, rad_gather_systems above 1): on "gpu"
+ every system's gather and the light between systems run on one device; on "cpu" and
+ "reference" each system gathers on that backend and the light between systems crosses on
+ the CPU; "auto" takes a hardware GPU where there is one, else the CPU
+ (rad_gather_run, rad_gather_frame, rad_gather_update_within).
  On a machine without a desktop login (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
  gather sets NODEVICE_SELECT=1 unless the host set it, so that Mesa's device-select layer
  keeps quiet on stderr; a host reading the environment from other threads at that moment
@@ -377,7 +379,8 @@ void rad_gather_free(struct RadGather *gather);
  and some system needs an update; `y` is the irradiance after it (systems not updated keep
  their last light), `*updated` (when not NULL) the systems updated. The frame under a time
  budget: at least one system when any needs one and `budget_ms` > 0. On a one-matrix gather
- it is rad_gather_run (one system updated). RAD_ERR_VALUE for a negative or non-finite
+ it is rad_gather_run (one system updated); on a GPU level it is rad_gather_frame (every
+ system updated: one submission, no budget). RAD_ERR_VALUE for a negative or non-finite
  `budget_ms`; other arguments and statuses as rad_gather_run's.
 
  # Safety
@@ -391,7 +394,8 @@ int32_t rad_gather_update_within(struct RadGather *gather, const struct RadRgb *
  rad_gather_update_within's choice (1 for every system at first; the camera near it: more,
  far: less; 0 leaves it until nothing else needs an update). RAD_ERR_VALUE for `s` not below
  rad_gather_systems or a negative or non-finite weight (the weight is kept). On a one-matrix
- gather system 0 takes any valid weight and changes nothing.
+ gather system 0 takes any valid weight and changes nothing; so does a GPU level's system
+ (its frame updates them all).
 
  # Safety
 

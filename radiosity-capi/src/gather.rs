@@ -6,7 +6,7 @@ use crate::scene::{RadScene, read_input};
 use crate::{
     RAD_ERR_BACKEND, RAD_ERR_GATHER, RAD_ERR_LENGTH, RAD_ERR_UNAVAILABLE, RAD_ERR_VALUE, RadRgb,
 };
-use radiosity_backend_wgpu::Backend;
+use radiosity_backend_wgpu::{Backend, GpuOptions, WgpuLevel};
 use radiosity_core::{Gather, GatherError, RadFile, Rgb, TransferMatrix};
 use radiosity_runtime::systems::Level;
 use std::ffi::{CStr, CString, c_char};
@@ -17,10 +17,12 @@ const LEVEL_TOLERANCE: f32 = 1e-4;
 /// The most frames one rad_gather_run gives a level.
 const LEVEL_MAX_FRAMES: usize = 100;
 
-/// What a gather runs: one matrix, or a level's systems.
+/// What a gather runs: one matrix, a level's systems (one gather a system, the light between
+/// them on the CPU), or a level on one GPU device (with its systems' patch ranges).
 enum Inner {
     One(Box<dyn Gather>),
     Level(Box<Level<Box<dyn Gather>>>),
+    Gpu(Box<WgpuLevel>, Vec<std::ops::Range<usize>>),
 }
 
 /// A gather over a scene's transfer matrix on one backend, or over a level's systems (each
@@ -46,6 +48,7 @@ impl RadGather {
         match &self.inner {
             Inner::One(_) => 1,
             Inner::Level(l) => l.count(),
+            Inner::Gpu(_, ranges) => ranges.len(),
         }
     }
 
@@ -53,6 +56,7 @@ impl RadGather {
         match &self.inner {
             Inner::One(g) => g.patches(),
             Inner::Level(l) => l.gathered().len(),
+            Inner::Gpu(l, _) => l.gathered().len(),
         }
     }
 }
@@ -62,6 +66,27 @@ impl RadGather {
 /// systems through the coupling, on the CPU.
 fn build_level(file: &RadFile<'_>, backend: &str) -> Result<RadGather, Failure> {
     let mut kind = backend_kind(backend)?;
+    if matches!(kind, Backend::Auto | Backend::Gpu) {
+        quiet_device_select();
+        let options = GpuOptions::default();
+        let level = match kind {
+            Backend::Gpu => WgpuLevel::new(file, &options)
+                .map_err(|e| Failure::new(RAD_ERR_UNAVAILABLE, e.to_string()))
+                .map(Some)?,
+            // "auto": the GPU where a hardware one is found, else the CPU.
+            _ => radiosity_backend_wgpu::auto_level(file, &options).ok(),
+        };
+        if let Some(level) = level {
+            let ranges = file.systems.as_ref().map_or_else(Vec::new, |s| s.ranges());
+            let name = CString::new(level.name()).unwrap_or_default();
+            return Ok(RadGather {
+                inner: Inner::Gpu(Box::new(level), ranges),
+                name,
+                backend: c"gpu",
+            });
+        }
+        kind = Backend::Cpu;
+    }
     let mut ran_on = c"cpu";
     let mut first = None;
     let level = Level::new(file, |s, one| {
@@ -151,10 +176,11 @@ fn build_one(
 /// (the scalar oracle) or "auto" (as the command line chooses: a hardware GPU that can hold
 /// the matrix, else the CPU). Writes it to `*out` (NULL on failure) and returns 0, or
 /// RAD_ERR_BACKEND for another name, RAD_ERR_UNAVAILABLE when "gpu" finds no usable adapter.
-/// Over a level file (its transfer cut into systems, rad_gather_systems above 1) each system
-/// gathers on `backend` (on the GPU each on a device of its own; "auto" decides for the first
-/// system and the others follow), the light between systems through the level's coupling on
-/// the CPU (rad_gather_run, rad_gather_frame, rad_gather_update_within).
+/// Over a level file (its transfer cut into systems, rad_gather_systems above 1): on "gpu"
+/// every system's gather and the light between systems run on one device; on "cpu" and
+/// "reference" each system gathers on that backend and the light between systems crosses on
+/// the CPU; "auto" takes a hardware GPU where there is one, else the CPU
+/// (rad_gather_run, rad_gather_frame, rad_gather_update_within).
 /// On a machine without a desktop login (XDG_RUNTIME_DIR unset) the first "auto" or "gpu"
 /// gather sets NODEVICE_SELECT=1 unless the host set it, so that Mesa's device-select layer
 /// keeps quiet on stderr; a host reading the environment from other threads at that moment
@@ -256,8 +282,20 @@ pub unsafe extern "C" fn rad_gather_run(
                 y.copy_from_slice(level.gathered());
                 Ok(())
             }
+            Inner::Gpu(level, _) => {
+                level
+                    .steady(&x, LEVEL_TOLERANCE, LEVEL_MAX_FRAMES)
+                    .map_err(gpu_failure)?;
+                y.copy_from_slice(level.gathered());
+                Ok(())
+            }
         }
     })
+}
+
+/// The C status of a GPU level's error.
+fn gpu_failure(e: radiosity_backend_wgpu::GpuError) -> Failure {
+    Failure::new(RAD_ERR_GATHER, e.to_string())
 }
 
 /// The C status of a gather error.
@@ -345,6 +383,11 @@ pub unsafe extern "C" fn rad_gather_frame(
                 y.copy_from_slice(level.gathered());
                 Ok(())
             }
+            Inner::Gpu(level, _) => {
+                level.frame(&x).map_err(gpu_failure)?;
+                y.copy_from_slice(level.gathered());
+                Ok(())
+            }
         }
     })
 }
@@ -387,7 +430,8 @@ pub unsafe extern "C" fn rad_gather_free(gather: *mut RadGather) {
 /// and some system needs an update; `y` is the irradiance after it (systems not updated keep
 /// their last light), `*updated` (when not NULL) the systems updated. The frame under a time
 /// budget: at least one system when any needs one and `budget_ms` > 0. On a one-matrix gather
-/// it is rad_gather_run (one system updated). RAD_ERR_VALUE for a negative or non-finite
+/// it is rad_gather_run (one system updated); on a GPU level it is rad_gather_frame (every
+/// system updated: one submission, no budget). RAD_ERR_VALUE for a negative or non-finite
 /// `budget_ms`; other arguments and statuses as rad_gather_run's.
 ///
 /// # Safety
@@ -429,6 +473,12 @@ pub unsafe extern "C" fn rad_gather_update_within(
                 y.copy_from_slice(level.gathered());
                 done.len()
             }
+            // On the GPU a frame updates every system.
+            Inner::Gpu(level, ranges) => {
+                level.frame(&x).map_err(gpu_failure)?;
+                y.copy_from_slice(level.gathered());
+                ranges.len()
+            }
         };
         if !updated.is_null() {
             // SAFETY: non-NULL; the caller promises it is writable.
@@ -442,7 +492,8 @@ pub unsafe extern "C" fn rad_gather_update_within(
 /// rad_gather_update_within's choice (1 for every system at first; the camera near it: more,
 /// far: less; 0 leaves it until nothing else needs an update). RAD_ERR_VALUE for `s` not below
 /// rad_gather_systems or a negative or non-finite weight (the weight is kept). On a one-matrix
-/// gather system 0 takes any valid weight and changes nothing.
+/// gather system 0 takes any valid weight and changes nothing; so does a GPU level's system
+/// (its frame updates them all).
 ///
 /// # Safety
 ///
@@ -502,6 +553,7 @@ pub unsafe extern "C" fn rad_gather_system_range(
             Inner::One(g) if s == 0 => Some(0..g.patches()),
             Inner::One(_) => None,
             Inner::Level(l) => (s < l.count()).then(|| l.systems().range(s)),
+            Inner::Gpu(_, ranges) => ranges.get(s).cloned(),
         };
         let Some(range) = range else {
             return Err(Failure::new(

@@ -1,0 +1,500 @@
+//! A level file's systems (`.rad` version 3) lit on the GPU: [`HostLevel`] records a frame into
+//! the host's encoder on the host's device, [`WgpuLevel`] runs it on a device of its own and
+//! reads the light back. One device for every system: each system's gather
+//! ([`HostGather`]) between buffers of its own, and the light between systems through the
+//! coupling on the device too (`shaders/level.wgsl`), so a frame is one submission.
+
+use crate::adapter::{Adapter, choose_adapter};
+use crate::device::{self, SerialDevice};
+use crate::gather::{
+    HostGather, HostGatherBuffers, READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, entire,
+    in_error_scopes, layout_entry, pipeline, sized, storage, storage_binding_limit, workgroup_grid,
+};
+use crate::shader::WORKGROUP;
+use crate::{GpuError, GpuOptions};
+use bytemuck::{Pod, Zeroable};
+use radiosity_core::{RadFile, Rgb};
+use wgpu::util::DeviceExt;
+
+const LEVEL: &str = include_str!("shaders/level.wgsl");
+
+/// The kernels' uniform (`struct System` in `level.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct SystemUniform {
+    start: u32,
+    count: u32,
+    row: u32,
+    _pad: u32,
+}
+
+const _: () = assert!(size_of::<SystemUniform>() == 16);
+
+/// The host's buffers a [`HostLevel`] reads and writes, bound once at construction: each `n`
+/// RGB triples of f32 (12 bytes each) from offset 0, in the level's patch numbering.
+#[derive(Clone, Copy, Debug)]
+pub struct HostLevelBuffers<'a> {
+    /// The first exitance `x` (W/m²: `E + ρ∘H_d` per patch). Needs
+    /// [`wgpu::BufferUsages::STORAGE`].
+    pub first: &'a wgpu::Buffer,
+    /// The gathered irradiance after the frame (the light from the other systems plus the
+    /// system's own transfer). Needs [`wgpu::BufferUsages::STORAGE`]; add `COPY_SRC` to read
+    /// it back, bind it to a [`crate::CornerPass`] to light the mesh.
+    pub gathered: &'a wgpu::Buffer,
+}
+
+/// One system: its gather between its own `x` and `y`, and its bind group for the coupling
+/// and update kernels.
+#[derive(Debug)]
+struct System {
+    gather: HostGather,
+    bind_group: wgpu::BindGroup,
+    grid: (u32, u32),
+    count: usize,
+}
+
+/// A level's frame on the host's device: every system updated once, in order (block
+/// Gauss–Seidel, as [`radiosity_core::systems::Systems::frame`]): the light the other systems
+/// send it through the coupling from their latest exitance, its own transfer, its new
+/// exitance. The level's exitance stays on the device from frame to frame, so the light
+/// converges over frames; [`HostLevel::reset`] darkens it.
+#[derive(Debug)]
+pub struct HostLevel {
+    couple: wgpu::ComputePipeline,
+    update: wgpu::ComputePipeline,
+    systems: Vec<System>,
+    exitance: wgpu::Buffer,
+    n: usize,
+    device_bytes: u64,
+}
+
+impl HostLevel {
+    /// The level of `file` (a parsed level `.rad`, every system loaded) on the host's
+    /// `device` and `queue`, between `buffers`. Uploads every system's matrix, the coupling
+    /// and the reflectances once. A file that is not a level, a buffer of the wrong size or
+    /// usage, or a device short of a limit is an `Err`, never a panic of wgpu.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        file: &RadFile<'_>,
+        options: &GpuOptions,
+        buffers: HostLevelBuffers<'_>,
+    ) -> Result<Self, GpuError> {
+        let unsupported = |s: String| GpuError::Unsupported(s);
+        let sys = file
+            .systems
+            .as_ref()
+            .ok_or_else(|| unsupported("not a level file (no systems)".into()))?;
+        if !sys.is_loaded() {
+            return Err(unsupported("the level's systems are not loaded".into()));
+        }
+        let n = file.n();
+        let bytes = 12 * n as u64;
+        for (what, buffer) in [("first", buffers.first), ("gathered", buffers.gathered)] {
+            check_host_buffer(
+                "the level",
+                what,
+                buffer,
+                bytes,
+                wgpu::BufferUsages::STORAGE,
+            )?;
+        }
+        let c = &sys.coupling;
+        let most = storage_binding_limit(&device.limits());
+        for (what, b) in [
+            ("coupling columns", 4 * c.cols.len() as u64),
+            ("per-patch light", bytes),
+        ] {
+            if b > most {
+                return Err(unsupported(format!(
+                    "the level's {what} take {b} bytes, more than one storage binding ({most} bytes)"
+                )));
+            }
+        }
+        let dl = device.limits();
+        let mut grids = Vec::with_capacity(sys.count());
+        for s in 0..sys.count() {
+            let count = sys.range(s).len();
+            grids.push(workgroup_grid(
+                &dl,
+                count.div_ceil(WORKGROUP as usize),
+                || format!("system {s}'s {count} patches"),
+            )?);
+        }
+        let mut gathers = Vec::with_capacity(sys.count());
+        let mut own = Vec::with_capacity(sys.count());
+        let mut device_bytes = 4 * (c.row_ptr.len() + 2 * c.cols.len()) as u64 + 2 * bytes;
+        for s in 0..sys.count() {
+            let one = sys
+                .system(file, s)
+                .map_err(|e| unsupported(format!("system {s}: {e}")))?;
+            let m = 12 * sys.range(s).len() as u64;
+            let make = |label: &str, usage| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: m.max(4),
+                    usage: wgpu::BufferUsages::STORAGE | usage,
+                    mapped_at_creation: false,
+                })
+            };
+            let xs = make("system x", wgpu::BufferUsages::COPY_SRC);
+            let ys = make("system y", wgpu::BufferUsages::empty());
+            let gather = HostGather::new(
+                device,
+                queue,
+                &one.matrix,
+                options,
+                HostGatherBuffers { x: &xs, y: &ys },
+            )
+            .map_err(|e| match e {
+                GpuError::Unsupported(why) => unsupported(format!("system {s}: {why}")),
+                other => other,
+            })?;
+            device_bytes += gather.device_bytes() + 2 * m;
+            gathers.push(gather);
+            own.push((xs, ys));
+        }
+        let rho: Vec<Rgb> = file.patches.iter().map(|p| p.reflectance).collect();
+        let built = in_error_scopes(device, || {
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("level"),
+                entries: &[
+                    layout_entry(0, buffer_ty(UNIFORM)),
+                    layout_entry(1, buffer_ty(READ)),
+                    layout_entry(2, buffer_ty(READ)),
+                    layout_entry(3, buffer_ty(READ)),
+                    layout_entry(4, buffer_ty(READ)),
+                    layout_entry(5, buffer_ty(READ)),
+                    layout_entry(6, buffer_ty(WRITE)),
+                    layout_entry(7, buffer_ty(WRITE)),
+                    layout_entry(8, buffer_ty(WRITE)),
+                    layout_entry(9, buffer_ty(READ)),
+                ],
+            });
+            let couple = pipeline(device, "level couple", LEVEL, "couple", &layout);
+            let update = pipeline(device, "level update", LEVEL, "update", &layout);
+            let none = wgpu::BufferUsages::empty();
+            let row_ptr = storage(
+                device,
+                "coupling rows",
+                bytemuck::cast_slice(&c.row_ptr),
+                none,
+            );
+            let cols = storage(
+                device,
+                "coupling columns",
+                bytemuck::cast_slice(&c.cols),
+                none,
+            );
+            let vals = storage(
+                device,
+                "coupling values",
+                bytemuck::cast_slice(&c.values),
+                none,
+            );
+            let rho = storage(device, "reflectance", bytemuck::cast_slice(&rho), none);
+            let exitance = storage(
+                device,
+                "level exitance",
+                &vec![0u8; bytes as usize],
+                wgpu::BufferUsages::COPY_DST,
+            );
+            let systems: Vec<System> = gathers
+                .into_iter()
+                .zip(&own)
+                .zip(&grids)
+                .enumerate()
+                .map(|(s, ((gather, (xs, ys)), &grid))| {
+                    let r = sys.range(s);
+                    let m = 12 * r.len() as u64;
+                    let uniform = SystemUniform {
+                        start: r.start as u32,
+                        count: r.len() as u32,
+                        row: grid.0 * WORKGROUP,
+                        _pad: 0,
+                    };
+                    let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("level system"),
+                        contents: bytemuck::bytes_of(&uniform),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+                    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("level system"),
+                        layout: &layout,
+                        entries: &[
+                            entire(0, &ubuf),
+                            entire(1, &row_ptr),
+                            entire(2, &cols),
+                            entire(3, &vals),
+                            sized(4, buffers.first, bytes),
+                            entire(5, &rho),
+                            entire(6, &exitance),
+                            sized(7, buffers.gathered, bytes),
+                            sized(8, xs, m),
+                            sized(9, ys, m),
+                        ],
+                    });
+                    System {
+                        gather,
+                        bind_group,
+                        grid,
+                        count: r.len(),
+                    }
+                })
+                .collect();
+            (couple, update, systems, exitance)
+        })?;
+        let (couple, update, systems, exitance) = built;
+        Ok(HostLevel {
+            couple,
+            update,
+            systems,
+            exitance,
+            n,
+            device_bytes,
+        })
+    }
+
+    /// Records one frame into `encoder`: for each system in order, the coupling kernel, its
+    /// gather, the update kernel. Reads the host's `first`, writes its `gathered`.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        for s in &self.systems {
+            if s.count == 0 {
+                continue;
+            }
+            self.dispatch(encoder, "level couple", &self.couple, s);
+            s.gather.record(encoder);
+            self.dispatch(encoder, "level update", &self.update, s);
+        }
+    }
+
+    fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        s: &System,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &s.bind_group, &[]);
+        pass.dispatch_workgroups(s.grid.0, s.grid.1, 1);
+    }
+
+    /// Darkens the level: the exitance every system reads from the others goes to zero (the
+    /// state before the first frame).
+    pub fn reset(&self, queue: &wgpu::Queue) {
+        queue.write_buffer(&self.exitance, 0, &vec![0u8; 12 * self.n]);
+    }
+
+    /// Systems.
+    pub fn systems(&self) -> usize {
+        self.systems.len()
+    }
+
+    /// Patches of the level.
+    pub fn patches(&self) -> usize {
+        self.n
+    }
+
+    /// Bytes the level holds on the device: the systems' matrices and buffers, the coupling,
+    /// the exitance.
+    pub fn device_bytes(&self) -> u64 {
+        self.device_bytes
+    }
+}
+
+/// A level lit on a GPU device of its own: each [`WgpuLevel::frame`] uploads the first
+/// exitance, records a [`HostLevel`] frame, and reads the gathered light back.
+#[derive(Debug)]
+pub struct WgpuLevel {
+    level: HostLevel,
+    first: wgpu::Buffer,
+    gathered: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    out: Vec<Rgb>,
+    reflectance: Vec<Rgb>,
+    exitance: Vec<Rgb>,
+    change: f32,
+    name: String,
+    /// Last, so that every resource above is gone when it drops ([`crate::device`]).
+    dev: SerialDevice,
+}
+
+impl WgpuLevel {
+    /// The level of `file` on the adapter `options` choose, on a device of its own.
+    pub fn new(file: &RadFile<'_>, options: &GpuOptions) -> Result<Self, GpuError> {
+        let adapter = choose_adapter(&options.adapter).map_err(GpuError::NoAdapter)?;
+        Self::on_adapter(file, &adapter, options)
+    }
+
+    /// The level of `file` on a given adapter (from [`crate::adapters`]); `options.adapter`
+    /// is ignored.
+    pub fn on_adapter(
+        file: &RadFile<'_>,
+        adapter: &Adapter,
+        options: &GpuOptions,
+    ) -> Result<Self, GpuError> {
+        let info = adapter.info.clone();
+        let dev = device::open(
+            &adapter.inner,
+            &wgpu::DeviceDescriptor {
+                label: Some("radiosity level"),
+                required_limits: adapter.inner.limits(),
+                ..Default::default()
+            },
+        )
+        .map_err(|e| GpuError::Device(format!("{info}: {e}")))?;
+        let (device, queue) = (dev.device(), dev.queue());
+        let n = file.n();
+        let bytes = (12 * n as u64).max(4);
+        let make = |label: &str, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let first = make("level first", U::STORAGE | U::COPY_DST);
+        let gathered = make("level gathered", U::STORAGE | U::COPY_SRC);
+        let readback = make("level readback", U::MAP_READ | U::COPY_DST);
+        let level = HostLevel::new(
+            device,
+            queue,
+            file,
+            options,
+            HostLevelBuffers {
+                first: &first,
+                gathered: &gathered,
+            },
+        )?;
+        Ok(WgpuLevel {
+            name: format!("gpu-{}-systems", file.matrix.layout.format()),
+            level,
+            first,
+            gathered,
+            readback,
+            out: vec![Rgb::ZERO; n],
+            reflectance: file.patches.iter().map(|p| p.reflectance).collect(),
+            exitance: vec![Rgb::ZERO; n],
+            change: f32::INFINITY,
+            dev,
+        })
+    }
+
+    /// One frame for the first exitance `first` (`n` values, finite): every system updated
+    /// once on the device; the gathered light read back ([`Self::gathered`]). Returns the
+    /// frame's change of the exitance, `Σ |ΔB|` over patches and channels.
+    pub fn frame(&mut self, first: &[Rgb]) -> Result<f32, GpuError> {
+        if first.len() != self.out.len() {
+            return Err(GpuError::Unsupported(format!(
+                "{} first exitances for a level of {} patches",
+                first.len(),
+                self.out.len()
+            )));
+        }
+        let (device, queue) = (self.dev.device(), self.dev.queue());
+        queue.write_buffer(&self.first, 0, bytemuck::cast_slice(first));
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("level frame"),
+        });
+        self.level.record(&mut encoder);
+        encoder.copy_buffer_to_buffer(&self.gathered, 0, &self.readback, 0, self.gathered.size());
+        queue.submit([encoder.finish()]);
+        device::map_read_and_wait(device, &self.readback, "the level's frame")?;
+        let read = self
+            .readback
+            .get_mapped_range(..)
+            .map(|view| {
+                let n = self.out.len();
+                let out: &mut [f32] = bytemuck::cast_slice_mut(&mut self.out);
+                out.copy_from_slice(bytemuck::cast_slice(&view[..12 * n]));
+            })
+            .map_err(|e| GpuError::Device(format!("the level's readback failed: {e}")));
+        // Unmapped whatever the read gave, so the next frame can copy into it.
+        self.readback.unmap();
+        read?;
+        let mut change = 0.0;
+        for ((b, &x), (&g, &rho)) in self
+            .exitance
+            .iter_mut()
+            .zip(first)
+            .zip(self.out.iter().zip(&self.reflectance))
+        {
+            let new = x + rho * g;
+            let d = new - *b;
+            change += d.r.abs() + d.g.abs() + d.b.abs();
+            *b = new;
+        }
+        Ok(change)
+    }
+
+    /// Frames until the relative change of the exitance in a frame (`Σ|ΔB| / Σ|B|`) is at
+    /// most `tolerance`, or `max_frames` (as `radiosity_runtime::systems::Level::steady`).
+    /// Returns the frames taken; [`Self::change`] is the last one's relative change.
+    pub fn steady(
+        &mut self,
+        first: &[Rgb],
+        tolerance: f32,
+        max_frames: usize,
+    ) -> Result<usize, GpuError> {
+        let mut frames = 0;
+        while frames < max_frames {
+            let change = self.frame(first)?;
+            frames += 1;
+            let total: f32 = self
+                .exitance
+                .iter()
+                .map(|b| b.r.abs() + b.g.abs() + b.b.abs())
+                .sum();
+            self.change = if change == 0.0 {
+                0.0
+            } else if total > 0.0 {
+                change / total
+            } else {
+                f32::INFINITY
+            };
+            if !self.change.is_finite() {
+                return Err(GpuError::Device(
+                    "the level's light is not finite".to_owned(),
+                ));
+            }
+            if self.change <= tolerance {
+                break;
+            }
+        }
+        Ok(frames)
+    }
+
+    /// The gathered irradiance after the last frame, per patch.
+    pub fn gathered(&self) -> &[Rgb] {
+        &self.out
+    }
+
+    /// The relative change of the exitance in the last [`Self::steady`] frame.
+    pub fn change(&self) -> f32 {
+        self.change
+    }
+
+    /// Systems.
+    pub fn count(&self) -> usize {
+        self.level.systems()
+    }
+
+    /// `gpu-<format>-systems`.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Darkens the level ([`HostLevel::reset`]).
+    pub fn reset(&mut self) {
+        self.level.reset(self.dev.queue());
+        self.exitance.fill(Rgb::ZERO);
+        self.change = f32::INFINITY;
+    }
+}
