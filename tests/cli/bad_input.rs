@@ -596,7 +596,7 @@ fn bad_flags_and_output_paths_fail_at_once() {
             "GB at the bake's peak",
         ));
     }
-    // Cut into two systems of 28 500 patches the level needs about 39.6 GB, 38 GB of it the
+    // Cut into two systems of 28 500 patches the level needs about 41 GB, 38 GB of it the
     // largest system's dense transfer: refused by the level's own estimate.
     if mem_kib.is_some_and(|k| k * 1024.0 < 39e9) {
         cases.push((
