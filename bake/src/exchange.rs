@@ -4,9 +4,52 @@
 //! its ray-cast rows about 600 entries each. Both forms do the same f64 arithmetic entry by
 //! entry, so the sparse rows carry the values the dense matrix would (the zeros apart).
 
-use crate::form_factor::SparseFormFactors;
+use crate::form_factor::{
+    FormFactorParams, FormFactors, Progress, SparseFormFactors, form_factors_sparse_surveyed,
+    form_factors_surveyed,
+};
+use crate::geometry::Occluders;
 use crate::simplify::Patches;
 use crate::transfer::{Dense, cap_row_sums, enforce_closure};
+
+/// The form factors of `patches` as the discretisation holds them, with their summary: sparse
+/// rows where `level` (the bake cuts the patches into systems) and the rows are ray-cast (a
+/// dense n² matrix of 65 536 patches would need 17 GB in f32), else the dense matrix in f64.
+pub(crate) fn form_factors(
+    patches: &Patches,
+    occluders: Option<&Occluders>,
+    params: &FormFactorParams,
+    burial: &[Vec<u32>],
+    progress: Progress<'_>,
+    level: bool,
+) -> (Exchange, FormFactors) {
+    let sparse = level
+        .then(|| {
+            form_factors_sparse_surveyed(patches, occluders, params, Some(burial), Some(progress))
+        })
+        .flatten();
+    if let Some(s) = sparse {
+        let summary = FormFactors {
+            n: s.n,
+            matrix: Vec::new(),
+            rays_cast: s.rays_cast,
+            row_sums: Vec::new(),
+            reciprocity_error: 0.0,
+            pieces: patches.pieces.len(),
+            sites: 0,
+            clustered_pairs: 0,
+            rays_per_patch: s.rays_per_patch,
+        };
+        return (Exchange::Sparse(SparseRows::from_f32(s)), summary);
+    }
+    let mut ff = form_factors_surveyed(patches, occluders, params, Some(burial), Some(progress));
+    // F in f64 from here on; the f32 matrix goes as soon as it is converted.
+    let values = std::mem::take(&mut ff.matrix)
+        .into_iter()
+        .map(f64::from)
+        .collect();
+    (Exchange::Dense(Dense::new(patches.len(), values)), ff)
+}
 
 /// F in f64 by rows of its stored entries (compressed sparse rows, columns increasing). The
 /// pattern is symmetric (an entry `(i, j)` has its `(j, i)`), as the ray-cast rows pool both

@@ -26,10 +26,10 @@ use crate::encode::{
     EncodeError, EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
     default_sparse_fraction, encode_dense_with,
 };
-use crate::exchange::{Exchange, SparseRows, dense_live_sparse};
+use crate::exchange::{Exchange, dense_live_sparse};
 use crate::form_factor::{
     FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, SparseFormFactors,
-    Visibility, form_factors_sparse_surveyed, form_factors_surveyed,
+    Visibility,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -174,54 +174,14 @@ pub fn discretise(
         .unwrap_or_default();
     lap("burial", &mut timings);
     let go_on = |done: usize, total: usize| hooks.report(done, total);
-    // A level cut into systems keeps F as sparse rows where they are ray-cast: the dense n²
-    // matrix of 65 536 patches would need 17 GB in f32.
-    let sparse = if params.systems.count_for(patches.len()).is_some() {
-        form_factors_sparse_surveyed(
-            &patches,
-            occluders.as_ref(),
-            &ffp,
-            Some(&burial),
-            Some(&go_on),
-        )
-    } else {
-        None
-    };
-    let (mut f, ff) = match sparse {
-        Some(s) => {
-            hooks.check()?;
-            let summary = FormFactors {
-                n: s.n,
-                matrix: Vec::new(),
-                rays_cast: s.rays_cast,
-                row_sums: Vec::new(),
-                reciprocity_error: 0.0,
-                pieces: patches.pieces.len(),
-                sites: 0,
-                clustered_pairs: 0,
-                rays_per_patch: s.rays_per_patch,
-            };
-            (Exchange::Sparse(SparseRows::from_f32(s)), summary)
-        }
-        None => {
-            let mut ff = form_factors_surveyed(
-                &patches,
-                occluders.as_ref(),
-                &ffp,
-                Some(&burial),
-                Some(&go_on),
-            );
-            // F in f64 from here on; the f32 matrix goes as soon as it is converted.
-            let dense = Dense::new(
-                patches.len(),
-                std::mem::take(&mut ff.matrix)
-                    .into_iter()
-                    .map(f64::from)
-                    .collect(),
-            );
-            (Exchange::Dense(dense), ff)
-        }
-    };
+    let (mut f, ff) = crate::exchange::form_factors(
+        &patches,
+        occluders.as_ref(),
+        &ffp,
+        &burial,
+        &go_on,
+        params.systems.count_for(patches.len()).is_some(),
+    );
     // The rows skipped after a cancellation leave the matrix incomplete: it goes no further.
     hooks.check()?;
     lap("form_factors", &mut timings);
