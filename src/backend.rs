@@ -44,6 +44,15 @@ pub(crate) enum LevelLight {
 }
 
 impl LevelLight {
+    /// The level as a gather ([`Gather::gather`]: to the steady state from the light it
+    /// holds).
+    pub(crate) fn gather_mut(&mut self) -> &mut dyn Gather {
+        match self {
+            LevelLight::Systems(l) => l,
+            LevelLight::Gpu(l) => l,
+        }
+    }
+
     /// Frames to a relative change of at most `tolerance`, or `max_frames`.
     pub(crate) fn steady(
         &mut self,

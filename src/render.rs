@@ -43,7 +43,6 @@ pub(crate) fn run(
     };
     let loaded = crate::scene::load(input, args, false)?;
     let rt = &loaded.runtime;
-    crate::backend::refuse_level(&rt.file, "render")?;
     rt.mesh("rendering")?;
     let cam = match cam_from_file {
         Some(c) => c,
@@ -54,9 +53,17 @@ pub(crate) fn run(
     let t = std::time::Instant::now();
     let direct = rt.direct(&lights)?;
     let direct_ms = t.elapsed().as_secs_f64() * 1e3;
-    let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
+    // A level is lit to its steady state through the same frame (its `Gather`).
+    let (mut level, mut chosen);
+    let gather: &mut dyn radiosity_core::Gather = if rt.file.systems.is_some() {
+        level = crate::backend::choose_level(backend, &rt.file)?.0;
+        level.gather_mut()
+    } else {
+        chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
+        chosen.gather.as_mut()
+    };
     let t = std::time::Instant::now();
-    let (frame, gather_ms) = rt.frame_with_direct(chosen.gather.as_mut(), direct, 1.0)?;
+    let (frame, gather_ms) = rt.frame_with_direct(gather, direct, 1.0)?;
     let frame_ms = direct_ms + t.elapsed().as_secs_f64() * 1e3;
     let t = std::time::Instant::now();
     let prim = primary(rt, &cam, spp_side)?;

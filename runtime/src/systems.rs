@@ -60,6 +60,7 @@ impl<E: std::fmt::Debug + std::fmt::Display> std::error::Error for LevelError<E>
 /// coupling between them). The patches are the level's, in the level's numbering.
 pub struct Level<G> {
     systems: Systems<G>,
+    name: String,
     reflectance: Vec<Rgb>,
     frames: usize,
     change: f32,
@@ -89,6 +90,7 @@ impl<G: Gather> Level<G> {
             gathers.push(make(s, &one).map_err(|e| LevelError::Gather(s, e))?);
         }
         let reflectance: Vec<Rgb> = file.patches.iter().map(|p| p.reflectance).collect();
+        let name = format!("{}-systems", gathers.first().map_or("", |g: &G| g.name()));
         let mut systems = Systems::new(
             gathers,
             sys.ranges(),
@@ -99,6 +101,7 @@ impl<G: Gather> Level<G> {
         systems.set_incoming(parallel_incoming);
         Ok(Self {
             systems,
+            name,
             reflectance,
             frames: 0,
             change: f32::INFINITY,
@@ -189,5 +192,33 @@ impl<G: Gather> Level<G> {
     /// The core's systems.
     pub fn systems(&self) -> &Systems<G> {
         &self.systems
+    }
+}
+
+/// The relative change of the exitance [`Level::steady`] stops at when a level serves as a
+/// [`Gather`]: `radiosity solve`'s tolerance.
+pub const STEADY_TOLERANCE: f32 = 1e-4;
+/// The most frames one [`Gather::gather`] of a level runs.
+pub const STEADY_MAX_FRAMES: usize = 100;
+
+/// A level is a gather: `gather(x, y)` lights it from the light it holds to the steady state
+/// ([`STEADY_TOLERANCE`], at most [`STEADY_MAX_FRAMES`] frames; a few after the light
+/// changes, one when nothing did), `y` the gathered irradiance, the one-matrix `M·x` within
+/// that tolerance. So every user of a `Gather` (a frame of the runtime, `render`) lights a
+/// level. Its name is the first system's gather's and `-systems` (`cpu-bc1-systems`).
+impl<G: Gather> Gather for Level<G> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn patches(&self) -> usize {
+        self.reflectance.len()
+    }
+
+    fn gather(&mut self, exitance: &[Rgb], irradiance: &mut [Rgb]) -> Result<(), GatherError> {
+        radiosity_core::check_gather_args(self.reflectance.len(), exitance, irradiance)?;
+        self.steady(exitance, STEADY_TOLERANCE, STEADY_MAX_FRAMES)?;
+        irradiance.copy_from_slice(self.systems.gathered());
+        Ok(())
     }
 }

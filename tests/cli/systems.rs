@@ -56,15 +56,62 @@ fn solve_lights_a_level_file_and_reports_its_systems() {
             "CI has a software adapter"
         );
     }
+    // A level without a one-matrix transfer has none to export.
     assert_one_line_error(
-        &radiosity(&[
-            "render",
-            p,
-            "-o",
-            dir.path().join("x.png").to_str().unwrap(),
-        ]),
+        &radiosity(&["inspect", p, "--export-dds", dir.path().to_str().unwrap()]),
         "level file",
     );
+}
+
+/// `render` lights a level through its steady state: the picture of a room baked into three
+/// systems is the picture of the same room baked into one matrix, but for the cut's light
+/// (within the steady tolerance) and BC1's per-system compression.
+#[test]
+fn render_draws_a_level_as_the_one_matrix_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = super::small_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let mut means = Vec::new();
+    for systems in ["off", "3"] {
+        let rad = dir.path().join(format!("room-{systems}.rad"));
+        let png = dir.path().join(format!("room-{systems}.png"));
+        radiosity_ok(&[
+            "bake",
+            s,
+            "-o",
+            rad.to_str().unwrap(),
+            "--patches",
+            "150",
+            "--systems",
+            systems,
+        ]);
+        let out = radiosity_ok(&[
+            "render",
+            rad.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--exposure",
+            "0.5",
+            "--backend",
+            "cpu",
+        ]);
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            said.contains("systems of a level"),
+            systems != "off",
+            "{said}"
+        );
+        let img = image::open(&png).unwrap().to_rgb8();
+        let sum: f64 = img
+            .pixels()
+            .map(|p| f64::from(p[0]) + f64::from(p[1]) + f64::from(p[2]))
+            .sum();
+        means.push(sum / (3 * img.width() * img.height()) as f64);
+    }
+    // The same exposure: the mean pixel within 1% (two BC1 encodings of the same light, the
+    // steady state within 1e-4, sRGB rounding).
+    assert!(means[0] > 10.0, "a lit room: {means:?}");
+    assert!((means[1] - means[0]).abs() < 0.01 * means[0], "{means:?}");
 }
 
 /// Each object's irradiance (three channels) from `solve --json`.
