@@ -17,7 +17,10 @@
 //!    into a vertex buffer), a cube shadow map of the light (six faces, distance to the light),
 //!    and the main pass: per pixel, the light's inverse-square cosine law shadowed by the cube
 //!    map, plus the corners' indirect light interpolated across each triangle; radiance
-//!    `(E + ρ∘H)/π` into a float texture.
+//!    `(E + ρ∘H)/π` into a float texture. A level file (`.rad` cut into systems) takes
+//!    [`HostLevel`] in place of the gather: four level frames a draw (every system's gather and
+//!    the light between systems, on the same device), each picture within 0.01% of its light's
+//!    steady state.
 //! 3. The texture is read back and written as `DIR/frame-NNN.png` with `radiosity render`'s
 //!    exposure and tone map (99th percentile of luminance to 0.8, extended Reinhard with
 //!    white 4, sRGB); `DIR/lights-NNN.json` is the frame's light as a lights file, so that

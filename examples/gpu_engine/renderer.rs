@@ -5,7 +5,8 @@ use super::Result;
 use super::pipelines::{Pipelines, SceneUniform, mesh_vertices};
 use glam::{Mat3, Mat4, Vec3};
 use radiosity_backend_wgpu::{
-    CornerBuffers, CornerPass, GpuOptions, HostGather, HostGatherBuffers,
+    CornerBuffers, CornerPass, GpuOptions, HostGather, HostGatherBuffers, HostLevel,
+    HostLevelBuffers,
 };
 use radiosity_core::{Mesh, RadFile, Rgb};
 use wgpu::BufferUsages as U;
@@ -148,13 +149,34 @@ impl Targets {
     }
 }
 
+/// Level frames a draw records: each picture within 0.01% of its light's steady state (the
+/// light after a jump is 2% / 0.1% / 0.008% off it after frames 1 / 2 / 3 on a city,
+/// `docs/decisions/systems.md`).
+const LEVEL_FRAMES_PER_DRAW: usize = 4;
+
+/// The indirect light's pass: one matrix's gather, or a level's frames (every system's
+/// gather and the light between systems, on the engine's device).
+enum Indirect {
+    One(HostGather),
+    Level(HostLevel),
+}
+
+impl Indirect {
+    fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        match self {
+            Indirect::One(g) => g.record(encoder),
+            Indirect::Level(l) => (0..LEVEL_FRAMES_PER_DRAW).for_each(|_| l.record(encoder)),
+        }
+    }
+}
+
 /// Everything a frame draws with, made once.
 pub(crate) struct Renderer {
     x_buf: wgpu::Buffer,
     /// `y`, kept with the passes that write and read it.
     _y_buf: wgpu::Buffer,
     indirect: wgpu::Buffer,
-    gather: HostGather,
+    gather: Indirect,
     corner_pass: CornerPass,
     vertex_buf: wgpu::Buffer,
     vertex_count: u32,
@@ -178,7 +200,12 @@ impl Renderer {
     ) -> Result<Self> {
         let n = file.n();
         let corners = mesh.corner_count();
-        let x_buf = buffer(device, "x", 12 * n as u64, U::COPY_DST | U::COPY_SRC);
+        let x_buf = buffer(
+            device,
+            "x",
+            12 * n as u64,
+            U::COPY_DST | U::COPY_SRC | U::STORAGE,
+        );
         let y_buf = buffer(device, "y", 12 * n as u64, U::STORAGE);
         let indirect = buffer(
             device,
@@ -186,16 +213,29 @@ impl Renderer {
             12 * corners as u64,
             U::STORAGE | U::VERTEX,
         );
-        let gather = HostGather::new(
-            device,
-            queue,
-            &file.matrix,
-            &GpuOptions::default(),
-            HostGatherBuffers {
-                x: &x_buf,
-                y: &y_buf,
-            },
-        )?;
+        let gather = if file.systems.is_some() {
+            Indirect::Level(HostLevel::new(
+                device,
+                queue,
+                file,
+                &GpuOptions::default(),
+                HostLevelBuffers {
+                    first: &x_buf,
+                    gathered: &y_buf,
+                },
+            )?)
+        } else {
+            Indirect::One(HostGather::new(
+                device,
+                queue,
+                &file.matrix,
+                &GpuOptions::default(),
+                HostGatherBuffers {
+                    x: &x_buf,
+                    y: &y_buf,
+                },
+            )?)
+        };
         let corner_pass = CornerPass::new(
             device,
             mesh,
