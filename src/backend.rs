@@ -5,7 +5,9 @@
 
 use anyhow::bail;
 use radiosity_backend_wgpu::{Backend, Chosen, GpuOptions, WgpuLevel};
-use radiosity_core::{Gather, RadFile, Rgb, TransferMatrix};
+use radiosity_core::{
+    DecodeMode, EditedGather, Gather, RadFile, ReflectanceEdit, Rgb, TransferMatrix,
+};
 use radiosity_runtime::systems::Level;
 
 /// The backend asked for and where the request came from.
@@ -82,6 +84,14 @@ impl LevelLight {
         }
     }
 
+    /// Patch `i` reflects `rho` from now on ([`Level::set_reflectance`]); a GPU level takes
+    /// no edits (`choose_level` refuses them), so it is left as baked.
+    pub(crate) fn set_reflectance(&mut self, i: usize, rho: Rgb) {
+        if let LevelLight::Systems(l) = self {
+            l.set_reflectance(i, rho);
+        }
+    }
+
     /// The last frame's relative change.
     pub(crate) fn change(&self) -> f32 {
         match self {
@@ -96,9 +106,16 @@ pub(crate) type ChosenLevel = (LevelLight, &'static str, String);
 
 /// A level file ready to light (`solve`) on the requested backend: `gpu` on one device
 /// (`WgpuLevel`), `auto` there where a hardware GPU is found, else (and for `cpu` and
-/// `reference`) one gather a system with the light between systems on the CPU.
-pub(crate) fn choose_level(flag: Option<&str>, file: &RadFile<'_>) -> anyhow::Result<ChosenLevel> {
+/// `reference`) one gather a system with the light between systems on the CPU. `edits`
+/// (level patch, new reflectance) go into the systems' own gathers (`EditedGather`, on the
+/// CPU or reference backend only); the caller sets the level's reflectance after.
+pub(crate) fn choose_level(
+    flag: Option<&str>,
+    file: &RadFile<'_>,
+    edits: &[(u32, Rgb)],
+) -> anyhow::Result<ChosenLevel> {
     let (backend, requested, source) = requested(flag)?;
+    let sys = file.systems.as_ref();
     let systems = |backend: Backend, why: String| -> anyhow::Result<ChosenLevel> {
         let mut name = String::new();
         let level = Level::new(file, |s, one| {
@@ -108,7 +125,21 @@ pub(crate) fn choose_level(flag: Option<&str>, file: &RadFile<'_>) -> anyhow::Re
             if s == 0 {
                 name = format!("{}-systems", chosen.gather.name());
             }
-            Ok::<_, anyhow::Error>(chosen.gather)
+            // This system's share of the edits, in its own numbering.
+            let r = sys.map_or(0..0, |l| l.range(s));
+            let mine: Vec<(u32, Rgb)> = edits
+                .iter()
+                .filter(|(i, _)| r.contains(&(*i as usize)))
+                .map(|&(i, rho)| (i - r.start as u32, rho))
+                .collect();
+            if mine.is_empty() {
+                return Ok::<_, anyhow::Error>(chosen.gather);
+            }
+            let edit = ReflectanceEdit::new(&one.matrix, DecodeMode::D3d10, &one.patches, &mine)
+                .map_err(|e| anyhow::anyhow!("materials, system {s}: {e}"))?;
+            let edited = EditedGather::new(chosen.gather, edit)
+                .map_err(|e| anyhow::anyhow!("materials, system {s}: {e}"))?;
+            Ok(Box::new(edited) as Box<dyn Gather>)
         })
         .map_err(|e| match e {
             radiosity_runtime::systems::LevelError::Gather(_, e) => e,
@@ -134,6 +165,18 @@ pub(crate) fn choose_level(flag: Option<&str>, file: &RadFile<'_>) -> anyhow::Re
         Ok((LevelLight::Gpu(level), "gpu", name))
     };
     let options = GpuOptions::default();
+    if !edits.is_empty() {
+        return match backend {
+            Backend::Gpu => bail!(
+                "a reflectance edit (--materials) of a level runs on the cpu or reference backend, not on the gpu (from {source})"
+            ),
+            Backend::Auto => systems(
+                Backend::Cpu,
+                "auto: a level's reflectance edit runs on the CPU".into(),
+            ),
+            other => systems(other, format!("requested by {source}")),
+        };
+    }
     match backend {
         Backend::Gpu => match WgpuLevel::new(file, &options) {
             Ok(level) => gpu(level, &format!("requested by {source}")),

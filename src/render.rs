@@ -56,7 +56,7 @@ pub(crate) fn run(
     // A level is lit to its steady state through the same frame (its `Gather`).
     let (mut level, mut chosen);
     let gather: &mut dyn radiosity_core::Gather = if rt.file.systems.is_some() {
-        level = crate::backend::choose_level(backend, &rt.file)?.0;
+        level = crate::backend::choose_level(backend, &rt.file, &[])?.0;
         level.gather_mut()
     } else {
         chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;

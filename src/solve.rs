@@ -44,14 +44,17 @@ pub(crate) fn run(
         effects,
         mut timings,
     } = crate::scene::load(input, args, json_out)?;
-    let edit = match &materials {
+    let (edit, mut edited_level) = match &materials {
         Some(m) => {
             let t = Instant::now();
-            let edit = edit_materials(&mut runtime, m)?;
+            let edit = edit_materials(&mut runtime, m, backend)?;
             timings.insert("edit_setup", t.elapsed().as_secs_f64() * 1e3);
-            Some(edit)
+            match edit {
+                EditSetup::One(e) => (Some(*e), None),
+                EditSetup::Level(level) => (None, Some(*level)),
+            }
         }
-        None => None,
+        None => (None, None),
     };
     let file = &runtime.file;
     let n = file.n();
@@ -67,13 +70,16 @@ pub(crate) fn run(
     let t;
     if file.systems.is_some() {
         // A level: each system's CPU gather, lit block by block to the steady state.
-        let (mut level, chosen, name) = crate::backend::choose_level(backend, file)?;
+        let ((mut level, chosen, name), edited) = match edited_level.take() {
+            Some((level, summary)) => (level, Some(summary)),
+            None => (crate::backend::choose_level(backend, file, &[])?, None),
+        };
         t = Instant::now();
         let frames = level.steady(&x, LEVEL_TOLERANCE, LEVEL_MAX_FRAMES)?;
         y.copy_from_slice(level.gathered());
         kind = chosen;
         gather_name = name;
-        edit_json = None;
+        edit_json = edited;
         systems_json = Some(json!({
             "count": level.count(),
             "frames": frames,
@@ -263,14 +269,23 @@ fn point_json(p: &radiosity_runtime::points::Point, a: radiosity_runtime::points
     v
 }
 
+/// A reflectance edit ready to light: one matrix's, or a level built with each system's own
+/// edit (with the edit's summary for the JSON).
+enum EditSetup {
+    One(Box<ReflectanceEdit>),
+    Level(Box<(crate::backend::ChosenLevel, Value)>),
+}
+
 /// Prepares the reflectance edit of `materials` on the runtime's file and sets the new
 /// reflectance on its patches and mesh triangles (the frame's first exitance and radiosity
 /// take them; the matrix stays as baked). `M_SS` is decoded under the CPU backends' rules.
+/// A level is built here, each system's gather carrying its patches' edit, before its
+/// patches change (a system's file must match the level's patches as baked).
 fn edit_materials(
     runtime: &mut radiosity_runtime::BakedScene,
     materials: &[radiosity_runtime::materials::MaterialEdit],
-) -> anyhow::Result<ReflectanceEdit> {
-    crate::backend::refuse_level(&runtime.file, "a reflectance edit (--materials)")?;
+    backend: Option<&str>,
+) -> anyhow::Result<EditSetup> {
     let file = &mut runtime.file;
     if let Bounces::Finite(k) = file.bounces {
         eprintln!(
@@ -284,6 +299,30 @@ fn edit_materials(
     let shares = ObjectShares::from_report(&file.patches, file.objects.len(), report.as_ref());
     let resolved = radiosity_runtime::materials::patch_edits(file, &shares, materials)?;
     let objects = resolved.objects;
+    let set_mesh = |file: &mut radiosity_core::RadFile<'_>| {
+        if let Some(mesh) = &mut file.mesh {
+            for t in mesh.triangles.to_mut() {
+                if let Some(&(_, rho)) = objects.iter().find(|o| o.0 == t.object) {
+                    t.reflectance = rho;
+                }
+            }
+        }
+    };
+    if file.systems.is_some() {
+        let mut chosen = crate::backend::choose_level(backend, file, &resolved.patches)?;
+        let patches = file.patches.to_mut();
+        for &(i, rho) in &resolved.patches {
+            patches[i as usize].reflectance = rho;
+            chosen.0.set_reflectance(i as usize, rho);
+        }
+        set_mesh(file);
+        let summary = json!({
+            "objects": materials.len(),
+            "patches": resolved.patches.len(),
+            "bytes": 0,
+        });
+        return Ok(EditSetup::Level(Box::new((chosen, summary))));
+    }
     let edit = ReflectanceEdit::new(
         &file.matrix,
         DecodeMode::D3d10,
@@ -292,12 +331,6 @@ fn edit_materials(
     )
     .map_err(|e| anyhow::anyhow!("materials: {e}"))?;
     edit.apply_to(file.patches.to_mut());
-    if let Some(mesh) = &mut file.mesh {
-        for t in mesh.triangles.to_mut() {
-            if let Some(&(_, rho)) = objects.iter().find(|o| o.0 == t.object) {
-                t.reflectance = rho;
-            }
-        }
-    }
-    Ok(edit)
+    set_mesh(file);
+    Ok(EditSetup::One(Box::new(edit)))
 }

@@ -213,6 +213,19 @@ impl<G: Gather> Systems<G> {
         ok
     }
 
+    /// Patch `i` reflects `rho` from now on (a reflectance edit at run time: the systems'
+    /// own transfers must carry the same edit, `crate::EditedGather`). Refused (`false`, the
+    /// reflectance kept) for a patch past the level or a reflectance not finite and ≥ 0.
+    pub fn set_reflectance(&mut self, i: usize, rho: Rgb) -> bool {
+        let ok = i < self.reflectance.len()
+            && rho.is_finite()
+            && rho.to_array().iter().all(|c| *c >= 0.0);
+        if ok {
+            self.reflectance[i] = rho;
+        }
+        ok
+    }
+
     /// Each system's estimate of how far its light lags its inputs: the change of its first
     /// exitance and of the light reaching it from the others since its last update
     /// (`Σ |Δ|` over its patches and channels, the others' through the coupling's sums).

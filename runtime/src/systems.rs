@@ -189,6 +189,17 @@ impl<G: Gather> Level<G> {
         &mut self.systems
     }
 
+    /// Patch `i` reflects `rho` from now on, in the light between systems and in the steady
+    /// state's measure ([`Systems::set_reflectance`]; the system's own gather must carry the
+    /// edit). `false` (nothing changed) for a patch past the level or a bad reflectance.
+    pub fn set_reflectance(&mut self, i: usize, rho: Rgb) -> bool {
+        let ok = self.systems.set_reflectance(i, rho);
+        if ok {
+            self.reflectance[i] = rho;
+        }
+        ok
+    }
+
     /// The core's systems.
     pub fn systems(&self) -> &Systems<G> {
         &self.systems

@@ -197,3 +197,89 @@ fn bad_materials_files_fail_with_one_line() {
     ]);
     assert_one_line_error(&out, "cannot read materials file");
 }
+
+/// A level (three systems) takes the same edit: each system's gather carries its patches'
+/// edit and the light between systems the new reflectance, so the edited level lights as the
+/// edited one-matrix bake of the same patches (both stored in f32).
+#[test]
+fn an_edit_of_a_level_matches_the_edit_of_one_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let baked = room(d, "room", [0.7, 0.1, 0.1], [0.7; 3]);
+    let edits = d.join("edits.json");
+    std::fs::write(
+        &edits,
+        r#"{"materials":[{"object":"left","reflectance":[0.2,0.6,0.8]},
+                         {"object":"block","reflectance":[0.05,0.3,0.05]}]}"#,
+    )
+    .unwrap();
+    let mut got = Vec::new();
+    for systems in ["off", "3"] {
+        let rad = d.join(format!("room-{systems}.rad"));
+        radiosity_ok(&[
+            "bake",
+            &s(&baked),
+            "-o",
+            &s(&rad),
+            "--patches",
+            "300",
+            "--format",
+            "f32",
+            "--systems",
+            systems,
+        ]);
+        let args = [
+            "solve",
+            &s(&rad),
+            "--json",
+            "--backend",
+            "cpu",
+            "--materials",
+        ];
+        let v = solve(&[&args[..], &[&s(&edits)]].concat());
+        assert!(
+            v["materials"]["patches"].as_u64().unwrap() > 0,
+            "{}",
+            v["materials"]
+        );
+        assert_eq!(v.get("systems").is_some(), systems != "off");
+        got.push(v);
+    }
+    let plain = solve(&[
+        "solve",
+        &s(&d.join("room-3.rad")),
+        "--json",
+        "--backend",
+        "cpu",
+    ]);
+    for object in ["left", "block", "floor"] {
+        let (one, level) = (irradiance(&got[0], object), irradiance(&got[1], object));
+        let before = irradiance(&plain, object);
+        for k in 0..3 {
+            // The same F and the same edit; the level settles to 1e-4 of its fixed point.
+            assert!(
+                (one[k] - level[k]).abs() <= 1e-3 * one[k].abs().max(1e-3),
+                "{object}[{k}]: one matrix {} against the level {}",
+                one[k],
+                level[k]
+            );
+        }
+        // The edit changed the level's light (the left wall went from red to blue).
+        if object == "left" {
+            assert!(
+                (level[2] - before[2]).abs() > 0.05 * before[2],
+                "{level:?} {before:?}"
+            );
+        }
+    }
+    // The GPU takes no edit of a level: one line that says where it runs.
+    let out = radiosity(&[
+        "solve",
+        &s(&d.join("room-3.rad")),
+        "--backend",
+        "gpu",
+        "--materials",
+        &s(&edits),
+    ]);
+    assert_one_line_error(&out, "cpu or reference backend");
+}
