@@ -532,14 +532,14 @@ fn second_half(
         coverage: None,
         systems: None,
     };
-    let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
-    file.parts = part_rows_section(system, &chosen.perm, &mesh, params.sky);
-    file.mesh = Some(mesh);
-    file.coverage = scene
-        .coverage
-        .iter()
-        .any(|&c| c < 1.0)
-        .then(|| Cow::Owned(scene.coverage.clone()));
+    let sample_objects = attach_runtime(
+        &mut file,
+        scene,
+        system,
+        &chosen.perm,
+        &patch_source,
+        params.sky,
+    );
     let discretise_ms: f64 = system.timings_ms.values().sum();
     timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let summary = BakeSummary {
@@ -560,6 +560,29 @@ fn second_half(
     };
     let out = crate::probes::attach(out, &params.probes, params.probe_rank, hooks)?;
     crate::sky::attach(out, params.sky, hooks)
+}
+
+/// Gives `file` what the runtime draws and shades with, in the file's numbering (`perm[k]`:
+/// the live patch of file patch `k`; `patch_source[k]`: its simplification patch): the mesh,
+/// the PARTS section and the triangles' coverage. Returns the object of each of the mesh's
+/// direct-light samples.
+fn attach_runtime(
+    file: &mut RadFile<'static>,
+    scene: &Scene,
+    system: &Discretised,
+    perm: &[u32],
+    patch_source: &[u32],
+    sky: bool,
+) -> Vec<u32> {
+    let (mesh, sample_objects) = file_mesh(scene, system, patch_source);
+    file.parts = part_rows_section(system, perm, &mesh, sky);
+    file.mesh = Some(mesh);
+    file.coverage = scene
+        .coverage
+        .iter()
+        .any(|&c| c < 1.0)
+        .then(|| Cow::Owned(scene.coverage.clone()));
+    sample_objects
 }
 
 /// The PARTS section of the file: each shared patch's part rows ([`Discretised::part_rows`])

@@ -5,8 +5,8 @@
 
 use super::report::{self, BakeSummary, Measured};
 use super::{
-    BakeOutput, BakeParams, Discretised, Hooks, encode_error, encode_params_for, file_mesh,
-    part_rows_section, transfer_step,
+    BakeOutput, BakeParams, Discretised, Hooks, attach_runtime, encode_error, encode_params_for,
+    transfer_step,
 };
 use crate::BakeError;
 use crate::effects::Effect;
@@ -252,14 +252,14 @@ pub(super) fn second_half_systems(
         coverage: None,
         systems: Some(systems),
     };
-    let (mesh, sample_objects) = file_mesh(scene, system, &patch_source);
-    file.parts = part_rows_section(system, &split.order, &mesh, params.sky);
-    file.mesh = Some(mesh);
-    file.coverage = scene
-        .coverage
-        .iter()
-        .any(|&c| c < 1.0)
-        .then(|| Cow::Owned(scene.coverage.clone()));
+    let sample_objects = attach_runtime(
+        &mut file,
+        scene,
+        system,
+        &split.order,
+        &patch_source,
+        params.sky,
+    );
     lap("level", &mut timings);
     let sizes: Vec<usize> = split.ranges.iter().map(|r| r.len()).collect();
     effects.insert(
