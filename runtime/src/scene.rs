@@ -293,7 +293,7 @@ mod tests {
     use super::*;
     use radiosity_core::{
         BlockCorrections, Bounces, CornerWeight, DEFAULT_MAX_TILE, Format, MatrixLayout,
-        MeshTriangle, PatchOrder, PatchSample, SparseRows, TransferMatrix,
+        MeshTriangle, PatchSample, SparseRows, TransferMatrix,
     };
     use std::borrow::Cow;
 
@@ -344,34 +344,27 @@ mod tests {
             ]),
         };
         let file = RadFile {
-            patches: Cow::Owned(vec![radiosity_core::Patch {
-                centre: [0.5, 0.0, 0.5],
-                area: 1.0,
-                normal: [0.0, 1.0, 0.0],
-                object: 0,
-                reflectance: Rgb::splat(0.5),
-                emission: Rgb::ZERO,
-            }]),
-            order: Cow::Owned(vec![0]),
-            matrix: TransferMatrix {
-                layout,
-                scales: Cow::Owned(vec![]),
-                blocks: Cow::Owned(vec![0; 64]),
-                sparse: SparseRows::empty(1),
-                corrections: BlockCorrections::empty(1),
-            },
-            objects: vec![Cow::Borrowed("floor")],
-            bounces: Bounces::Infinite,
-            patch_order: PatchOrder::Natural,
-            compression_rmse: None,
-            lighting_error: None,
-            report: None,
             mesh: Some(mesh),
-            probes: None,
-            sky: None,
-            parts: None,
-            coverage: None,
-            systems: None,
+            ..RadFile::new(
+                Cow::Owned(vec![radiosity_core::Patch {
+                    centre: [0.5, 0.0, 0.5],
+                    area: 1.0,
+                    normal: [0.0, 1.0, 0.0],
+                    object: 0,
+                    reflectance: Rgb::splat(0.5),
+                    emission: Rgb::ZERO,
+                }]),
+                Cow::Owned(vec![0]),
+                TransferMatrix {
+                    layout,
+                    scales: Cow::Owned(vec![]),
+                    blocks: Cow::Owned(vec![0; 64]),
+                    sparse: SparseRows::empty(1),
+                    corrections: BlockCorrections::empty(1),
+                },
+                vec![Cow::Borrowed("floor")],
+                Bounces::Infinite,
+            )
         };
         file.validate().unwrap();
         BakedScene::new(file)

@@ -140,25 +140,18 @@ pub(super) fn bench_probes(
     use std::borrow::Cow;
     let patches = order::permute_rows(&sys.core_patches, perm);
     let file = radiosity_core::RadFile {
-        patches: Cow::Owned(patches.clone()),
-        order: Cow::Owned(perm.to_vec()),
-        matrix: matrix.clone().into_owned(),
-        objects: scene
-            .objects
-            .iter()
-            .map(|o| Cow::Owned(o.clone()))
-            .collect(),
-        bounces: radiosity_core::Bounces::Infinite,
-        patch_order: radiosity_core::PatchOrder::Natural,
-        compression_rmse: None,
-        lighting_error: None,
-        report: None,
         mesh: Some(mesh.clone()),
-        probes: None,
-        sky: None,
-        parts: None,
-        coverage: None,
-        systems: None,
+        ..radiosity_core::RadFile::new(
+            Cow::Owned(patches.clone()),
+            Cow::Owned(perm.to_vec()),
+            matrix.clone().into_owned(),
+            scene
+                .objects
+                .iter()
+                .map(|o| Cow::Owned(o.clone()))
+                .collect(),
+            radiosity_core::Bounces::Infinite,
+        )
     };
     let rt = radiosity_runtime::BakedScene::new(file);
     let direct = bench_direct(&rt)

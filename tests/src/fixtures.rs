@@ -78,21 +78,21 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
     )
     .expect("sample matrix encodes");
     RadFile {
-        patches: Cow::Owned(sample_patches(n)),
-        order: Cow::Owned((0..n as u32).rev().collect()),
-        matrix,
-        objects: vec![Cow::Borrowed("floor"), Cow::Borrowed("wall ünïcode")],
-        bounces: Bounces::Finite(4),
         patch_order: PatchOrder::Spatial,
         compression_rmse: Some(0.0125),
-        lighting_error: None,
         report: Some(Cow::Borrowed("{\"note\":\"sample\"}")),
         mesh: Some(sample_mesh(n)),
         probes: Some(sample_probes(n)),
         sky: Some(sample_sky(n, 2)),
         parts: Some(sample_parts(n, sample_mesh(n).samples.len())),
         coverage: Some(Cow::Owned(sample_coverage(sample_mesh(n).triangles.len()))),
-        systems: None,
+        ..RadFile::new(
+            Cow::Owned(sample_patches(n)),
+            Cow::Owned((0..n as u32).rev().collect()),
+            matrix,
+            vec![Cow::Borrowed("floor"), Cow::Borrowed("wall ünïcode")],
+            Bounces::Finite(4),
+        )
     }
 }
 
@@ -349,21 +349,15 @@ pub fn sample_level(sizes: &[usize]) -> RadFile<'static> {
         )
         .expect("system matrix encodes");
         files.push(RadFile {
-            patches: Cow::Owned(patches[start..start + m].to_vec()),
-            order: Cow::Owned((0..m as u32).collect()),
-            matrix,
-            objects: objects.clone(),
-            bounces: Bounces::Infinite,
             patch_order: PatchOrder::Spatial,
             compression_rmse: Some(0.01),
-            lighting_error: None,
-            report: None,
-            mesh: None,
-            probes: None,
-            sky: None,
-            parts: None,
-            coverage: None,
-            systems: None,
+            ..RadFile::new(
+                Cow::Owned(patches[start..start + m].to_vec()),
+                Cow::Owned((0..m as u32).collect()),
+                matrix,
+                objects.clone(),
+                Bounces::Infinite,
+            )
         });
         ranges.push(start..start + m);
         start += m;
@@ -390,23 +384,24 @@ pub fn sample_level(sizes: &[usize]) -> RadFile<'static> {
     };
     let systems = LevelSystems::from_files(&files, coupling).expect("systems serialise");
     RadFile {
-        patches: Cow::Owned(patches),
-        order: Cow::Owned((0..n as u32).rev().collect()),
-        matrix: TransferMatrix::none(
-            radiosity_core::MatrixLayout::none(3, Format::Bc1, radiosity_core::DEFAULT_MAX_TILE)
-                .expect("a BC1 layout"),
-        ),
-        objects,
-        bounces: Bounces::Infinite,
         patch_order: PatchOrder::Spatial,
         compression_rmse: Some(0.01),
-        lighting_error: None,
         report: Some(Cow::Borrowed("{\"note\":\"level\"}")),
         mesh: Some(sample_mesh(n)),
-        probes: None,
-        sky: None,
-        parts: None,
-        coverage: None,
         systems: Some(systems),
+        ..RadFile::new(
+            Cow::Owned(patches),
+            Cow::Owned((0..n as u32).rev().collect()),
+            TransferMatrix::none(
+                radiosity_core::MatrixLayout::none(
+                    3,
+                    Format::Bc1,
+                    radiosity_core::DEFAULT_MAX_TILE,
+                )
+                .expect("a BC1 layout"),
+            ),
+            objects,
+            Bounces::Infinite,
+        )
     }
 }

@@ -512,25 +512,20 @@ fn second_half(
         .map(|&k| system.live[k as usize] as u32)
         .collect();
     let mut file = RadFile {
-        patches: Cow::Owned(file_patches),
-        order: Cow::Owned(chosen.perm.clone()),
-        matrix,
-        objects: scene
-            .objects
-            .iter()
-            .map(|o| Cow::Owned(o.clone()))
-            .collect(),
-        bounces: transfer.bounces,
         patch_order: chosen.kind.patch_order().expect("a concrete order"),
         compression_rmse: Some(measured.rmse as f32),
         lighting_error: measured.lighting_error.map(|e| e as f32),
-        report: None,
-        mesh: None,
-        probes: None,
-        sky: None,
-        parts: None,
-        coverage: None,
-        systems: None,
+        ..RadFile::new(
+            Cow::Owned(file_patches),
+            Cow::Owned(chosen.perm.clone()),
+            matrix,
+            scene
+                .objects
+                .iter()
+                .map(|o| Cow::Owned(o.clone()))
+                .collect(),
+            transfer.bounces,
+        )
     };
     let sample_objects = attach_runtime(
         &mut file,

@@ -17,7 +17,7 @@ use crate::scene::Scene;
 use crate::systems::{Split, partition_sites};
 use crate::transfer::BounceSpec;
 use radiosity_core::container::LevelSystems;
-use radiosity_core::{Bounces, DecodeMode, MatrixLayout, PatchOrder, RadFile, Rgb, TransferMatrix};
+use radiosity_core::{Bounces, DecodeMode, MatrixLayout, RadFile, Rgb, TransferMatrix};
 use serde::Serialize;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -191,21 +191,14 @@ pub(super) fn second_half_systems(
         norm2 += d;
         matrix_bytes += matrix.blocks.len() + matrix.sparse.bytes() + matrix.corrections.bytes();
         files.push(RadFile {
-            patches: Cow::Owned(patches),
-            order: Cow::Owned((0..r.len() as u32).collect()),
-            matrix,
-            objects: objects_of(scene),
-            bounces: transfer.bounces,
-            patch_order: PatchOrder::Natural,
             compression_rmse: Some(if d > 0.0 { (e / d).sqrt() as f32 } else { 0.0 }),
-            lighting_error: None,
-            report: None,
-            mesh: None,
-            probes: None,
-            sky: None,
-            parts: None,
-            coverage: None,
-            systems: None,
+            ..RadFile::new(
+                Cow::Owned(patches),
+                Cow::Owned((0..r.len() as u32).collect()),
+                matrix,
+                objects_of(scene),
+                transfer.bounces,
+            )
         });
     }
     timings.insert("transfer", transfer_ms);
@@ -230,27 +223,21 @@ pub(super) fn second_half_systems(
     let layout = MatrixLayout::none(channels as u32, format, encode_params.max_tile)
         .map_err(|e| BakeError::InvalidParams(e.to_string()))?;
     let mut file = RadFile {
-        patches: Cow::Owned(
-            split
-                .order
-                .iter()
-                .map(|&k| system.core_patches[k as usize])
-                .collect(),
-        ),
-        order: Cow::Owned(split.order.clone()),
-        matrix: TransferMatrix::none(layout),
-        objects: objects_of(scene),
-        bounces,
-        patch_order: PatchOrder::Natural,
         compression_rmse: Some(rmse as f32),
-        lighting_error: None,
-        report: None,
-        mesh: None,
-        probes: None,
-        sky: None,
-        parts: None,
-        coverage: None,
         systems: Some(systems),
+        ..RadFile::new(
+            Cow::Owned(
+                split
+                    .order
+                    .iter()
+                    .map(|&k| system.core_patches[k as usize])
+                    .collect(),
+            ),
+            Cow::Owned(split.order.clone()),
+            TransferMatrix::none(layout),
+            objects_of(scene),
+            bounces,
+        )
     };
     let sample_objects = attach_runtime(
         &mut file,

@@ -388,6 +388,37 @@ impl<'a> RadFile<'a> {
         }
     }
 
+    /// A file of `patches` (in the matrix's numbering; `order[k]` the bake patch of file patch
+    /// `k`), `matrix`, `objects` and `bounces`, its patches in natural order, with none of the
+    /// optional parts: no compression figures, report, mesh, probes, sky, parts, coverage or
+    /// systems. Set the ones that apply with struct update syntax
+    /// (`RadFile { mesh: Some(mesh), ..RadFile::new(…) }`).
+    pub fn new(
+        patches: Cow<'a, [Patch]>,
+        order: Cow<'a, [u32]>,
+        matrix: TransferMatrix<'a>,
+        objects: Vec<Cow<'a, str>>,
+        bounces: Bounces,
+    ) -> Self {
+        RadFile {
+            patches,
+            order,
+            matrix,
+            objects,
+            bounces,
+            patch_order: PatchOrder::Natural,
+            compression_rmse: None,
+            lighting_error: None,
+            report: None,
+            mesh: None,
+            probes: None,
+            sky: None,
+            parts: None,
+            coverage: None,
+            systems: None,
+        }
+    }
+
     /// Copies every borrowed part, so the file outlives the bytes it was parsed from.
     pub fn into_owned(self) -> RadFile<'static> {
         RadFile {

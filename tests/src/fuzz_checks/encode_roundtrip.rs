@@ -146,21 +146,16 @@ pub fn rad_file_around(
         })
         .collect();
     RadFile {
-        patches: Cow::Owned(patches),
-        order: Cow::Owned((0..n as u32).rev().collect()),
-        matrix,
-        objects: vec![Cow::Borrowed("floor"), Cow::Borrowed("ceiling é")],
-        bounces,
         patch_order,
         compression_rmse: Some(0.125),
-        lighting_error: None,
         report: report.then_some(Cow::Borrowed("{\"fuzz\":true}")),
-        mesh: None,
-        probes: None,
-        sky: None,
-        parts: None,
-        coverage: None,
-        systems: None,
+        ..RadFile::new(
+            Cow::Owned(patches),
+            Cow::Owned((0..n as u32).rev().collect()),
+            matrix,
+            vec![Cow::Borrowed("floor"), Cow::Borrowed("ceiling é")],
+            bounces,
+        )
     }
 }
 
