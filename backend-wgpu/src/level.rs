@@ -452,13 +452,7 @@ impl WgpuLevel {
                 .iter()
                 .map(|b| b.r.abs() + b.g.abs() + b.b.abs())
                 .sum();
-            self.change = if change == 0.0 {
-                0.0
-            } else if total > 0.0 {
-                change / total
-            } else {
-                f32::INFINITY
-            };
+            self.change = radiosity_core::systems::relative_change(change, total);
             if !self.change.is_finite() {
                 return Err(GpuError::Device(
                     "the level's light is not finite".to_owned(),

@@ -356,3 +356,16 @@ impl<G: Gather> Systems<G> {
         Ok(change)
     }
 }
+
+/// The relative change of a level's frame, `change / total` (`Σ|ΔB|` over `Σ|B|`, patches
+/// and channels): 0 when nothing changed, infinite when something changed in a level with no
+/// light. What `steady` loops compare with their tolerance.
+pub fn relative_change(change: f32, total: f32) -> f32 {
+    if change == 0.0 {
+        0.0
+    } else if total > 0.0 {
+        change / total
+    } else {
+        f32::INFINITY
+    }
+}

@@ -134,13 +134,7 @@ impl<G: Gather> Level<G> {
                     b.r.abs() + b.g.abs() + b.b.abs()
                 })
                 .sum();
-            self.change = if change == 0.0 {
-                0.0
-            } else if total > 0.0 {
-                change / total
-            } else {
-                f32::INFINITY
-            };
+            self.change = radiosity_core::systems::relative_change(change, total);
             if !change.is_finite() {
                 let g = self.systems.gathered();
                 let index = g
