@@ -2,7 +2,7 @@
 """A bake spread over a Ray cluster: one Ray task per shard of a bake plan, then one assembly.
 
     scripts/ray_bake.py SCENE -o OUT.rad [BAKE FLAGS ... | --plan PLAN.json] [--reuse OLD.rad]
-                        [--workers N] [--shards N] [--radiosity PATH]
+                        [--workers N] [--shards N] [--cpus-per-shard N] [--radiosity PATH]
                         [--storage object|shared] [--shared-dir DIR] [--rows-dir DIR] [--json]
 
 The steps are those of `radiosity bake-plan`, `bake-shard` and `bake-assemble`
@@ -11,11 +11,12 @@ The steps are those of `radiosity bake-plan`, `bake-shard` and `bake-assemble`
 1. Without `--plan`, the driver (this process) runs `radiosity bake-plan SCENE -o PLAN
    BAKE FLAGS [--shards N]` itself; every argument this script does not know is a bake flag
    (`--patches 3000 --systems 4`). SCENE comes first. With `--plan` the bake flags are the plan's.
-2. One Ray task per shard (`num_cpus=1`, `max_retries=3`: a task whose worker dies, killed,
-   out of memory or lost with its node, runs again elsewhere) runs `radiosity bake-shard SCENE
-   --plan PLAN --shard K --out-dir DIR` in a temporary folder on its worker. A shard's rows file
-   is named by its inputs and written whole (temporary file and rename), so a retried or
-   duplicated shard writes the same name and bytes.
+2. One Ray task per shard (`num_cpus=1`, or N with `--cpus-per-shard N`, the bake's threads
+   too; `max_retries=3`: a task whose worker dies, killed, out of memory or lost with its node,
+   runs again) runs `radiosity bake-shard SCENE --plan PLAN --shard K --out-dir DIR` in a
+   temporary folder on its worker. A shard's rows file is named by its inputs and written whole
+   (temporary file and rename), so a retried or duplicated shard writes the same name and bytes.
+   A shard that bake-shard itself refuses is not retried (the same inputs fail the same way).
 3. The driver runs `radiosity bake-assemble SCENE --plan PLAN --rows DIR -o OUT.rad [--reuse
    OLD.rad]` and passes its output through. The file is the one `radiosity bake SCENE -o OUT.rad
    --plan PLAN` writes (`radiosity compare` says `same`).
@@ -173,6 +174,10 @@ def bake_shard_task(binary, shard, scene, plan, reuse, out_dir, kill, counter):
                    "--out-dir", rows, "--json"]
         if reuse is not None:
             command += ["--reuse", reuse]
+        env = dict(os.environ)
+        if "RAYON_NUM_THREADS" not in env:  # the bake's threads: the CPUs Ray gave this task
+            cpus = ray.get_runtime_context().get_assigned_resources().get("CPU", 1)
+            env["RAYON_NUM_THREADS"] = str(max(1, int(cpus)))
         start = time.monotonic()
         if kill is not None and kill[0] == shard:
             marker = Path(kill[1], f"killed-shard-{shard}")
@@ -184,7 +189,7 @@ def bake_shard_task(binary, shard, scene, plan, reuse, out_dir, kill, counter):
                 os.write(fd, f"attempt {attempt}\n".encode())
                 os.close(fd)
                 child = subprocess.Popen(command, stdout=subprocess.DEVNULL,
-                                         stderr=subprocess.DEVNULL)
+                                         stderr=subprocess.DEVNULL, env=env)
                 try:
                     child.wait(timeout=0.5)
                 except subprocess.TimeoutExpired:
@@ -193,7 +198,7 @@ def bake_shard_task(binary, shard, scene, plan, reuse, out_dir, kill, counter):
                 child.wait()
                 shutil.rmtree(work, ignore_errors=True)
                 os.kill(os.getpid(), signal.SIGKILL)  # the worker dies mid-task: Ray retries
-        proc = subprocess.run(command, capture_output=True, text=True)
+        proc = subprocess.run(command, capture_output=True, text=True, env=env)
         seconds = time.monotonic() - start
         if proc.returncode != 0:
             raise RuntimeError(f"shard {shard}: {error_of(proc)}")
@@ -249,6 +254,9 @@ def parse(argv):
     parser.add_argument("--reuse", metavar="OLD.rad", help="reuse rows of an earlier bake")
     parser.add_argument("--workers", type=int, default=2,
                         help="CPUs of the local cluster (ignored with RAY_ADDRESS); default 2")
+    parser.add_argument("--cpus-per-shard", type=int, default=1, metavar="N",
+                        help="CPUs (Ray's num_cpus, the bake's threads) of each shard's task; "
+                             "default 1")
     parser.add_argument("--shards", type=int, help="shards of the plan made here (bake-plan)")
     parser.add_argument("--radiosity", metavar="PATH", help="the radiosity binary")
     parser.add_argument("--storage", choices=("object", "shared"), default="object")
@@ -264,6 +272,8 @@ def parse(argv):
         parser.error(f"bake flags {' '.join(bake_flags)} come from the plan with --plan")
     if args.plan and args.shards is not None:
         parser.error("--shards comes from the plan with --plan")
+    if args.cpus_per_shard < 1:
+        parser.error("--cpus-per-shard must be at least 1")
     if args.workers < 1:
         parser.error("--workers must be at least 1")
     if args.storage == "shared" and not args.shared_dir:
@@ -314,6 +324,9 @@ def run(args, bake_flags, ray):
         else:
             ray.init(num_cpus=args.workers, include_dashboard=False, logging_level="WARNING")
         workers = int(ray.cluster_resources().get("CPU", 0)) or args.workers
+        if args.cpus_per_shard > workers:
+            raise Failure(f"--cpus-per-shard {args.cpus_per_shard} is more than the cluster's "
+                          f"{workers} CPUs: no shard could start")
 
         kill = None
         if os.environ.get("RAY_BAKE_KILL_SHARD", "").strip():
@@ -322,7 +335,7 @@ def run(args, bake_flags, ray):
             kill = (int(os.environ["RAY_BAKE_KILL_SHARD"]), mark)
 
         counter = ray.remote(num_cpus=0)(AttemptCounter).remote()
-        task = ray.remote(max_retries=3, num_cpus=1)(bake_shard_task)
+        task = ray.remote(max_retries=3, num_cpus=args.cpus_per_shard)(bake_shard_task)
         if shared is None:
             skip = {p for p in (output, plan, reuse) if p is not None}
             scene_ref = ray.put((str(scene.relative_to(scene.parent)), scene_bundle(scene, skip)))
