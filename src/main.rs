@@ -24,6 +24,7 @@ mod inspect;
 mod output;
 mod pathtrace;
 mod picture;
+mod planned;
 mod progress;
 mod render;
 mod report;
@@ -90,9 +91,84 @@ enum Command {
         /// rays found), or a rank.
         #[arg(long, default_value = "auto", allow_negative_numbers = true)]
         probe_rank: String,
+        /// Bake with this plan (`radiosity bake-plan`): its grid, systems and flags; bake flags
+        /// given as well must agree with it.
+        #[arg(long, value_name = "PLAN.json")]
+        plan: Option<PathBuf>,
+        /// With --plan: an earlier bake with the same plan (its OLD.rad.rows cache beside
+        /// it), whose unchanged systems and rays are taken over; the file is the same as a
+        /// full bake's.
+        #[arg(long, value_name = "OLD.rad", requires = "plan")]
+        reuse: Option<PathBuf>,
         /// Print the bake report as JSON.
         #[arg(long)]
         json: bool,
+    },
+    /// Plan a bake for shards (`bake-shard`, `bake-assemble`, `scripts/ray_bake.py`) and rebakes
+    /// (`bake --plan --reuse`): the grid, the systems as regions of space, the flags.
+    BakePlan {
+        /// The scene file.
+        scene: PathBuf,
+        /// Where to write the plan (JSON).
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        bake: BakeArgs,
+        /// Shards: groups of neighbouring systems (default: one a system).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        shards: Option<u32>,
+        /// Print a JSON summary.
+        #[arg(long)]
+        json: bool,
+    },
+    /// One shard of a planned bake: its patches' burial surveys and ray-cast hit counts, written
+    /// to OUT-DIR/rows-K-HASH.bin (named by its inputs: a retried shard writes the same file).
+    BakeShard {
+        /// The scene file.
+        scene: PathBuf,
+        /// The plan.
+        #[arg(long, value_name = "PLAN.json")]
+        plan: PathBuf,
+        /// The shard, from 0.
+        #[arg(long, value_name = "K")]
+        shard: usize,
+        /// Where to write the rows.
+        #[arg(long, value_name = "DIR")]
+        out_dir: PathBuf,
+        /// An earlier bake with the same plan whose rays are taken over where nothing changed.
+        #[arg(long, value_name = "OLD.rad")]
+        reuse: Option<PathBuf>,
+        /// Print one JSON line.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Assemble a planned bake from every shard's rows: the same file as `bake --plan`.
+    BakeAssemble {
+        /// The scene file.
+        scene: PathBuf,
+        /// The plan.
+        #[arg(long, value_name = "PLAN.json")]
+        plan: PathBuf,
+        /// The folder of the shards' rows.
+        #[arg(long, value_name = "DIR")]
+        rows: PathBuf,
+        /// Where to write the level (and its cache, OUT.rad.rows).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// An earlier bake with the same plan whose unchanged systems are taken over.
+        #[arg(long, value_name = "OLD.rad")]
+        reuse: Option<PathBuf>,
+        /// Print the bake report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Whether two .rad files are the same except the stored report's timings (exit 0, "same";
+    /// else exit 1 and where they differ).
+    Compare {
+        /// One file.
+        a: PathBuf,
+        /// The other.
+        b: PathBuf,
     },
     /// Light a scene (its emitters, plus analytic lights) and report per-object irradiance and radiosity.
     Solve {
@@ -253,8 +329,13 @@ fn parse() -> Result<Cli, clap::Error> {
     use clap::{CommandFactory, FromArgMatches};
     let matches = Cli::command().try_get_matches()?;
     let mut cli = Cli::from_arg_matches(&matches)?;
-    if let (Some((_, sub)), Command::Solve { bake, .. } | Command::Render { bake, .. }) =
-        (matches.subcommand(), &mut cli.command)
+    if let (
+        Some((_, sub)),
+        Command::Solve { bake, .. }
+        | Command::Render { bake, .. }
+        | Command::Bake { bake, .. }
+        | Command::BakePlan { bake, .. },
+    ) = (matches.subcommand(), &mut cli.command)
     {
         bake.given = BakeArgs::given_in(sub);
     }
@@ -305,10 +386,48 @@ fn main() -> ExitCode {
             scene,
             output,
             bake,
+            plan: Some(plan),
+            reuse,
+            json,
+            ..
+        } => planned::run_bake(&scene, &output, &bake, &plan, reuse.as_deref(), json),
+        Command::Bake {
+            scene,
+            output,
+            bake,
             probes,
             probe_rank,
             json,
+            ..
         } => bake::run(&scene, &output, &bake, &probes, &probe_rank, json),
+        Command::BakePlan {
+            scene,
+            output,
+            bake,
+            shards,
+            json,
+        } => planned::run_plan(&scene, &output, &bake, shards.map(|k| k as usize), json),
+        Command::BakeShard {
+            scene,
+            plan,
+            shard,
+            out_dir,
+            reuse,
+            json,
+        } => planned::run_shard(&scene, &plan, shard, &out_dir, reuse.as_deref(), json),
+        Command::BakeAssemble {
+            scene,
+            plan,
+            rows,
+            output,
+            reuse,
+            json,
+        } => planned::run_assemble(&scene, &plan, &rows, &output, reuse.as_deref(), json),
+        Command::Compare { a, b } => match planned::run_compare(&a, &b) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::from(1),
+            Err(e) => Err(e),
+        },
         Command::Solve {
             input,
             bake,

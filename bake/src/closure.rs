@@ -396,26 +396,36 @@ pub(crate) const EXPOSED: u32 = u32::MAX;
 pub(crate) fn survey(patches: &Patches, occ: &Occluders) -> Vec<Vec<u32>> {
     (0..patches.len())
         .into_par_iter()
-        .map(|i| {
-            let Some(starts) = Starts::new(patches, i) else {
-                return Vec::new();
-            };
-            let look = |k: u32| {
-                let (piece, _, x, n) = starts.point(k);
-                if occ.covered(piece.triangle, x) || occ.buried(x, n) {
-                    piece.object
-                } else {
-                    EXPOSED
-                }
-            };
-            let mut seen: Vec<u32> = (0..BURIED_FIRST).map(look).collect();
-            if seen.iter().all(|&o| o == EXPOSED) {
-                return Vec::new();
-            }
-            seen.extend((BURIED_FIRST..BURIED_POINTS).map(look));
-            seen
-        })
+        .map(|i| survey_one(patches, occ, i))
         .collect()
+}
+
+/// [`survey`] of the patches `rows` only, in that order (a shard's, [`crate::plan`]).
+pub(crate) fn survey_rows(patches: &Patches, occ: &Occluders, rows: &[u32]) -> Vec<Vec<u32>> {
+    rows.par_iter()
+        .map(|&i| survey_one(patches, occ, i as usize))
+        .collect()
+}
+
+/// [`survey`] of patch `i`.
+fn survey_one(patches: &Patches, occ: &Occluders, i: usize) -> Vec<u32> {
+    let Some(starts) = Starts::new(patches, i) else {
+        return Vec::new();
+    };
+    let look = |k: u32| {
+        let (piece, _, x, n) = starts.point(k);
+        if occ.covered(piece.triangle, x) || occ.buried(x, n) {
+            piece.object
+        } else {
+            EXPOSED
+        }
+    };
+    let mut seen: Vec<u32> = (0..BURIED_FIRST).map(look).collect();
+    if seen.iter().all(|&o| o == EXPOSED) {
+        return Vec::new();
+    }
+    seen.extend((BURIED_FIRST..BURIED_POINTS).map(look));
+    seen
 }
 
 /// The buried share of patch `i`'s area and its buried area per object of its pieces

@@ -29,18 +29,7 @@ pub(crate) fn form_factors(
         })
         .flatten();
     if let Some(s) = sparse {
-        let summary = FormFactors {
-            n: s.n,
-            matrix: Vec::new(),
-            rays_cast: s.rays_cast,
-            row_sums: Vec::new(),
-            reciprocity_error: 0.0,
-            pieces: patches.pieces.len(),
-            sites: 0,
-            clustered_pairs: 0,
-            rays_per_patch: s.rays_per_patch,
-        };
-        return (Exchange::Sparse(SparseRows::from_f32(s)), summary);
+        return sparse_exchange(s, patches.pieces.len());
     }
     let mut ff = form_factors_surveyed(patches, occluders, params, Some(burial), Some(progress));
     // F in f64 from here on; the f32 matrix goes as soon as it is converted.
@@ -49,6 +38,23 @@ pub(crate) fn form_factors(
         .map(f64::from)
         .collect();
     (Exchange::Dense(Dense::new(patches.len(), values)), ff)
+}
+
+/// Ray-cast sparse rows as the discretisation holds them, with their summary (`pieces`: the
+/// patches' pieces).
+pub(crate) fn sparse_exchange(s: SparseFormFactors, pieces: usize) -> (Exchange, FormFactors) {
+    let summary = FormFactors {
+        n: s.n,
+        matrix: Vec::new(),
+        rays_cast: s.rays_cast,
+        row_sums: Vec::new(),
+        reciprocity_error: 0.0,
+        pieces,
+        sites: 0,
+        clustered_pairs: 0,
+        rays_per_patch: s.rays_per_patch,
+    };
+    (Exchange::Sparse(SparseRows::from_f32(s)), summary)
 }
 
 /// F in f64 by rows of its stored entries (compressed sparse rows, columns increasing). The
@@ -390,6 +396,25 @@ fn live_rows(
     }
 }
 
+/// F among the `live` patches (increasing indices), in F's own buffer: entry `(a, b)` of the
+/// result is `F[live[a]][live[b]]`. Moving entries forward in row-major order never overwrites
+/// one still to be read (the destination `a·m + b` is at most the source `live[a]·n +
+/// live[b]`, both increasing).
+pub(crate) fn live_rows_dense(f: Dense, live: &[usize]) -> Dense {
+    let (n, m) = (f.n, live.len());
+    let mut values = f.values;
+    let mut to = 0;
+    for &i in live {
+        for &j in live {
+            values[to] = values[i * n + j];
+            to += 1;
+        }
+    }
+    values.truncate(m * m);
+    values.shrink_to_fit();
+    Dense::new(m, values)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -478,5 +503,19 @@ mod tests {
             dense.reciprocity_error(&areas),
             sparse.reciprocity_error(&areas)
         );
+    }
+
+    #[test]
+    fn live_rows_keep_the_live_block_in_place() {
+        let n = 5;
+        let f = Dense::new(n, (0..n * n).map(|e| e as f64).collect());
+        for live in [vec![0, 2, 3], vec![1, 4], vec![0, 1, 2, 3, 4], vec![4]] {
+            let want: Vec<f64> = live
+                .iter()
+                .flat_map(|&i| live.iter().map(move |&j| (i * n + j) as f64))
+                .collect();
+            let got = live_rows_dense(f.clone(), &live);
+            assert_eq!((got.n, &got.values), (live.len(), &want), "{live:?}");
+        }
     }
 }

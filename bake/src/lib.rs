@@ -71,6 +71,8 @@ pub mod sky;
 
 pub mod systems;
 
+pub mod plan;
+
 // Beside the pipeline.
 pub mod check;
 pub mod error;

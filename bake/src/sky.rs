@@ -91,12 +91,13 @@ pub(crate) fn attach(out: BakeOutput, on: bool, hooks: Hooks<'_>) -> Result<Bake
         Effect::new(
             true,
             format!(
-                "{} of {} patches see the sky ({:.1}% of the surface, cosine-weighted): {} rays, {:.2} s",
+                // No seconds here: the report's text stays the same from bake to bake but
+                // for its timings (`timings_ms.sky`, `sky.seconds`).
+                "{} of {} patches see the sky ({:.1}% of the surface, cosine-weighted): {} rays",
                 measured.open_patches,
                 file.n(),
                 100.0 * measured.open_share,
                 measured.rays,
-                seconds
             ),
         )
     };

@@ -13,6 +13,85 @@
 use crate::form_factor::SparseFormFactors;
 use crate::simplify::Patches;
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// Space cut into systems by axis-aligned planes (a k-d tree): a point belongs to the leaf it
+/// reaches going `below` where its coordinate on `axis` is less than `at`, `above` otherwise.
+/// A plan keeps its systems this way ([`crate::plan`]), so they still apply to a scene
+/// whose objects moved.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Region {
+    /// A plane and the two sides.
+    Cut {
+        /// 0, 1 or 2 (x, y, z).
+        axis: u8,
+        /// Where the plane crosses the axis.
+        at: f64,
+        /// The side below the plane.
+        below: Box<Region>,
+        /// The side at or above it.
+        above: Box<Region>,
+    },
+    /// One system.
+    System {
+        /// Its number (leaves numbered from 0 in order, below before above).
+        system: u32,
+    },
+}
+
+impl Region {
+    /// The system of the point `p`.
+    pub fn system_of(&self, p: DVec3) -> u32 {
+        let mut node = self;
+        loop {
+            match node {
+                Region::System { system } => return *system,
+                Region::Cut {
+                    axis,
+                    at,
+                    below,
+                    above,
+                } => {
+                    node = if p[usize::from(*axis).min(2)] < *at {
+                        below
+                    } else {
+                        above
+                    }
+                }
+            }
+        }
+    }
+
+    /// Systems (leaves).
+    pub fn count(&self) -> usize {
+        match self {
+            Region::System { .. } => 1,
+            Region::Cut { below, above, .. } => below.count() + above.count(),
+        }
+    }
+
+    /// Whether the leaves are numbered 0, 1, … in order and every axis is 0 to 2 and every
+    /// plane finite (what a plan read from a file must be).
+    pub fn is_well_formed(&self) -> bool {
+        fn walk(r: &Region, next: &mut u32) -> bool {
+            match r {
+                Region::System { system } => {
+                    let ok = *system == *next;
+                    *next += 1;
+                    ok
+                }
+                Region::Cut {
+                    axis,
+                    at,
+                    below,
+                    above,
+                } => *axis <= 2 && at.is_finite() && walk(below, next) && walk(above, next),
+            }
+        }
+        walk(self, &mut 0)
+    }
+}
 
 /// The patches as the cut sees them.
 struct Sites<'a> {
@@ -87,6 +166,31 @@ pub fn partition_sites(
     ff: &SparseFormFactors,
     max_patches: usize,
 ) -> Partition {
+    cut_sites(centres, areas, ff, max_patches, false).0
+}
+
+/// [`partition_sites`] by planes that fall between patch centres, so that the cut is also
+/// the [`Region`] returned (a plane never passes between two patches of the same coordinate:
+/// where none that keeps both sides within capacity exists, the side nearest its share).
+///
+/// # Panics
+/// If `ff`, `centres` and `areas` are not of the same patches.
+pub fn partition_regions(
+    centres: &[DVec3],
+    areas: &[f64],
+    ff: &SparseFormFactors,
+    max_patches: usize,
+) -> (Partition, Region) {
+    cut_sites(centres, areas, ff, max_patches, true)
+}
+
+fn cut_sites(
+    centres: &[DVec3],
+    areas: &[f64],
+    ff: &SparseFormFactors,
+    max_patches: usize,
+    clean: bool,
+) -> (Partition, Region) {
     assert!(
         ff.n == centres.len() && ff.n == areas.len(),
         "form factors of these patches"
@@ -98,39 +202,45 @@ pub fn partition_sites(
     let mut rank = vec![u32::MAX; ff.n];
     let all: Vec<u32> = (0..ff.n as u32).collect();
     let parts = ff.n.div_ceil(max).max(1);
-    cut(
-        &sites,
-        ff,
-        all,
-        parts,
-        max,
-        &mut rank,
-        &mut system,
-        &mut count,
-    );
-    Partition { system, count }
+    let mut state = CutState {
+        rank: &mut rank,
+        system: &mut system,
+        count: &mut count,
+        clean,
+    };
+    let region = cut(&sites, ff, all, parts, max, &mut state);
+    (Partition { system, count }, region)
 }
 
-/// Cuts `set` into `parts` systems of at most `max` patches, numbered from `*count` on.
-/// `rank` is scratch, `u32::MAX` outside the set being cut.
-#[allow(clippy::too_many_arguments)]
+/// What [`cut`] writes as it goes: scratch ranks (`u32::MAX` outside the set being cut), each
+/// patch's system, the systems so far, and whether planes must fall between centres.
+struct CutState<'a> {
+    rank: &'a mut [u32],
+    system: &'a mut [u32],
+    count: &'a mut usize,
+    clean: bool,
+}
+
+/// Cuts `set` into `parts` systems of at most `max` patches, numbered from `*state.count`
+/// on; the cut as a [`Region`].
 fn cut(
     patches: &Sites<'_>,
     ff: &SparseFormFactors,
     mut set: Vec<u32>,
     parts: usize,
     max: usize,
-    rank: &mut [u32],
-    system: &mut [u32],
-    count: &mut usize,
-) {
+    state: &mut CutState<'_>,
+) -> Region {
     if parts <= 1 || set.len() <= max {
         for &i in &set {
-            system[i as usize] = *count as u32;
+            state.system[i as usize] = *state.count as u32;
         }
-        *count += 1;
-        return;
+        *state.count += 1;
+        return Region::System {
+            system: *state.count as u32 - 1,
+        };
     }
+    let rank = &mut *state.rank;
     let left_parts = parts / 2;
     let right_parts = parts - left_parts;
     let n = set.len();
@@ -165,7 +275,8 @@ fn cut(
         let mut run = 0.0;
         for (k, d) in diff.iter().enumerate().take(hi + 1) {
             run += d;
-            if k >= lo {
+            let between = |k: usize| key(set[k - 1]) < key(set[k]);
+            if k >= lo && (!state.clean || between(k)) {
                 let better = best.is_none_or(|(c, _, bk)| {
                     run < c - 1e-9 * c.abs()
                         || (run <= c + 1e-9 * c.abs() && k.abs_diff(target) < bk.abs_diff(target))
@@ -179,12 +290,41 @@ fn cut(
     for &i in &set {
         rank[i as usize] = u32::MAX;
     }
-    let (_, axis, k) = best.expect("a feasible position: parts · max ≥ the set's size");
+    let (axis, k) = match best {
+        Some((_, axis, k)) => (axis, k),
+        // Only where planes must fall between centres and none within capacity does: the
+        // position between distinct centres nearest the share, on the axis that has one.
+        None => clean_fallback(patches, &mut set, n * left_parts / parts)
+            .expect("patches at distinct centres on some axis"),
+    };
     let key = |i: u32| patches.centres[i as usize][axis];
     set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+    let at = 0.5 * (key(set[k - 1]) + key(set[k]));
     let right = set.split_off(k);
-    cut(patches, ff, set, left_parts, max, rank, system, count);
-    cut(patches, ff, right, right_parts, max, rank, system, count);
+    let below = cut(patches, ff, set, left_parts, max, state);
+    let above = cut(patches, ff, right, right_parts, max, state);
+    Region::Cut {
+        axis: axis as u8,
+        at,
+        below: Box::new(below),
+        above: Box::new(above),
+    }
+}
+
+/// The position `k` between two distinct centres nearest `target` over the three axes, with
+/// its axis.
+fn clean_fallback(patches: &Sites<'_>, set: &mut [u32], target: usize) -> Option<(usize, usize)> {
+    let mut best: Option<(usize, usize, usize)> = None; // (distance, axis, k)
+    for axis in 0..3 {
+        let key = |i: u32| patches.centres[i as usize][axis];
+        set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+        for k in 1..set.len() {
+            if key(set[k - 1]) < key(set[k]) && best.is_none_or(|b| k.abs_diff(target) < b.0) {
+                best = Some((k.abs_diff(target), axis, k));
+            }
+        }
+    }
+    best.map(|(_, axis, k)| (axis, k))
 }
 
 /// A level numbered system by system: what a systems bake stores besides each system's own

@@ -40,9 +40,15 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 /// Seed of the ray streams (any fixed value: it only has to differ from the checks' seeds).
 const SEED: u64 = 0x5EED_CA57_F0F0_0001;
 
-/// The ray streams of patch `i`: the two scrambles and the permutation's generator.
-fn streams(i: usize) -> ([u32; 2], [u32; 2], SplitMix64) {
-    let mut rng = SplitMix64(SEED ^ (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+/// The seed of patch `i`'s ray streams ([`crate::simplify::BakePatch::seed`]) in a bake
+/// without a plan.
+pub(crate) fn index_seed(i: usize) -> u64 {
+    (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+/// The ray streams of a patch's `seed`: the two scrambles and the permutation's generator.
+fn streams(seed: u64) -> ([u32; 2], [u32; 2], SplitMix64) {
+    let mut rng = SplitMix64(SEED ^ seed);
     let mut scramble = || {
         let v = rng.next_u64();
         [v as u32, (v >> 32) as u32]
@@ -75,7 +81,7 @@ impl<'a> Starts<'a> {
         (!pieces.is_empty() && total > 0.0).then(|| Self {
             pieces,
             cumulative,
-            at: streams(i).0,
+            at: streams(patches.patches[i].seed).0,
         })
     }
 
@@ -119,13 +125,43 @@ fn cast_row(
     buried: &[u32],
     mut hit: impl FnMut(usize),
 ) {
+    let far = 10.0 * occ.extent();
+    rays_of(patches, i, rays, buried, |x, d| {
+        if let Some(j) = first_patch(patches, owners, occ, x, d, far) {
+            hit(j);
+        }
+    });
+}
+
+/// The patch a ray from `x` along `d` first meets the front of, if any ([`cast_row`]).
+pub(crate) fn first_patch(
+    patches: &Patches,
+    owners: &Owners,
+    occ: &Occluders,
+    x: DVec3,
+    d: DVec3,
+    far: f64,
+) -> Option<usize> {
+    match occ.first_surface_from_surface(x, d, far) {
+        Some((h, true)) => owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance),
+        _ => None,
+    }
+}
+
+/// Calls `ray(start, direction)` for each of patch `i`'s rays in [`cast_row`]'s order.
+pub(crate) fn rays_of(
+    patches: &Patches,
+    i: usize,
+    rays: u32,
+    buried: &[u32],
+    mut ray: impl FnMut(DVec3, DVec3),
+) {
     let Some(starts) = Starts::new(patches, i) else {
         return;
     };
-    let (_, towards, mut rng) = streams(i);
+    let (_, towards, mut rng) = streams(patches.patches[i].seed);
     let mut order: Vec<u32> = (0..rays).collect();
     rng.shuffle(&mut order);
-    let far = 10.0 * occ.extent();
     for (k, &p) in order.iter().enumerate() {
         let mut k = k as u32;
         if !buried.is_empty() {
@@ -136,12 +172,7 @@ fn cast_row(
         }
         let (_, _, x, n) = starts.point(k);
         let [a, b] = sobol2(towards, p);
-        let d = cosine_at(n, a, b);
-        if let Some((h, true)) = occ.first_surface_from_surface(x, d, far)
-            && let Some(j) = owners.patch_at(&patches.pieces, h.triangle, x + d * h.distance)
-        {
-            hit(j);
-        }
+        ray(x, cosine_at(n, a, b));
     }
 }
 
@@ -251,40 +282,82 @@ pub(super) fn cast_sparse(
     coverage: Option<&[f64]>,
     progress: Option<Progress<'_>>,
 ) -> SparseFormFactors {
-    let n = patches.len();
+    let all: Vec<u32> = (0..patches.len() as u32).collect();
+    let counts = count_rows(
+        patches,
+        occ,
+        rays,
+        &all,
+        &|i| burial.get(i).map_or(&[][..], Vec::as_slice),
+        progress,
+    );
+    pool(patches, &counts, rays, coverage)
+}
+
+/// Hits of a patch's rays: `(patch, count)` with patches increasing.
+pub(crate) type HitCounts = Vec<(u32, u32)>;
+
+/// The hit counts of the rows `rows` (each patch's rays, [`cast_row`]), in that order:
+/// the part of [`cast_sparse`] that each shard of a distributed bake does for its own
+/// patches ([`crate::plan`]). `burial(i)`: patch `i`'s survey.
+pub(crate) fn count_rows<'b>(
+    patches: &Patches,
+    occ: &Occluders,
+    rays: u32,
+    rows: &[u32],
+    burial: &(dyn Fn(usize) -> &'b [u32] + Sync),
+    progress: Option<Progress<'_>>,
+) -> Vec<HitCounts> {
     assert!(rays < 1 << 24, "ray counts must be exact in f32");
     let owners = Owners::new(patches);
     let done = AtomicUsize::new(0);
     let stopped = AtomicBool::new(false);
-    // Hits of each row, as (patch, count) with patches increasing.
-    let counts: Vec<Vec<(u32, u32)>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
+    let total = rows.len();
+    rows.par_iter()
+        .map(|&i| {
+            let i = i as usize;
             if stopped.load(Ordering::Relaxed) {
                 return Vec::new();
             }
-            let buried = burial.get(i).map_or(&[][..], Vec::as_slice);
             let mut hits: Vec<u32> = Vec::new();
-            cast_row(patches, &owners, occ, i, rays, buried, |j| {
+            cast_row(patches, &owners, occ, i, rays, burial(i), |j| {
                 hits.push(j as u32)
             });
-            hits.sort_unstable();
-            let mut row: Vec<(u32, u32)> = Vec::new();
-            for j in hits {
-                match row.last_mut() {
-                    Some((k, c)) if *k == j => *c += 1,
-                    _ => row.push((j, 1)),
-                }
-            }
+            let row = tally(hits);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(p) = progress
-                && !p(d, n)
+                && !p(d, total)
             {
                 stopped.store(true, Ordering::Relaxed);
             }
             row
         })
-        .collect();
+        .collect()
+}
+
+/// `(patch, count)` of a list of hits, patches increasing.
+pub(crate) fn tally(mut hits: Vec<u32>) -> HitCounts {
+    hits.sort_unstable();
+    let mut row: HitCounts = Vec::new();
+    for j in hits {
+        match row.last_mut() {
+            Some((k, c)) if *k == j => *c += 1,
+            _ => row.push((j, 1)),
+        }
+    }
+    row
+}
+
+/// The pooled form factors of every patch's hit counts (`counts[i]`, [`count_rows`]): the
+/// second half of [`cast_sparse`].
+pub(crate) fn pool(
+    patches: &Patches,
+    counts: &[HitCounts],
+    rays: u32,
+    coverage: Option<&[f64]>,
+) -> SparseFormFactors {
+    let n = patches.len();
+    assert_eq!(counts.len(), n, "a row of counts for every patch");
     // The other side of each pair: row i of the transpose holds (j, hits from j to i).
     let mut transpose: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
     for (j, row) in counts.iter().enumerate() {

@@ -60,7 +60,7 @@
 //! On Greg Ward's conference room (330 000 triangles, 4410 patches) this took the form factors
 //! from an estimated 4 h to minutes on 2 cores (ARCHITECTURE.md has the measurements).
 
-mod cast;
+pub(crate) mod cast;
 mod clustered;
 mod exact;
 mod flat;

@@ -10,11 +10,11 @@ use crate::scene::{LoadOptions, Scene};
 use crate::simplify::VoxelParams;
 use crate::transfer::BounceSpec;
 use radiosity_core::Format;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// A flag's value as JSON gives it: text (`"inf"`, `"auto"`) or a number (`3`).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(untagged)]
 pub enum Word {
     /// A string.
@@ -41,40 +41,56 @@ impl From<&str> for Word {
 /// Every bake flag, by its long name with `_` for `-` (`--form-factors` is `form_factors`);
 /// `None` takes the command line's default. Unknown keys are refused when read from JSON
 /// ([`BakeFlags::from_json`]).
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct BakeFlags {
     /// Target patch count.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub patches: Option<usize>,
     /// Voxel cell size in scene units (instead of `patches`).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub voxel: Option<f64>,
     /// Bounces: a number K ≥ 1, `inf`, or `auto` (the default).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub bounces: Option<Word>,
     /// Storage format: auto (the default), bc1, bc4, u8, f16, f32.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub format: Option<String>,
     /// Patch order: none, random, paper, spatial, best (the default).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub order: Option<String>,
     /// Fraction of the largest entries kept exactly.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sparse: Option<f32>,
     /// Share of the 4×4 blocks given a block correction.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub corrections: Option<f32>,
     /// Largest tile side in patches (a multiple of 4).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub tile: Option<u32>,
     /// Form factors: draft, default, fine.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub form_factors: Option<String>,
     /// Lower reflectances at or above this, in (0, 1), to it with a warning.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub max_reflectance: Option<f64>,
     /// Direct-light points a patch has at least (1 to 64).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub direct_points: Option<u32>,
     /// Direct-light points of a patch a shadow may cross (1 to 64).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub shadow_points: Option<u32>,
     /// Light probes: `auto` (the default), `none`, a spacing, or a JSON file of points.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub probes: Option<Word>,
     /// What the probes store: `auto` (the default), `full` or a rank.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub probe_rank: Option<Word>,
     /// Sky visibility: `on` (the default) or `off`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sky: Option<String>,
     /// Systems: `auto` (the default), `off` or a count.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub systems: Option<Word>,
 }
 

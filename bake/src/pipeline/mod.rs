@@ -7,7 +7,7 @@
 
 mod params;
 mod report;
-mod systems;
+pub(crate) mod systems;
 
 pub use crate::closure::Exposure;
 pub use crate::dark::{DarkCheck, check_dark};
@@ -94,6 +94,9 @@ pub struct Discretised {
     pub form_factors: FormFactorSummary,
     /// Largest reciprocity error of F.
     pub reciprocity_error: f64,
+    /// Each patch's identity under a plan ([`crate::plan::reuse::patch_keys`]); empty
+    /// without one.
+    pub keys: Vec<[u8; 16]>,
     /// Milliseconds of `simplify`, `plan`, `form_factors` and `closure` (burial and closure).
     pub timings_ms: BTreeMap<&'static str, f64>,
 }
@@ -128,6 +131,17 @@ pub fn discretise(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<Discretised, BakeError> {
+    discretise_with(scene, params, hooks, None)
+}
+
+/// [`discretise`], with the burial survey and the ray-cast hit counts `given` (a plan's
+/// shards computed them, [`crate::plan`]) in place of its own.
+pub(crate) fn discretise_with(
+    scene: &Scene,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+    given: Option<crate::plan::GivenRows>,
+) -> Result<Discretised, BakeError> {
     let most = crate::simplify::runtime_mesh::MAX_DIRECT_POINTS;
     if !(1..=most).contains(&params.direct_points) {
         return Err(BakeError::InvalidParams(format!(
@@ -150,6 +164,10 @@ pub fn discretise(
 
     hooks.start("simplify")?;
     let mut patches = simplify(scene, &params.voxel)?;
+    let keys = match given {
+        Some(_) => crate::plan::reuse::seed_patches(scene, &mut patches),
+        None => Vec::new(),
+    };
     lap("simplify", &mut timings);
 
     let mut effects = Effects::new();
@@ -161,27 +179,38 @@ pub fn discretise(
     if !occlusion.on {
         ffp.visibility = Visibility::Off;
     }
-    let occluders = occlusion.on.then(|| scene.occluders());
+    // A plan's rows are always ray-cast, so they always have the BVH.
+    let occluders = (occlusion.on || given.is_some()).then(|| scene.occluders());
     effects.insert("occlusion", occlusion);
     effects.insert("emission", effects::plan_emission(&patches));
     lap("plan", &mut timings);
 
     hooks.start("form factors")?;
-    // Which points other objects bury, asked once for the ray-cast rows and the closure.
-    let burial = occluders
-        .as_ref()
-        .map(|o| crate::closure::survey(&patches, o))
-        .unwrap_or_default();
-    lap("burial", &mut timings);
-    let go_on = |done: usize, total: usize| hooks.report(done, total);
-    let (mut f, ff) = crate::exchange::form_factors(
-        &patches,
-        occluders.as_ref(),
-        &ffp,
-        &burial,
-        &go_on,
-        params.systems.count_for(patches.len()).is_some(),
-    );
+    let (burial, (mut f, ff)) = match (given, occluders.as_ref()) {
+        (Some(given), Some(occ)) => {
+            lap("burial", &mut timings);
+            given.exchange(&patches, occ)?
+        }
+        _ => {
+            // Which points other objects bury, asked once for the ray-cast rows and the
+            // closure.
+            let burial = occluders
+                .as_ref()
+                .map(|o| crate::closure::survey(&patches, o))
+                .unwrap_or_default();
+            lap("burial", &mut timings);
+            let go_on = |done: usize, total: usize| hooks.report(done, total);
+            let f = crate::exchange::form_factors(
+                &patches,
+                occluders.as_ref(),
+                &ffp,
+                &burial,
+                &go_on,
+                params.systems.count_for(patches.len()).is_some(),
+            );
+            (burial, f)
+        }
+    };
     // The rows skipped after a cancellation leave the matrix incomplete: it goes no further.
     hooks.check()?;
     lap("form_factors", &mut timings);
@@ -313,7 +342,7 @@ pub fn discretise(
     // between surfaces: the transfer is zero and the file carries everything else (patches,
     // mesh, direct light, probes), so that one code path serves every asset.
     let (f_live, sparse) = match f {
-        Exchange::Dense(d) => (live_rows(d, &live), None),
+        Exchange::Dense(d) => (crate::exchange::live_rows_dense(d, &live), None),
         sparse => (Dense::new(0, Vec::new()), Some(sparse.live_sparse(&live))),
     };
     let reflectance: Vec<[f64; 3]> = live
@@ -335,29 +364,11 @@ pub fn discretise(
         direct_points,
         part_rows,
         rays_cast: ff.rays_cast,
+        keys,
         form_factors: params.form_factors.summary(),
         reciprocity_error,
         timings_ms: timings,
     })
-}
-
-/// F among the `live` patches (increasing indices), in F's own buffer: entry `(a, b)` of the
-/// result is `F[live[a]][live[b]]`. Moving entries forward in row-major order never overwrites
-/// one still to be read (the destination `a·m + b` is at most the source `live[a]·n +
-/// live[b]`, both increasing).
-fn live_rows(f: Dense, live: &[usize]) -> Dense {
-    let (n, m) = (f.n, live.len());
-    let mut values = f.values;
-    let mut to = 0;
-    for &i in live {
-        for &j in live {
-            values[to] = values[i * n + j];
-            to += 1;
-        }
-    }
-    values.truncate(m * m);
-    values.shrink_to_fit();
-    Dense::new(m, values)
 }
 
 /// The `flat_sites` and `clustered_pairs` decisions the form factors made, with their reasons.
@@ -770,24 +781,5 @@ fn to_core_patch(patches: &Patches, i: usize) -> Patch {
         object: p.object,
         reflectance: p.reflectance,
         emission: p.emission,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn live_rows_keep_the_live_block_in_place() {
-        let n = 5;
-        let f = Dense::new(n, (0..n * n).map(|e| e as f64).collect());
-        for live in [vec![0, 2, 3], vec![1, 4], vec![0, 1, 2, 3, 4], vec![4]] {
-            let want: Vec<f64> = live
-                .iter()
-                .flat_map(|&i| live.iter().map(move |&j| (i * n + j) as f64))
-                .collect();
-            let got = live_rows(f.clone(), &live);
-            assert_eq!((got.n, &got.values), (live.len(), &want), "{live:?}");
-        }
     }
 }

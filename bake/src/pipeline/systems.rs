@@ -13,8 +13,9 @@ use crate::effects::Effect;
 use crate::encode::{ErrorWeights, SparseSelection, encode_dense_with};
 use crate::form_factor::SparseFormFactors;
 use crate::order::{Candidate, OrderKind};
+use crate::plan::rows::SystemRecord;
 use crate::scene::Scene;
-use crate::systems::{Split, partition_sites};
+use crate::systems::{Partition, Region, Split, partition_sites};
 use crate::transfer::BounceSpec;
 use radiosity_core::container::LevelSystems;
 use radiosity_core::{Bounces, DecodeMode, MatrixLayout, RadFile, Rgb, TransferMatrix};
@@ -79,6 +80,33 @@ pub struct SystemsReport {
     pub coupling_bytes: usize,
 }
 
+/// How a level is cut into systems.
+pub(crate) enum SystemsCut<'a> {
+    /// Into this many, along the planes of least exchange.
+    Least(usize),
+    /// By a plan's regions ([`crate::plan`]); the systems of an earlier bake with the same
+    /// plan whose inputs are unchanged are taken from it.
+    Plan {
+        regions: &'a Region,
+        plan_hash: [u8; 32],
+        old: Option<&'a OldSystems>,
+    },
+}
+
+/// An earlier level baked with the same plan, and its systems' records.
+pub(crate) struct OldSystems {
+    pub(crate) level: RadFile<'static>,
+    pub(crate) records: Vec<SystemRecord>,
+}
+
+/// A level's bake with its systems' records, and for each system that was not taken from
+/// an earlier bake, why (`None` where it was).
+pub(crate) struct SystemsBake {
+    pub(crate) output: BakeOutput,
+    pub(crate) records: Vec<SystemRecord>,
+    pub(crate) rebaked: Vec<Option<String>>,
+}
+
 /// [`super::second_half`] for `count` systems: each system's own transfer and encoding, in a
 /// level file.
 pub(super) fn second_half_systems(
@@ -89,6 +117,67 @@ pub(super) fn second_half_systems(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<BakeOutput, BakeError> {
+    let n = system.len();
+    if count == 0 || count > n {
+        return Err(BakeError::InvalidParams(format!(
+            "systems must be 1 to the {n} patches, not {count}"
+        )));
+    }
+    let cut = SystemsCut::Least(count);
+    Ok(systems_bake(scene, system, ff, cut, params, hooks)?.output)
+}
+
+/// The systems of the live patches by the region of their centres (the regions no patch
+/// lies in left out), and each system's region.
+fn plan_partition(system: &Discretised, regions: &Region) -> (Partition, Vec<u32>) {
+    let of: Vec<u32> = (system.live.iter())
+        .map(|&i| regions.system_of(system.patches.patches[i].centre))
+        .collect();
+    let mut used = of.clone();
+    used.sort_unstable();
+    used.dedup();
+    let system = of
+        .iter()
+        .map(|r| used.binary_search(r).expect("a used region") as u32)
+        .collect();
+    let count = used.len();
+    (Partition { system, count }, used)
+}
+
+/// BLAKE3 of everything system `s`'s file is made from: the plan, its region, its own form
+/// factors, reflectances, patches and the scene's object names.
+fn input_hash(
+    plan_hash: &[u8; 32],
+    region: u32,
+    block: &crate::transfer::Dense,
+    reflectance: &[[f64; 3]],
+    patches: &[radiosity_core::Patch],
+    scene: &Scene,
+) -> [u8; 32] {
+    let mut h = blake3::Hasher::new();
+    h.update(plan_hash);
+    h.update(&region.to_le_bytes());
+    h.update(&(block.n as u64).to_le_bytes());
+    for v in block.values.iter().chain(reflectance.iter().flatten()) {
+        h.update(&v.to_bits().to_le_bytes());
+    }
+    h.update(bytemuck::cast_slice(patches));
+    for o in &scene.objects {
+        h.update(o.as_bytes());
+        h.update(&[0xff]);
+    }
+    *h.finalize().as_bytes()
+}
+
+/// [`second_half_systems`] cut as `cut` says, with its systems' records.
+pub(crate) fn systems_bake(
+    scene: &Scene,
+    system: &Discretised,
+    ff: Cow<'_, SparseFormFactors>,
+    cut: SystemsCut<'_>,
+    params: &BakeParams,
+    hooks: Hooks<'_>,
+) -> Result<SystemsBake, BakeError> {
     let mut timings = system.timings_ms.clone();
     let t_all = Instant::now();
     let mut clock = Instant::now();
@@ -99,11 +188,6 @@ pub(super) fn second_half_systems(
     let n = system.len();
     let channels = system.channels;
     let mut effects = system.effects.clone();
-    if count == 0 || count > n {
-        return Err(BakeError::InvalidParams(format!(
-            "systems must be 1 to the {n} patches, not {count}"
-        )));
-    }
 
     let probes_note = match params.probes {
         crate::probes::ProbeSpec::None => None,
@@ -127,9 +211,23 @@ pub(super) fn second_half_systems(
         .iter()
         .map(|&i| system.patches.patches[i].area)
         .collect();
-    let cut = partition_sites(&centres, &areas, &ff, n.div_ceil(count));
-    let crossing_share = cut.crossing_share_sites(&areas, &ff);
-    let split = Split::new(&ff, &cut);
+    let (partition, region_of, plan_hash, old) = match cut {
+        SystemsCut::Least(count) => {
+            let p = partition_sites(&centres, &areas, &ff, n.div_ceil(count));
+            let regions = (0..p.count as u32).collect();
+            (p, regions, None, None)
+        }
+        SystemsCut::Plan {
+            regions,
+            plan_hash,
+            old,
+        } => {
+            let (p, used) = plan_partition(system, regions);
+            (p, used, Some(plan_hash), old)
+        }
+    };
+    let crossing_share = partition.crossing_share_sites(&areas, &ff);
+    let split = Split::new(&ff, &partition);
     lap("systems", &mut timings);
 
     let (format, encode_params) = encode_params_for(params, channels);
@@ -147,6 +245,8 @@ pub(super) fn second_half_systems(
     let mut files = Vec::with_capacity(split.ranges.len());
     let mut bounces = Bounces::Infinite;
     let mut matrix_bytes = 0;
+    let mut records = Vec::with_capacity(split.ranges.len());
+    let mut rebaked = Vec::with_capacity(split.ranges.len());
     for (s, r) in split.ranges.iter().enumerate() {
         hooks.start(&format!("system {} of {}", s + 1, split.ranges.len()))?;
         let members = &split.order[r.clone()];
@@ -155,6 +255,45 @@ pub(super) fn second_half_systems(
             .iter()
             .map(|&k| system.reflectance[k as usize])
             .collect();
+        let patches: Vec<radiosity_core::Patch> = members
+            .iter()
+            .map(|&k| system.core_patches[k as usize])
+            .collect();
+        let region = region_of[s];
+        let input = plan_hash.map_or([0; 32], |h| {
+            input_hash(&h, region, &block, &reflectance, &patches, scene)
+        });
+        let (why, kept) = match old {
+            None => (None, None),
+            Some(old) => match old.records.iter().position(|o| o.region == region) {
+                None => (Some("its region held no system before".to_owned()), None),
+                Some(k) if old.records[k].input != input => (
+                    Some("its geometry, materials or light paths changed".to_owned()),
+                    None,
+                ),
+                Some(k) => (None, Some(k)),
+            },
+        };
+        if let (Some(k), Some(old)) = (kept, old) {
+            let levels = old.level.systems.as_ref().expect("a level");
+            let file = levels
+                .system(&old.level, k)
+                .map_err(|e| BakeError::InvalidParams(format!("the old level's system {k}: {e}")))?
+                .into_owned();
+            let record = SystemRecord {
+                region,
+                ..old.records[k].clone()
+            };
+            effects.insert("bounces", Effect::new(true, record.bounces_text.clone()));
+            bounces = file.bounces;
+            err2 += record.err2;
+            norm2 += record.norm2;
+            matrix_bytes += record.matrix_bytes as usize;
+            files.push(file);
+            records.push(record);
+            rebaked.push(None);
+            continue;
+        }
         let t = Instant::now();
         let (m, transfer) = transfer_step(
             &reflectance,
@@ -167,10 +306,6 @@ pub(super) fn second_half_systems(
         transfer_ms += t.elapsed().as_secs_f64() * 1e3;
         bounces = transfer.bounces;
         let t = Instant::now();
-        let patches: Vec<radiosity_core::Patch> = members
-            .iter()
-            .map(|&k| system.core_patches[k as usize])
-            .collect();
         let emission: Vec<Rgb> = patches.iter().map(|p| p.emission).collect();
         let matrix = encode_dense_with(
             r.len(),
@@ -189,7 +324,24 @@ pub(super) fn second_half_systems(
         });
         err2 += e;
         norm2 += d;
-        matrix_bytes += matrix.blocks.len() + matrix.sparse.bytes() + matrix.corrections.bytes();
+        let bytes = matrix.blocks.len() + matrix.sparse.bytes() + matrix.corrections.bytes();
+        matrix_bytes += bytes;
+        records.push(SystemRecord {
+            region,
+            input,
+            err2: e,
+            norm2: d,
+            matrix_bytes: bytes as u64,
+            bounces_text: effects
+                .get("bounces")
+                .map(|e| e.why.clone())
+                .unwrap_or_default(),
+        });
+        rebaked.push(why.or_else(|| {
+            plan_hash
+                .is_some()
+                .then(|| "no earlier bake was given".to_owned())
+        }));
         files.push(RadFile {
             compression_rmse: Some(if d > 0.0 { (e / d).sqrt() as f32 } else { 0.0 }),
             ..RadFile::new(
@@ -314,7 +466,11 @@ pub(super) fn second_half_systems(
         report,
         patch_source,
     };
-    crate::sky::attach(out, params.sky, hooks)
+    Ok(SystemsBake {
+        output: crate::sky::attach(out, params.sky, hooks)?,
+        records,
+        rebaked,
+    })
 }
 
 fn objects_of(scene: &Scene) -> Vec<Cow<'static, str>> {

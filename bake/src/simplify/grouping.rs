@@ -119,6 +119,9 @@ pub(super) struct Loose<'a> {
     /// visibility test ([`LOOSE_PART`]). Off unless the patch target cannot be met without
     /// (`fit_patch_count`): a scene whose objects are few keeps one object a patch.
     pub(super) cross: std::cell::Cell<bool>,
+    /// Corner of the grid of cells ([`super::VoxelParams::origin`], else the scene's lowest
+    /// corner).
+    pub(super) origin: glam::DVec3,
 }
 
 impl Loose<'_> {
@@ -160,8 +163,7 @@ pub(super) fn group(
     h: f64,
     cos_max: f64,
 ) -> Grouping {
-    let (lo, _) = scene.bounds();
-    let origin = lo;
+    let origin = loose.origin;
     // Candidate groups per (cell, kind): every group of the cell and kind, and per (cell,
     // kind, connected surface, object) the groups that surface of that object already joined.
     let mut lookup: HashMap<([i64; 3], u32, u32), Vec<usize>> = HashMap::new();

@@ -44,6 +44,10 @@ pub struct VoxelParams {
     pub max_normal_angle_deg: f64,
     /// Accepted relative miss of a [`Resolution::TargetPatches`] target (0.1 = ±10%).
     pub tolerance: f64,
+    /// Corner of the grid of cells; `None`: the scene's lowest corner. A plan fixes it
+    /// ([`crate::plan`]), so that an object's patches do not move when another object
+    /// changes the scene's bounds.
+    pub origin: Option<DVec3>,
 }
 
 impl Default for VoxelParams {
@@ -52,6 +56,7 @@ impl Default for VoxelParams {
             resolution: Resolution::TargetPatches(1024),
             max_normal_angle_deg: 35.0,
             tolerance: 0.1,
+            origin: None,
         }
     }
 }
@@ -125,6 +130,10 @@ pub struct BakePatch {
     pub emission: Rgb,
     /// Its pieces: a range of [`Patches::pieces`].
     pub pieces: Range<usize>,
+    /// Seed of its ray streams (where its rays start and leave, `form_factor::cast`): from
+    /// its index, or under a plan from its identity ([`crate::plan::reuse::patch_keys`]), so
+    /// that its rays stay the same when other patches are renumbered.
+    pub seed: u64,
 }
 
 /// Per-vertex interpolation weights over patches, in compressed-row form: the weights of
@@ -251,6 +260,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         scene,
         component: &component,
         cross: std::cell::Cell::new(false),
+        origin: params.origin.unwrap_or(scene.bounds().0),
     };
     let mut warnings = Vec::new();
     let (lo, hi) = scene.bounds();
@@ -481,6 +491,7 @@ fn build_patches(scene: &Scene, grouping: Grouping) -> (Vec<BakePatch>, Vec<Piec
             ),
             emission: mat.emission,
             pieces: start..pieces.len(),
+            seed: crate::form_factor::cast::index_seed(patches.len()),
         });
     }
     (patches, pieces)

@@ -363,6 +363,12 @@ impl Occluders {
         self.extent
     }
 
+    /// The f32 frame of the BVH: its origin and local units per scene unit. Two BVHs of
+    /// the same frame give a ray the same f32 coordinates.
+    pub fn frame(&self) -> (DVec3, f64) {
+        (self.origin, self.scale)
+    }
+
     /// Whether the open segment `a`–`b` misses every triangle. The ends are excluded by
     /// `max(1e-4·|b−a|, 1e-6·extent)` each, so the surfaces the segment starts and ends on (and
     /// f32 rounding near them) never count as blockers; a segment too short for that margin is

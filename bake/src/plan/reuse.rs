@@ -1,0 +1,330 @@
+//! Hit counts carried over from an earlier bake with the same plan (`--reuse OLD.rad`,
+//! `docs/decisions/distributed-bake.md`).
+//!
+//! A patch's rays are seeded by its identity ([`patch_keys`]), so an unchanged patch casts
+//! the same rays in both scenes. A ray that meets none of what changed (the triangles of
+//! either scene without a twin in the other, and the pieces of patches without one) meets
+//! the same surface in both: its hit carries over. Only the rays whose line crosses the
+//! boxes of what changed are cast again, in the old scene (from the cache's triangles) to
+//! take their old hits out and in the new one to put the new hits in. A patch whose pieces
+//! or burial survey changed casts all its rays again; so does every patch when the BVH's
+//! f32 frame moved (the scene's bounds changed) or the rays per patch differ. The counts
+//! are those a full cast gives, and anything inconsistent falls back to the full cast.
+
+use super::Cache;
+use crate::form_factor::Progress;
+use crate::form_factor::cast::{self, HitCounts, first_patch, rays_of, tally};
+use crate::geometry::Occluders;
+use crate::hemisphere::Owners;
+use crate::scene::Scene;
+use crate::simplify::Patches;
+use glam::DVec3;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+
+/// How a shard's rows came about.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RowStats {
+    /// Rows.
+    pub rows: usize,
+    /// Rows carried over from the old bake (some of their rays cast again).
+    pub carried: usize,
+    /// Rows cast in full.
+    pub cast: usize,
+    /// Rays cast again in carried rows (each in the old and the new scene).
+    pub rays_recast: u64,
+    /// Why every row was cast, where one reason held for all.
+    pub why_all: Option<String>,
+}
+
+impl RowStats {
+    /// Every one of `rows` cast, for `why` (`None`: no old bake was given).
+    pub(crate) fn cast(rows: usize, why: Option<&str>) -> Self {
+        Self {
+            rows,
+            cast: rows,
+            why_all: why.map(str::to_owned),
+            ..Self::default()
+        }
+    }
+}
+
+/// Each patch's identity: BLAKE3 (first 16 bytes) of its pieces (polygons, normals, areas,
+/// the corners of their triangles and their objects' names).
+pub fn patch_keys(scene: &Scene, patches: &Patches) -> Vec<[u8; 16]> {
+    (0..patches.len())
+        .into_par_iter()
+        .map(|i| {
+            let mut h = blake3::Hasher::new();
+            for q in patches.pieces_of(i) {
+                let mut f = |v: f64| {
+                    h.update(&v.to_bits().to_le_bytes());
+                };
+                for p in q.polygon.vertices() {
+                    p.to_array().into_iter().for_each(&mut f);
+                }
+                q.normal.to_array().into_iter().for_each(&mut f);
+                f(q.area);
+                for p in patches.triangles[q.triangle as usize] {
+                    p.to_array().into_iter().for_each(&mut f);
+                }
+                h.update(scene.objects[q.object as usize].as_bytes());
+                h.update(&[0xff]);
+            }
+            let mut key = [0u8; 16];
+            key.copy_from_slice(&h.finalize().as_bytes()[..16]);
+            key
+        })
+        .collect()
+}
+
+/// Seeds every patch's rays by its identity ([`patch_keys`]), as a plan's bake does;
+/// returns the identities.
+pub(crate) fn seed_patches(scene: &Scene, patches: &mut Patches) -> Vec<[u8; 16]> {
+    let keys = patch_keys(scene, patches);
+    for (p, k) in patches.patches.iter_mut().zip(&keys) {
+        p.seed = u64::from_le_bytes(k[..8].try_into().expect("8 bytes"));
+    }
+    keys
+}
+
+/// A triangle's identity: its corners, whether it emits and its coverage.
+fn triangle_key(t: &[DVec3; 3], emits: bool, coverage: f32) -> [u64; 11] {
+    let mut k = [0u64; 11];
+    for (slot, v) in k.iter_mut().zip(t.iter().flat_map(|p| p.to_array())) {
+        *slot = v.to_bits();
+    }
+    k[9] = u64::from(emits);
+    k[10] = u64::from(coverage.to_bits());
+    k
+}
+
+/// Whether the ray `x + t·d`, `t` in `[0, far]`, crosses the box `[lo, hi]`.
+fn crosses(x: DVec3, d: DVec3, far: f64, (lo, hi): (DVec3, DVec3)) -> bool {
+    let (mut t0, mut t1) = (0.0f64, far);
+    for a in 0..3 {
+        let inv = 1.0 / d[a];
+        let (mut ta, mut tb) = ((lo[a] - x[a]) * inv, (hi[a] - x[a]) * inv);
+        if ta > tb {
+            std::mem::swap(&mut ta, &mut tb);
+        }
+        // NaN (a zero direction on an axis with x on a face) keeps the ray: conservative.
+        t0 = if ta > t0 { ta } else { t0 };
+        t1 = if tb < t1 { tb } else { t1 };
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// Boxes that overlap merged until none does (a moved building's triangles and patches
+/// become one box).
+fn merge_boxes(mut boxes: Vec<(DVec3, DVec3)>) -> Vec<(DVec3, DVec3)> {
+    loop {
+        let mut out: Vec<(DVec3, DVec3)> = Vec::with_capacity(boxes.len());
+        let mut merged = false;
+        for b in boxes {
+            match out
+                .iter_mut()
+                .find(|o| o.0.cmple(b.1).all() && b.0.cmple(o.1).all())
+            {
+                Some(o) => {
+                    *o = (o.0.min(b.0), o.1.max(b.1));
+                    merged = true;
+                }
+                None => out.push(b),
+            }
+        }
+        boxes = out;
+        if !merged {
+            return boxes;
+        }
+    }
+}
+
+fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
+    points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    })
+}
+
+/// The hit counts of `rows` (burial surveys `burial`, in order), carried over from `cache`
+/// where they can be (module doc).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn count_rows_reusing(
+    scene: &Scene,
+    patches: &Patches,
+    occ: &Occluders,
+    rays: u32,
+    rows: &[u32],
+    burial: &[Vec<u32>],
+    keys: &[[u8; 16]],
+    cache: &Cache,
+    progress: Progress<'_>,
+) -> (Vec<HitCounts>, RowStats) {
+    let burial_of = |k: usize| {
+        let at = rows.binary_search(&(k as u32)).expect("a row of the shard");
+        burial[at].as_slice()
+    };
+    let all = |why: &str| {
+        let counts = cast::count_rows(patches, occ, rays, rows, &burial_of, Some(progress));
+        (counts, RowStats::cast(rows.len(), Some(why)))
+    };
+    if cache.rays != rays {
+        return all("the old bake cast another number of rays a patch");
+    }
+    let old_occ = Occluders::with_emitters(&cache.triangles, cache.emits.clone())
+        .with_coverage(cache.coverage.clone());
+    if old_occ.frame() != occ.frame() || old_occ.extent() != occ.extent() {
+        return all("the scene's bounds changed, and with them every ray's f32 coordinates");
+    }
+    // Patches: old index of each new one, new index of each old one.
+    let old_at: HashMap<[u8; 16], u32> = (cache.keys.iter().enumerate())
+        .map(|(i, k)| (*k, i as u32))
+        .collect();
+    let old_of: Vec<Option<u32>> = keys.iter().map(|k| old_at.get(k).copied()).collect();
+    let mut new_of = vec![u32::MAX; cache.keys.len()];
+    for (i, o) in old_of.iter().enumerate() {
+        if let Some(o) = o {
+            new_of[*o as usize] = i as u32;
+        }
+    }
+    // Triangles: new index of each old one; boxes of those without a twin.
+    let cover = |c: &[f32], t: usize| c.get(t).copied().unwrap_or(1.0);
+    let new_tris: Vec<[DVec3; 3]> = (0..scene.triangles.len())
+        .map(|t| scene.corners(t))
+        .collect();
+    let new_keys: HashMap<[u64; 11], u32> = (new_tris.iter().enumerate())
+        .map(|(t, c)| {
+            let m = &scene.materials[scene.triangles[t].material as usize];
+            let key = triangle_key(c, m.emission.mean() > 0.0, cover(&scene.coverage, t));
+            (key, t as u32)
+        })
+        .collect();
+    let mut twin = vec![u32::MAX; cache.triangles.len()];
+    let mut boxes = Vec::new();
+    let mut has_twin = vec![false; new_tris.len()];
+    for (t, c) in cache.triangles.iter().enumerate() {
+        match new_keys.get(&triangle_key(c, cache.emits[t], cover(&cache.coverage, t))) {
+            Some(&n) => {
+                twin[t] = n;
+                has_twin[n as usize] = true;
+            }
+            None => boxes.push(bounds(c.iter().copied())),
+        }
+    }
+    for (t, c) in new_tris.iter().enumerate() {
+        if !has_twin[t] {
+            boxes.push(bounds(c.iter().copied()));
+        }
+    }
+    for (i, o) in old_of.iter().enumerate() {
+        if o.is_none() {
+            let pieces = patches.pieces_of(i);
+            boxes.push(bounds(
+                pieces
+                    .iter()
+                    .flat_map(|q| q.polygon.vertices().iter().copied()),
+            ));
+        }
+    }
+    // A margin of a millionth of the scene: the f32 BVH's rounding near a box's faces.
+    let pad = DVec3::splat(1e-6 * occ.extent());
+    let boxes: Vec<(DVec3, DVec3)> = merge_boxes(boxes)
+        .into_iter()
+        .map(|(lo, hi)| (lo - pad, hi + pad))
+        .collect();
+
+    let owners = Owners::new(patches);
+    let far = 10.0 * occ.extent();
+    let done = AtomicUsize::new(0);
+    let recast = AtomicU64::new(0);
+    let carried = AtomicUsize::new(0);
+    let total = rows.len();
+    let counts: Vec<HitCounts> = rows
+        .par_iter()
+        .zip(burial)
+        .map(|(&i, buried)| {
+            let i = i as usize;
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            let _ = progress(d, total);
+            let full = || {
+                cast::count_rows(patches, occ, rays, &[i as u32], &|_| buried, None)
+                    .pop()
+                    .unwrap_or_default()
+            };
+            let Some(o) = old_of[i].map(|o| o as usize) else {
+                return full();
+            };
+            if cache.burial[o] != *buried {
+                return full();
+            }
+            // The old counts by old patch, less the old hits of the rays cast again.
+            let mut left: Vec<(u32, i64)> = (cache.counts[o].iter())
+                .map(|&(j, c)| (j, i64::from(c)))
+                .collect();
+            let mut fresh: Vec<u32> = Vec::new();
+            let mut sound = true;
+            let mut again = 0u64;
+            rays_of(patches, i, rays, buried, |x, d| {
+                if !boxes.iter().any(|&b| crosses(x, d, far, b)) {
+                    return;
+                }
+                again += 1;
+                if let Some((h, true)) = old_occ.first_surface_from_surface(x, d, far) {
+                    let t = twin[h.triangle as usize];
+                    let old = (t != u32::MAX)
+                        .then(|| owners.patch_at(&patches.pieces, t, x + d * h.distance))
+                        .flatten()
+                        .and_then(|j| old_of[j]);
+                    // An old hit on a patch without a twin needs no taking out: its
+                    // column goes whole (every ray that reached it is cast again).
+                    if let Some(j) = old {
+                        match left.binary_search_by_key(&j, |e| e.0) {
+                            Ok(k) => left[k].1 -= 1,
+                            Err(_) => sound = false,
+                        }
+                    }
+                }
+                if let Some(j) = first_patch(patches, &owners, occ, x, d, far) {
+                    fresh.push(j as u32);
+                }
+            });
+            let mut row: HitCounts = Vec::with_capacity(left.len() + fresh.len());
+            for (j, c) in left {
+                let n = new_of[j as usize];
+                if c < 0 {
+                    sound = false;
+                } else if c > 0 && n != u32::MAX {
+                    row.push((n, c as u32));
+                }
+            }
+            if !sound {
+                return full();
+            }
+            recast.fetch_add(again, Ordering::Relaxed);
+            carried.fetch_add(1, Ordering::Relaxed);
+            row.extend(tally(fresh));
+            row.sort_unstable_by_key(|e| e.0);
+            let mut merged: HitCounts = Vec::with_capacity(row.len());
+            for (j, c) in row {
+                match merged.last_mut() {
+                    Some((k, n)) if *k == j => *n += c,
+                    _ => merged.push((j, c)),
+                }
+            }
+            merged
+        })
+        .collect();
+    let carried = carried.into_inner();
+    let stats = RowStats {
+        rows: rows.len(),
+        carried,
+        cast: rows.len() - carried,
+        rays_recast: recast.into_inner(),
+        why_all: None,
+    };
+    (counts, stats)
+}
