@@ -67,6 +67,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -114,6 +115,32 @@ def error_of(proc):
         if line.startswith("error:"):
             return line[len("error:"):].strip()
     return last_line(proc.stderr) or last_line(proc.stdout) or f"exit status {proc.returncode}"
+
+
+def run_streamed(command, capture_stdout):
+    """Runs a radiosity command on the driver, its stderr passed on as it comes except its
+    `error:` lines, which are returned (the script ends with one error line of its own).
+    Returns (exit status, stdout if captured, error messages)."""
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE if capture_stdout else None,
+                            stderr=subprocess.PIPE, text=True)
+    out, errors = [], []
+    reader = None
+    if capture_stdout:  # read stdout beside stderr, so that neither pipe fills and blocks
+        reader = threading.Thread(target=lambda: out.append(proc.stdout.read()))
+        reader.start()
+    for line in proc.stderr:
+        if line.startswith("error:"):
+            errors.append(line[len("error:"):].strip())
+        else:
+            sys.stderr.write(line)
+            sys.stderr.flush()
+    if reader is not None:
+        reader.join()
+    return proc.wait(), "".join(out), errors
+
+
+def refusal(what, code, errors):
+    return Failure(f"{what}: {errors[-1]}" if errors else f"{what} failed (exit status {code})")
 
 
 def scene_bundle(scene, skip):
@@ -306,9 +333,10 @@ def run(args, bake_flags, ray):
             command = [binary, "bake-plan", str(scene), "-o", str(plan), *bake_flags]
             if args.shards is not None:
                 command += ["--shards", str(args.shards)]
-            proc = subprocess.run(command, capture_output=True, text=True)
-            if proc.returncode != 0:
-                raise Failure(f"bake-plan: {error_of(proc)}")
+            code, out, errors = run_streamed(command, capture_stdout=True)
+            sys.stderr.write(out)  # its summary: stdout is this script's report
+            if code != 0:
+                raise refusal("bake-plan", code, errors)
         try:
             plan_json = json.loads(plan.read_text())
             shards = len(plan_json["shards"])
@@ -400,21 +428,20 @@ def run(args, bake_flags, ray):
             command += ["--reuse", str(reuse)]
         assemble_start = time.monotonic()
         if args.json:
-            proc = subprocess.run(command + ["--json"], capture_output=True, text=True)
-            sys.stderr.write(proc.stderr)
-        else:
-            proc = subprocess.run(command)
+            command.append("--json")
+        code, out, errors = run_streamed(command, capture_stdout=args.json)
         assemble_seconds = time.monotonic() - assemble_start
-        if proc.returncode != 0:
-            if args.json:
-                raise Failure(f"bake-assemble: {error_of(proc)}")
-            raise Failure(f"bake-assemble refused (exit status {proc.returncode}; see above)")
+        if code != 0:
+            raise refusal("bake-assemble", code, errors)
         seconds = time.monotonic() - started
         if args.json:
-            try:
-                assembled = json.loads(last_line(proc.stdout))
-            except ValueError:
-                assembled = None
+            assembled = None
+            for text in (out, last_line(out)):
+                try:
+                    assembled = json.loads(text)
+                    break
+                except ValueError:
+                    pass
             print(json.dumps({
                 "shards": shards, "workers": workers, "seconds": round(seconds, 3),
                 "shard_seconds": shard_seconds, "assemble_seconds": round(assemble_seconds, 3),

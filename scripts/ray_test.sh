@@ -14,8 +14,9 @@
 #   4. the same with shard 1's worker killed mid-shard (RAY_BAKE_KILL_SHARD=1): Ray retried it,
 #      and the file is again the same;
 #   5. the same with shared storage (--storage shared): the same file;
-#   6. bake-assemble refuses rows with a shard missing (one `error:` line, non-zero exit);
-#   7. without Ray, ray_bake.py says how to install it and exits 2.
+#   6. the same reusing the file of 3 (OLD.rad and OLD.rad.rows sent through the object store);
+#   7. bake-assemble refuses rows with a shard missing (one `error:` line, non-zero exit);
+#   8. without Ray, ray_bake.py says how to install it and exits 2.
 # About 2 minutes on a 2-core machine. Ends with `N passed, M failed`; exits 1 on any failure.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -72,7 +73,8 @@ make_plan() {
     python3 -c '
 import json, sys
 plan = json.load(open(sys.argv[1]))
-assert len(plan["shards"]) == 4, f"{len(plan[\"shards\"])} shards"
+shards = len(plan["shards"])
+assert shards == 4, f"{shards} shards"
 assert plan["plan_hash"], "no plan_hash"
 ' "$plan"
 }
@@ -92,7 +94,7 @@ ray_object() {
     python3 scripts/ray_bake.py "$scene" --plan "$plan" --workers 2 -o "$work/ray.rad" \
         --rows-dir "$work/rows" --json >"$work/ray.json" 2>"$work/ray.log" \
         || { show "$work/ray.log"; return 1; }
-    tail -n 1 "$work/ray.json" | sed 's/^/    | /'
+    tail -n 1 "$work/ray.json" | cut -c 1-200 | sed 's/^/    | /'
     same_as_one "$work/ray.rad"
 }
 
@@ -102,12 +104,13 @@ ray_killed() {
         python3 scripts/ray_bake.py "$scene" --plan "$plan" --workers 2 -o "$work/killed.rad" \
         --json >"$work/killed.json" 2>"$work/killed.log" \
         || { show "$work/killed.log"; return 1; }
-    tail -n 1 "$work/killed.json" | sed 's/^/    | /'
+    tail -n 1 "$work/killed.json" | cut -c 1-200 | sed 's/^/    | /'
     [ -e "$work/mark/killed-shard-1" ] || { echo "    | shard 1 was never killed"; return 1; }
     python3 -c '
 import json, sys
 report = json.loads(open(sys.argv[1]).read().strip().splitlines()[-1])
-assert report["retries"] >= 1, f"retries {report[\"retries\"]}: Ray did not retry the killed shard"
+retries = report["retries"]
+assert retries >= 1, f"retries {retries}: Ray did not retry the killed shard"
 ' "$work/killed.json" || return 1
     same_as_one "$work/killed.rad"
 }
@@ -119,6 +122,14 @@ ray_shared() {
     [ "$(find "$work/shared-rows" -name 'rows-*' | wc -l)" -eq 4 ] \
         || { echo "    | not 4 rows files in the shared folder"; return 1; }
     same_as_one "$work/shared.rad"
+}
+
+ray_reuse() {
+    python3 scripts/ray_bake.py "$scene" --plan "$plan" --workers 2 -o "$work/reused.rad" \
+        --reuse "$work/ray.rad" --json >"$work/reused.json" 2>"$work/reused.log" \
+        || { show "$work/reused.log"; return 1; }
+    tail -n 1 "$work/reused.json" | cut -c 1-200 | sed 's/^/    | /'
+    same_as_one "$work/reused.rad"
 }
 
 missing_shard() {
@@ -149,6 +160,7 @@ check "radiosity bake --plan: one process" one_process
 check "ray_bake.py, 2 workers, object store: same file" ray_object
 check "ray_bake.py, shard 1's worker killed: retried, same file" ray_killed
 check "ray_bake.py, shared storage: same file" ray_shared
+check "ray_bake.py --reuse (object store): same file" ray_reuse
 check "bake-assemble refuses a missing shard" missing_shard
 check "ray_bake.py without Ray: exit 2, how to install" without_ray
 
