@@ -10,6 +10,7 @@ mod ux;
 
 mod parts;
 mod pathtrace;
+mod planned;
 mod points;
 mod runtime;
 mod solve_physics;
