@@ -24,10 +24,11 @@ The steps are those of `radiosity bake-plan`, `bake-shard` and `bake-assemble`
 Storage (`--storage`):
 
 * `object` (the default): nothing needs to be shared between machines. The driver puts the
-  scene's folder (every regular file under the scene file's directory: the OBJ's mtllib and
-  textures, a glTF's buffers; at most 1 GiB, else use `--storage shared`), the plan, and with
-  `--reuse` OLD.rad and OLD.rad.rows in Ray's object store once; each task writes them into its
-  temporary folder, bakes its shard there and returns the rows file's name and bytes. The driver
+  scene's folder (every regular file under the scene file's directory but baked `.rad`,
+  `.rad.rows` and `rows-*` files: the OBJ's mtllib and textures, a glTF's buffers; at most
+  1 GiB, else use `--storage shared`), the plan, and with `--reuse` OLD.rad and OLD.rad.rows
+  in Ray's object store once; each task writes them into its temporary folder, bakes its shard
+  there and returns the rows file's name and bytes. The driver
   writes the rows into `--rows-dir` (default: a temporary folder, removed at the end) and
   assembles from there.
 * `shared`: every worker reads SCENE, the plan and OLD.rad at the same absolute paths as the
@@ -151,8 +152,9 @@ def scene_bundle(scene, skip):
         dirs[:] = sorted(d for d in dirs if not d.startswith("."))
         for name in sorted(names):
             path = Path(folder) / name
-            if not path.is_file() or path.resolve() in skip:
-                continue
+            if (not path.is_file() or path.resolve() in skip
+                    or name.endswith((".rad", ".rad.rows")) or name.startswith("rows-")):
+                continue  # baked files and rows: never part of a scene
             total += path.stat().st_size
             if total > MAX_SCENE_BYTES:
                 raise Failure(
@@ -175,7 +177,10 @@ def bake_shard_task(binary, shard, scene, plan, reuse, out_dir, kill, counter):
 
     attempt = ray.get(counter.attempt.remote(shard))
     if not (os.path.isfile(binary) and os.access(binary, os.X_OK)):
-        binary = shutil.which("radiosity") or binary
+        binary = shutil.which("radiosity")
+        if binary is None:
+            raise RuntimeError(f"shard {shard}: no radiosity binary on the worker at "
+                               f"{os.uname().nodename}: put it on the worker's PATH")
     work = tempfile.mkdtemp(prefix=f"ray-bake-{shard}-")
     try:
         if out_dir is None:  # the object store: write the inputs into the temporary folder
@@ -397,14 +402,18 @@ def run(args, bake_flags, ray):
                 k = pending.pop(ref)
                 try:
                     name, data, seconds = ray.get(ref)
-                except Exception as e:  # the task's error, or its retries spent
+                except Exception as e:  # the task's own error, or its retries spent
                     for other in pending:
                         ray.cancel(other, force=True)
-                    cause = getattr(e, "cause", None) or e
-                    text = str(cause).strip().splitlines()
-                    message = text[-1] if text else type(cause).__name__
-                    if isinstance(cause, RuntimeError) and message.startswith(f"shard {k}:"):
-                        raise Failure(f"{message}")
+                    if isinstance(e, ray.exceptions.RayTaskError):  # raised in the task
+                        cause = e.cause if e.cause is not None else e
+                        text = str(cause).strip().splitlines()
+                        message = text[-1] if text else type(cause).__name__
+                        if not message.startswith(f"shard {k}:"):
+                            message = f"shard {k}: {type(cause).__name__}: {message}"
+                        raise Failure(message)
+                    text = str(e).strip().splitlines()  # the worker or its node died each time
+                    message = text[0] if text else type(e).__name__
                     raise Failure(f"shard {k} failed after its retries: {message}")
                 if data is not None:
                     write_whole(rows_dir / name, data)
