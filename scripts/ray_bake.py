@@ -355,7 +355,8 @@ def run(args, bake_flags, ray):
         if os.environ.get("RAY_ADDRESS"):
             ray.init(logging_level="WARNING")
         else:
-            ray.init(num_cpus=args.workers, include_dashboard=False, logging_level="WARNING")
+            ray.init(address="local", num_cpus=args.workers, include_dashboard=False,
+                     logging_level="WARNING")  # a new cluster, even beside a running one
         workers = int(ray.cluster_resources().get("CPU", 0)) or args.workers
         if args.cpus_per_shard > workers:
             raise Failure(f"--cpus-per-shard {args.cpus_per_shard} is more than the cluster's "
