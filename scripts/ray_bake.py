@@ -274,8 +274,13 @@ def fmt_seconds(s):
     return f"{s:.0f} s" if s >= 10 else f"{s:.1f} s"
 
 
+class Parser(argparse.ArgumentParser):
+    def error(self, message):  # one `error:` line, as the binary's
+        fail(f"{message} (see --help)", 2)
+
+
 def parse(argv):
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="ray_bake.py", allow_abbrev=False,
         description="Bake a scene over a Ray cluster, one task per shard of a plan; "
                     "arguments it does not know are bake flags for bake-plan.",
