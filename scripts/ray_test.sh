@@ -16,7 +16,7 @@
 #   5. the same with shared storage (--storage shared): the same file;
 #   6. the same reusing the file of 3 (OLD.rad and OLD.rad.rows sent through the object store);
 #   7. a building moved (scripts/move_object.py), rebaked reusing the file of 2: the Ray rebake
-#      is the one-process rebake (`bake --plan --reuse`);
+#      is the full one-process bake of the moved city;
 #   8. bake-assemble refuses rows with a shard missing (one `error:` line, non-zero exit);
 #   9. without Ray, ray_bake.py says how to install it and exits 2.
 # About 90 s on a 2-core machine. Ends with `N passed, M failed`; exits 1 on any failure.
@@ -134,12 +134,12 @@ ray_reuse() {
     same_as_one "$work/reused.rad"
 }
 
-ray_moved() {  # a box moved: the Ray rebake is the one-process rebake
+ray_moved() {  # a box moved: the Ray rebake is the full bake of the moved city
     mkdir -p "$work/moved"
     python3 scripts/move_object.py "$scene" "$work/moved/city.obj" 'b_1_1_0*' 2 0 1 >/dev/null \
         || return 1
     "$bin" bake "$work/moved/city.obj" -o "$work/moved-one.rad" --plan "$plan" \
-        --reuse "$work/one.rad" >"$work/moved-one.log" 2>&1 || { show "$work/moved-one.log"; return 1; }
+        >"$work/moved-one.log" 2>&1 || { show "$work/moved-one.log"; return 1; }
     python3 scripts/ray_bake.py "$work/moved/city.obj" --plan "$plan" --workers 2 \
         -o "$work/moved-ray.rad" --reuse "$work/one.rad" >"$work/moved-ray.log" 2>&1 \
         || { show "$work/moved-ray.log"; return 1; }
@@ -177,7 +177,7 @@ check "ray_bake.py, 2 workers, object store: same file" ray_object
 check "ray_bake.py, shard 1's worker killed: retried, same file" ray_killed
 check "ray_bake.py, shared storage: same file" ray_shared
 check "ray_bake.py --reuse (object store): same file" ray_reuse
-check "ray_bake.py --reuse after a box moved: the one-process rebake" ray_moved
+check "ray_bake.py --reuse after a box moved: the full bake's file" ray_moved
 check "bake-assemble refuses a missing shard" missing_shard
 check "ray_bake.py without Ray: exit 2, how to install" without_ray
 

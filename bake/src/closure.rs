@@ -396,36 +396,56 @@ pub(crate) const EXPOSED: u32 = u32::MAX;
 pub(crate) fn survey(patches: &Patches, occ: &Occluders) -> Vec<Vec<u32>> {
     (0..patches.len())
         .into_par_iter()
-        .map(|i| survey_one(patches, occ, i))
+        .map(|i| survey_one(patches, occ, i).0)
         .collect()
 }
 
-/// [`survey`] of the patches `rows` only, in that order (a shard's, [`crate::plan`]).
-pub(crate) fn survey_rows(patches: &Patches, occ: &Occluders, rows: &[u32]) -> Vec<Vec<u32>> {
+/// [`survey`] of the patches `rows` only, in that order (a shard's, [`crate::plan`]), with
+/// whether each one's burial questions asked about other points too
+/// ([`Occluders::buried_traced`]).
+pub(crate) fn survey_rows(
+    patches: &Patches,
+    occ: &Occluders,
+    rows: &[u32],
+) -> (Vec<Vec<u32>>, Vec<bool>) {
     rows.par_iter()
         .map(|&i| survey_one(patches, occ, i as usize))
-        .collect()
+        .unzip()
 }
 
-/// [`survey`] of patch `i`.
-fn survey_one(patches: &Patches, occ: &Occluders, i: usize) -> Vec<u32> {
+/// The starts [`survey`] looked at for a patch whose survey is `seen`: the first
+/// [`BURIED_FIRST`], or all [`BURIED_POINTS`] where it found one buried.
+pub(crate) fn surveyed_starts(seen: &[u32]) -> u32 {
+    if seen.is_empty() {
+        BURIED_FIRST
+    } else {
+        BURIED_POINTS
+    }
+}
+
+/// [`survey`] of patch `i`, and whether a burial question asked about other points too.
+fn survey_one(patches: &Patches, occ: &Occluders, i: usize) -> (Vec<u32>, bool) {
     let Some(starts) = Starts::new(patches, i) else {
-        return Vec::new();
+        return (Vec::new(), false);
     };
+    let recursed = std::cell::Cell::new(false);
     let look = |k: u32| {
         let (piece, _, x, n) = starts.point(k);
-        if occ.covered(piece.triangle, x) || occ.buried(x, n) {
-            piece.object
-        } else {
-            EXPOSED
-        }
+        let buried = occ.covered(piece.triangle, x) || {
+            let (b, r) = occ.buried_traced(x, n);
+            if r {
+                recursed.set(true);
+            }
+            b
+        };
+        if buried { piece.object } else { EXPOSED }
     };
     let mut seen: Vec<u32> = (0..BURIED_FIRST).map(look).collect();
     if seen.iter().all(|&o| o == EXPOSED) {
-        return Vec::new();
+        return (Vec::new(), recursed.get());
     }
     seen.extend((BURIED_FIRST..BURIED_POINTS).map(look));
-    seen
+    (seen, recursed.get())
 }
 
 /// The buried share of patch `i`'s area and its buried area per object of its pieces

@@ -202,11 +202,17 @@ fn cut_sites(
     let mut rank = vec![u32::MAX; ff.n];
     let all: Vec<u32> = (0..ff.n as u32).collect();
     let parts = ff.n.div_ceil(max).max(1);
+    // Centres closer than this on an axis are one coordinate (a wall's patches whose centres
+    // differ by rounding): a plane between them would cut the wall.
+    let span = centres
+        .iter()
+        .fold(0f64, |m, c| m.max(c.abs().max_element()));
     let mut state = CutState {
         rank: &mut rank,
         system: &mut system,
         count: &mut count,
         clean,
+        gap: 1e-9 * span.max(f64::MIN_POSITIVE),
     };
     let region = cut(&sites, ff, all, parts, max, &mut state);
     (Partition { system, count }, region)
@@ -219,6 +225,7 @@ struct CutState<'a> {
     system: &'a mut [u32],
     count: &'a mut usize,
     clean: bool,
+    gap: f64,
 }
 
 /// Cuts `set` into `parts` systems of at most `max` patches, numbered from `*state.count`
@@ -275,7 +282,7 @@ fn cut(
         let mut run = 0.0;
         for (k, d) in diff.iter().enumerate().take(hi + 1) {
             run += d;
-            let between = |k: usize| key(set[k - 1]) < key(set[k]);
+            let between = |k: usize| key(set[k]) - key(set[k - 1]) > state.gap;
             if k >= lo && (!state.clean || between(k)) {
                 let better = best.is_none_or(|(c, _, bk)| {
                     run < c - 1e-9 * c.abs()
@@ -294,7 +301,7 @@ fn cut(
         Some((_, axis, k)) => (axis, k),
         // Only where planes must fall between centres and none within capacity does: the
         // position between distinct centres nearest the share, on the axis that has one.
-        None => clean_fallback(patches, &mut set, n * left_parts / parts)
+        None => clean_fallback(patches, &mut set, n * left_parts / parts, state.gap)
             .expect("patches at distinct centres on some axis"),
     };
     let key = |i: u32| patches.centres[i as usize][axis];
@@ -311,15 +318,21 @@ fn cut(
     }
 }
 
-/// The position `k` between two distinct centres nearest `target` over the three axes, with
-/// its axis.
-fn clean_fallback(patches: &Sites<'_>, set: &mut [u32], target: usize) -> Option<(usize, usize)> {
+/// The position `k` between two centres more than `gap` apart nearest `target` over the three
+/// axes, with its axis.
+fn clean_fallback(
+    patches: &Sites<'_>,
+    set: &mut [u32],
+    target: usize,
+    gap: f64,
+) -> Option<(usize, usize)> {
     let mut best: Option<(usize, usize, usize)> = None; // (distance, axis, k)
     for axis in 0..3 {
         let key = |i: u32| patches.centres[i as usize][axis];
         set.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
         for k in 1..set.len() {
-            if key(set[k - 1]) < key(set[k]) && best.is_none_or(|b| k.abs_diff(target) < b.0) {
+            if key(set[k]) - key(set[k - 1]) > gap && best.is_none_or(|b| k.abs_diff(target) < b.0)
+            {
                 best = Some((k.abs_diff(target), axis, k));
             }
         }

@@ -6,7 +6,7 @@ use radiosity_bake::form_factor::{
 };
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
-use radiosity_bake::systems::{Split, partition};
+use radiosity_bake::systems::{Region, Split, partition, partition_regions};
 use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};
 use radiosity_core::systems::Systems;
 use radiosity_core::{Gather, GatherError, Rgb};
@@ -81,6 +81,53 @@ fn systems_are_cut_between_rooms_not_through_them() {
     );
     let share = p.crossing_share(&patches, &ff);
     assert!(share > 0.0 && share < 0.9, "{share}");
+}
+
+#[test]
+fn a_plans_regions_hold_the_systems_they_were_cut_into() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = two_rooms(dir.path());
+    let (patches, ff) = ray_cast_rows(&scene, 300);
+    let n = patches.len();
+    let centres: Vec<_> = patches.patches.iter().map(|p| p.centre).collect();
+    let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    for max in [n * 9 / 10, n / 5, n / 7] {
+        let (p, regions) = partition_regions(&centres, &areas, &ff, max);
+        assert!(regions.is_well_formed());
+        assert_eq!(regions.count(), p.count);
+        // Each patch's centre lies in the region of its own system: the planes fall between
+        // centres, never through a row of patches at one coordinate.
+        for (i, c) in centres.iter().enumerate() {
+            assert_eq!(regions.system_of(*c), p.system[i], "patch {i}, max {max}");
+        }
+        // Within capacity where a plane between centres allows it; where none does (a box's
+        // faces hold rows of patches at one coordinate) the plane nearest the share, so a
+        // system may go over by about one such row: here up to half again.
+        let sizes: Vec<usize> = p.members().iter().map(Vec::len).collect();
+        assert!(
+            sizes.iter().all(|&m| m > 0 && 2 * m <= 3 * max),
+            "{sizes:?} max {max}"
+        );
+        assert_eq!(sizes.iter().sum::<usize>(), n);
+    }
+    // Two systems: the gap between the rooms, as the cut without regions finds it.
+    let (p, regions) = partition_regions(&centres, &areas, &ff, n * 9 / 10);
+    assert_eq!(p.crossing_share(&patches, &ff), 0.0);
+    match regions {
+        Region::Cut { axis, at, .. } => {
+            assert_eq!(axis, 0);
+            assert!(
+                (1.0..=1.5).contains(&at),
+                "the plane lies in the gap: x = {at}"
+            );
+        }
+        Region::System { .. } => panic!("two systems"),
+    }
+    // A plan read back: a point moved off every centre still finds a region.
+    let text = serde_json::to_string(&regions).unwrap();
+    let back: Region = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, regions);
+    assert!(back.system_of(glam::DVec3::new(1e9, -1e9, 0.0)) < 2);
 }
 
 /// A grey transfer matrix held dense: `y = M·x` on each channel.

@@ -147,6 +147,7 @@ pub fn assemble(
     let n = rows.first().map_or(0, |r| r.n_patches as usize);
     let rays = rows.first().map_or(0, |r| r.rays);
     let mut burial = vec![Vec::new(); n];
+    let mut recursed = vec![false; n];
     let mut counts = vec![Vec::new(); n];
     let mut seen = vec![false; n];
     for r in rows {
@@ -156,7 +157,8 @@ pub fn assemble(
                 r.shard
             )));
         }
-        for ((p, b), c) in r.patches.into_iter().zip(r.burial).zip(r.counts) {
+        let rows = r.patches.into_iter().zip(r.burial).zip(r.recursed);
+        for (((p, b), q), c) in rows.zip(r.counts) {
             let p = p as usize;
             if p >= n || seen[p] || c.iter().any(|&(j, _)| j as usize >= n) {
                 return Err(refuse(format!(
@@ -166,6 +168,7 @@ pub fn assemble(
             }
             seen[p] = true;
             burial[p] = b;
+            recursed[p] = q;
             counts[p] = c;
         }
     }
@@ -218,6 +221,8 @@ pub fn assemble(
         plan_hash,
         rays,
         burial: cache_rows.0,
+        recursed,
+        objects: scene.objects.clone(),
         counts: cache_rows.1,
         keys: std::mem::take(&mut d.keys),
         triangles: (0..scene.triangles.len())

@@ -381,23 +381,38 @@ pub fn shard_rows(
     let keys = reuse::seed_patches(scene, &mut patches);
     let occ = scene.occluders();
     let rows = plan.shard_patches(&patches, shard);
-    hooks.start("burial")?;
-    let burial = crate::closure::survey_rows(&patches, &occ, &rows);
-    hooks.start("form factors")?;
     let go_on = |done: usize, total: usize| hooks.report(done, total);
-    let (counts, stats) = match reuse {
-        Some(cache) if cache.plan_hash == plan.hash() => reuse::count_rows_reusing(
-            scene, &patches, &occ, rays, &rows, &burial, &keys, cache, &go_on,
-        ),
-        _ => {
+    let diff = reuse.map(|cache| {
+        if cache.plan_hash != plan.hash() {
+            return Err("the old bake had another plan");
+        }
+        reuse::Diff::new(scene, &patches, &occ, rays, &keys, cache)
+    });
+    let (burial, recursed, counts, stats) = match diff {
+        Some(Ok(diff)) => {
+            hooks.start("burial")?;
+            let (burial, recursed, surveyed) = diff.surveys(&rows);
+            hooks.start("form factors")?;
+            let (counts, mut stats) = diff.counts(&rows, &burial, &go_on);
+            stats.surveyed = surveyed;
+            (burial, recursed, counts, stats)
+        }
+        why => {
+            hooks.start("burial")?;
+            let (burial, recursed) = crate::closure::survey_rows(&patches, &occ, &rows);
+            hooks.start("form factors")?;
             let burial_of = |k: usize| {
                 let at = rows.binary_search(&(k as u32)).expect("a row of the shard");
                 burial[at].as_slice()
             };
             let counts = cast::count_rows(&patches, &occ, rays, &rows, &burial_of, Some(&go_on));
-            let stats =
-                reuse::RowStats::cast(rows.len(), reuse.map(|_| "the old bake had another plan"));
-            (counts, stats)
+            let why = why.and_then(Result::err);
+            (
+                burial,
+                recursed,
+                counts,
+                reuse::RowStats::cast(rows.len(), why),
+            )
         }
     };
     hooks.check()?;
@@ -410,8 +425,94 @@ pub fn shard_rows(
             rays,
             patches: rows,
             burial,
+            recursed,
             counts,
         },
         stats,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_group_neighbouring_systems_evenly() {
+        let sizes = [100, 100, 100, 100, 100, 100, 100, 100];
+        assert_eq!(
+            group_shards(&sizes, 8),
+            (0..8).map(|s| vec![s]).collect::<Vec<_>>()
+        );
+        assert_eq!(
+            group_shards(&sizes, 4),
+            vec![vec![0, 1], vec![2, 3], vec![4, 5], vec![6, 7]]
+        );
+        assert_eq!(group_shards(&sizes, 1), vec![(0..8).collect::<Vec<_>>()]);
+        // More shards than systems: one a system.
+        assert_eq!(group_shards(&sizes[..3], 9).len(), 3);
+        // Uneven systems: every system in one shard, none empty, in order.
+        let uneven = [500, 10, 10, 10, 400, 70];
+        for k in 1..=6 {
+            let g = group_shards(&uneven, k);
+            assert_eq!(g.len(), k, "{g:?}");
+            assert_eq!(g.concat(), (0..6).collect::<Vec<u32>>());
+        }
+    }
+
+    fn plan() -> Plan {
+        let regions = Region::Cut {
+            axis: 0,
+            at: 0.1 + 0.2,
+            below: Box::new(Region::System { system: 0 }),
+            above: Box::new(Region::System { system: 1 }),
+        };
+        let mut plan = Plan {
+            format: PLAN_FORMAT.into(),
+            version: PLAN_VERSION,
+            flags: BakeFlags {
+                patches: Some(4096),
+                ..BakeFlags::default()
+            },
+            cell_size: 1.0 / 3.0,
+            grid_origin: [-1.0, 0.0, 1e-17],
+            regions,
+            shards: vec![vec![0], vec![1]],
+            planned: Planned {
+                scene: "x.obj".into(),
+                patches: 10,
+                sizes: vec![4, 6],
+            },
+            plan_hash: String::new(),
+        };
+        plan.plan_hash = hex(&plan.hash());
+        plan
+    }
+
+    #[test]
+    fn a_plan_reads_back_to_the_same_bits_and_its_damage_is_refused() {
+        let p = plan();
+        let back = Plan::from_json(&p.to_json()).unwrap();
+        // The planes and the grid to the bit: the hash (and every shard's name) follows them.
+        assert_eq!(back, p);
+        assert_eq!(back.hash(), p.hash());
+        let edited = p.to_json().replace("4096", "4097");
+        let e = Plan::from_json(&edited).unwrap_err().to_string();
+        assert!(e.contains("plan_hash does not match"), "{e}");
+        let mut twice = p.clone();
+        twice.shards = vec![vec![0, 1], vec![1]];
+        twice.plan_hash.clear();
+        let e = Plan::from_json(&twice.to_json()).unwrap_err().to_string();
+        assert!(e.contains("two shards"), "{e}");
+        let mut bad = p.clone();
+        bad.regions = Region::System { system: 3 };
+        let e = Plan::from_json(&bad.to_json()).unwrap_err().to_string();
+        assert!(e.contains("regions"), "{e}");
+        let unknown = p.to_json().replacen('{', "{\"extra\": 1,", 1);
+        assert!(Plan::from_json(&unknown).is_err());
+        // Its parameters: the grid fixed, the form factors ray-cast, a system a region.
+        let (params, _) = p.params().unwrap();
+        assert_eq!(params.voxel.resolution, Resolution::CellSize(1.0 / 3.0));
+        assert_eq!(params.form_factors.exact_pieces, 0);
+        assert_eq!(params.systems, SystemsChoice::Count(2));
+    }
 }

@@ -12,8 +12,9 @@
 //! are those a full cast gives, and anything inconsistent falls back to the full cast.
 
 use super::Cache;
+use crate::closure::{survey_rows, surveyed_starts};
 use crate::form_factor::Progress;
-use crate::form_factor::cast::{self, HitCounts, first_patch, rays_of, tally};
+use crate::form_factor::cast::{self, HitCounts, Starts, first_patch, rays_of, tally};
 use crate::geometry::Occluders;
 use crate::hemisphere::Owners;
 use crate::scene::Scene;
@@ -34,6 +35,8 @@ pub struct RowStats {
     pub cast: usize,
     /// Rays cast again in carried rows (each in the old and the new scene).
     pub rays_recast: u64,
+    /// Patches whose burial survey was made again (the others carried over).
+    pub surveyed: usize,
     /// Why every row was cast, where one reason held for all.
     pub why_all: Option<String>,
 }
@@ -44,6 +47,7 @@ impl RowStats {
         Self {
             rows,
             cast: rows,
+            surveyed: rows,
             why_all: why.map(str::to_owned),
             ..Self::default()
         }
@@ -150,181 +154,316 @@ fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
     })
 }
 
-/// The hit counts of `rows` (burial surveys `burial`, in order), carried over from `cache`
-/// where they can be (module doc).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn count_rows_reusing(
-    scene: &Scene,
-    patches: &Patches,
-    occ: &Occluders,
+/// What changed between an earlier bake's scene (its cache) and this one, for carrying its
+/// surveys and hit counts over (module doc).
+pub(crate) struct Diff<'a> {
+    patches: &'a Patches,
+    occ: &'a Occluders,
+    cache: &'a Cache,
+    old_occ: Occluders,
+    /// Old index of each patch (by identity).
+    old_of: Vec<Option<u32>>,
+    /// New index of each old patch (`u32::MAX`: none).
+    new_of: Vec<u32>,
+    /// New index of each old triangle (`u32::MAX`: none).
+    twin: Vec<u32>,
+    /// Boxes of what changed, padded.
+    boxes: Vec<(DVec3, DVec3)>,
+    /// Whether the surveys may carry over (the same objects, no emitter changed).
+    surveys: bool,
+    far: f64,
     rays: u32,
-    rows: &[u32],
-    burial: &[Vec<u32>],
-    keys: &[[u8; 16]],
-    cache: &Cache,
-    progress: Progress<'_>,
-) -> (Vec<HitCounts>, RowStats) {
-    let burial_of = |k: usize| {
-        let at = rows.binary_search(&(k as u32)).expect("a row of the shard");
-        burial[at].as_slice()
-    };
-    let all = |why: &str| {
-        let counts = cast::count_rows(patches, occ, rays, rows, &burial_of, Some(progress));
-        (counts, RowStats::cast(rows.len(), Some(why)))
-    };
-    if cache.rays != rays {
-        return all("the old bake cast another number of rays a patch");
-    }
-    let old_occ = Occluders::with_emitters(&cache.triangles, cache.emits.clone())
-        .with_coverage(cache.coverage.clone());
-    if old_occ.frame() != occ.frame() || old_occ.extent() != occ.extent() {
-        return all("the scene's bounds changed, and with them every ray's f32 coordinates");
-    }
-    // Patches: old index of each new one, new index of each old one.
-    let old_at: HashMap<[u8; 16], u32> = (cache.keys.iter().enumerate())
-        .map(|(i, k)| (*k, i as u32))
-        .collect();
-    let old_of: Vec<Option<u32>> = keys.iter().map(|k| old_at.get(k).copied()).collect();
-    let mut new_of = vec![u32::MAX; cache.keys.len()];
-    for (i, o) in old_of.iter().enumerate() {
-        if let Some(o) = o {
-            new_of[*o as usize] = i as u32;
-        }
-    }
-    // Triangles: new index of each old one; boxes of those without a twin.
-    let cover = |c: &[f32], t: usize| c.get(t).copied().unwrap_or(1.0);
-    let new_tris: Vec<[DVec3; 3]> = (0..scene.triangles.len())
-        .map(|t| scene.corners(t))
-        .collect();
-    let new_keys: HashMap<[u64; 11], u32> = (new_tris.iter().enumerate())
-        .map(|(t, c)| {
-            let m = &scene.materials[scene.triangles[t].material as usize];
-            let key = triangle_key(c, m.emission.mean() > 0.0, cover(&scene.coverage, t));
-            (key, t as u32)
-        })
-        .collect();
-    let mut twin = vec![u32::MAX; cache.triangles.len()];
-    let mut boxes = Vec::new();
-    let mut has_twin = vec![false; new_tris.len()];
-    for (t, c) in cache.triangles.iter().enumerate() {
-        match new_keys.get(&triangle_key(c, cache.emits[t], cover(&cache.coverage, t))) {
-            Some(&n) => {
-                twin[t] = n;
-                has_twin[n as usize] = true;
-            }
-            None => boxes.push(bounds(c.iter().copied())),
-        }
-    }
-    for (t, c) in new_tris.iter().enumerate() {
-        if !has_twin[t] {
-            boxes.push(bounds(c.iter().copied()));
-        }
-    }
-    for (i, o) in old_of.iter().enumerate() {
-        if o.is_none() {
-            let pieces = patches.pieces_of(i);
-            boxes.push(bounds(
-                pieces
-                    .iter()
-                    .flat_map(|q| q.polygon.vertices().iter().copied()),
-            ));
-        }
-    }
-    // A margin of a millionth of the scene: the f32 BVH's rounding near a box's faces.
-    let pad = DVec3::splat(1e-6 * occ.extent());
-    let boxes: Vec<(DVec3, DVec3)> = merge_boxes(boxes)
-        .into_iter()
-        .map(|(lo, hi)| (lo - pad, hi + pad))
-        .collect();
+}
 
-    let owners = Owners::new(patches);
-    let far = 10.0 * occ.extent();
-    let done = AtomicUsize::new(0);
-    let recast = AtomicU64::new(0);
-    let carried = AtomicUsize::new(0);
-    let total = rows.len();
-    let counts: Vec<HitCounts> = rows
-        .par_iter()
-        .zip(burial)
-        .map(|(&i, buried)| {
-            let i = i as usize;
-            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            let _ = progress(d, total);
-            let full = || {
-                cast::count_rows(patches, occ, rays, &[i as u32], &|_| buried, None)
-                    .pop()
-                    .unwrap_or_default()
-            };
-            let Some(o) = old_of[i].map(|o| o as usize) else {
-                return full();
-            };
-            if cache.burial[o] != *buried {
-                return full();
+impl<'a> Diff<'a> {
+    /// The difference, or why every row must be cast again.
+    pub(crate) fn new(
+        scene: &Scene,
+        patches: &'a Patches,
+        occ: &'a Occluders,
+        rays: u32,
+        keys: &[[u8; 16]],
+        cache: &'a Cache,
+    ) -> Result<Self, &'static str> {
+        if cache.rays != rays {
+            return Err("the old bake cast another number of rays a patch");
+        }
+        let old_occ = Occluders::with_emitters(&cache.triangles, cache.emits.clone())
+            .with_coverage(cache.coverage.clone());
+        if old_occ.frame() != occ.frame() || old_occ.extent() != occ.extent() {
+            return Err("the scene's bounds changed, and with them every ray's f32 coordinates");
+        }
+        let old_at: HashMap<[u8; 16], u32> = (cache.keys.iter().enumerate())
+            .map(|(i, k)| (*k, i as u32))
+            .collect();
+        let old_of: Vec<Option<u32>> = keys.iter().map(|k| old_at.get(k).copied()).collect();
+        let mut new_of = vec![u32::MAX; cache.keys.len()];
+        for (i, o) in old_of.iter().enumerate() {
+            if let Some(o) = o {
+                new_of[*o as usize] = i as u32;
             }
-            // The old counts by old patch, less the old hits of the rays cast again.
-            let mut left: Vec<(u32, i64)> = (cache.counts[o].iter())
-                .map(|&(j, c)| (j, i64::from(c)))
-                .collect();
-            let mut fresh: Vec<u32> = Vec::new();
-            let mut sound = true;
-            let mut again = 0u64;
-            rays_of(patches, i, rays, buried, |x, d| {
-                if !boxes.iter().any(|&b| crosses(x, d, far, b)) {
-                    return;
+        }
+        // Triangles: new index of each old one; boxes of those without a twin.
+        let cover = |c: &[f32], t: usize| c.get(t).copied().unwrap_or(1.0);
+        let emits = |t: usize| {
+            scene.materials[scene.triangles[t].material as usize]
+                .emission
+                .mean()
+                > 0.0
+        };
+        let new_tris: Vec<[DVec3; 3]> = (0..scene.triangles.len())
+            .map(|t| scene.corners(t))
+            .collect();
+        let new_keys: HashMap<[u64; 11], u32> = (new_tris.iter().enumerate())
+            .map(|(t, c)| {
+                (
+                    triangle_key(c, emits(t), cover(&scene.coverage, t)),
+                    t as u32,
+                )
+            })
+            .collect();
+        let mut twin = vec![u32::MAX; cache.triangles.len()];
+        let mut boxes = Vec::new();
+        let mut has_twin = vec![false; new_tris.len()];
+        let mut emitter_changed = false;
+        for (t, c) in cache.triangles.iter().enumerate() {
+            match new_keys.get(&triangle_key(c, cache.emits[t], cover(&cache.coverage, t))) {
+                Some(&n) => {
+                    twin[t] = n;
+                    has_twin[n as usize] = true;
                 }
-                again += 1;
-                if let Some((h, true)) = old_occ.first_surface_from_surface(x, d, far) {
-                    let t = twin[h.triangle as usize];
-                    let old = (t != u32::MAX)
-                        .then(|| owners.patch_at(&patches.pieces, t, x + d * h.distance))
-                        .flatten()
-                        .and_then(|j| old_of[j]);
-                    // An old hit on a patch without a twin needs no taking out: its
-                    // column goes whole (every ray that reached it is cast again).
-                    if let Some(j) = old {
-                        match left.binary_search_by_key(&j, |e| e.0) {
-                            Ok(k) => left[k].1 -= 1,
-                            Err(_) => sound = false,
-                        }
+                None => {
+                    emitter_changed |= cache.emits[t];
+                    boxes.push(bounds(c.iter().copied()));
+                }
+            }
+        }
+        for (t, c) in new_tris.iter().enumerate() {
+            if !has_twin[t] {
+                emitter_changed |= emits(t);
+                boxes.push(bounds(c.iter().copied()));
+            }
+        }
+        for (i, o) in old_of.iter().enumerate() {
+            if o.is_none() {
+                let pieces = patches.pieces_of(i);
+                boxes.push(bounds(
+                    pieces
+                        .iter()
+                        .flat_map(|q| q.polygon.vertices().iter().copied()),
+                ));
+            }
+        }
+        // A margin of two millionths of the scene: the f32 BVH's rounding near a box's faces,
+        // and the burial question's look a millionth of the scene behind its point.
+        let pad = DVec3::splat(2e-6 * occ.extent());
+        let boxes: Vec<(DVec3, DVec3)> = merge_boxes(boxes)
+            .into_iter()
+            .map(|(lo, hi)| (lo - pad, hi + pad))
+            .collect();
+        Ok(Self {
+            patches,
+            occ,
+            cache,
+            old_occ,
+            old_of,
+            new_of,
+            twin,
+            boxes,
+            surveys: !emitter_changed && cache.objects == scene.objects,
+            far: 10.0 * occ.extent(),
+            rays,
+        })
+    }
+
+    /// Whether the ray from `x` along `d` crosses what changed.
+    fn crosses(&self, x: DVec3, d: DVec3) -> bool {
+        self.boxes.iter().any(|&b| crosses(x, d, self.far, b))
+    }
+
+    /// Whether no ray of patch `i` can reach what changed: every box lies behind the plane of
+    /// each of its pieces (rays leave a piece into the half-space its normal faces).
+    fn out_of_sight(&self, i: usize) -> bool {
+        self.patches.pieces_of(i).iter().all(|q| {
+            let n = q.normal;
+            let front = q
+                .polygon
+                .vertices()
+                .iter()
+                .map(|p| n.dot(*p))
+                .fold(f64::INFINITY, f64::min);
+            self.boxes.iter().all(|&(lo, hi)| {
+                let far_corner = DVec3::select(n.cmpge(DVec3::ZERO), hi, lo);
+                n.dot(far_corner) < front
+            })
+        })
+    }
+
+    /// The burial surveys of `rows`, and whether each asked about other points: carried over
+    /// where the patch is unchanged, its survey asked about its own points only, and none of
+    /// the burial questions' rays ([`Occluders::burial_directions`]) from its surveyed starts
+    /// crosses what changed; surveyed again otherwise. Also the rows surveyed again.
+    pub(crate) fn surveys(&self, rows: &[u32]) -> (Vec<Vec<u32>>, Vec<bool>, usize) {
+        let again = AtomicUsize::new(0);
+        let (burial, recursed) = rows
+            .par_iter()
+            .map(|&i| {
+                let i = i as usize;
+                let kept = self.old_of[i].map(|o| o as usize).filter(|&o| {
+                    self.surveys
+                        && !self.cache.recursed[o]
+                        && self.survey_rays_clear(i, &self.cache.burial[o])
+                });
+                match kept {
+                    Some(o) => (self.cache.burial[o].clone(), false),
+                    None => {
+                        again.fetch_add(1, Ordering::Relaxed);
+                        let (mut b, mut r) = survey_rows(self.patches, self.occ, &[i as u32]);
+                        (b.pop().unwrap_or_default(), r.pop().unwrap_or_default())
                     }
                 }
-                if let Some(j) = first_patch(patches, &owners, occ, x, d, far) {
-                    fresh.push(j as u32);
-                }
-            });
-            let mut row: HitCounts = Vec::with_capacity(left.len() + fresh.len());
-            for (j, c) in left {
-                let n = new_of[j as usize];
-                if c < 0 {
-                    sound = false;
-                } else if c > 0 && n != u32::MAX {
-                    row.push((n, c as u32));
-                }
-            }
-            if !sound {
-                return full();
-            }
-            recast.fetch_add(again, Ordering::Relaxed);
-            carried.fetch_add(1, Ordering::Relaxed);
-            row.extend(tally(fresh));
-            row.sort_unstable_by_key(|e| e.0);
-            let mut merged: HitCounts = Vec::with_capacity(row.len());
-            for (j, c) in row {
-                match merged.last_mut() {
-                    Some((k, n)) if *k == j => *n += c,
-                    _ => merged.push((j, c)),
-                }
-            }
-            merged
+            })
+            .unzip();
+        (burial, recursed, again.into_inner())
+    }
+
+    /// Whether no burial question of patch `i`'s surveyed starts looks across what changed.
+    fn survey_rays_clear(&self, i: usize, seen: &[u32]) -> bool {
+        let Some(starts) = Starts::new(self.patches, i) else {
+            return true;
+        };
+        (0..surveyed_starts(seen)).all(|k| {
+            let (_, _, x, n) = starts.point(k);
+            Occluders::burial_directions(n)
+                .into_iter()
+                .all(|d| !self.crosses(x, d))
         })
-        .collect();
-    let carried = carried.into_inner();
-    let stats = RowStats {
-        rows: rows.len(),
-        carried,
-        cast: rows.len() - carried,
-        rays_recast: recast.into_inner(),
-        why_all: None,
-    };
-    (counts, stats)
+    }
+
+    /// The hit counts of `rows` (burial surveys `burial`, in order), carried over where they
+    /// can be (module doc), with how they came about.
+    pub(crate) fn counts(
+        &self,
+        rows: &[u32],
+        burial: &[Vec<u32>],
+        progress: Progress<'_>,
+    ) -> (Vec<HitCounts>, RowStats) {
+        let (patches, occ, rays, far) = (self.patches, self.occ, self.rays, self.far);
+        let owners = Owners::new(patches);
+        let done = AtomicUsize::new(0);
+        let recast = AtomicU64::new(0);
+        let carried = AtomicUsize::new(0);
+        let total = rows.len();
+        let counts: Vec<HitCounts> = rows
+            .par_iter()
+            .zip(burial)
+            .map(|(&i, buried)| {
+                let i = i as usize;
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                let _ = progress(d, total);
+                let full = || {
+                    cast::count_rows(patches, occ, rays, &[i as u32], &|_| buried, None)
+                        .pop()
+                        .unwrap_or_default()
+                };
+                let Some(o) = self.old_of[i].map(|o| o as usize) else {
+                    return full();
+                };
+                if self.cache.burial[o] != *buried {
+                    return full();
+                }
+                let old = &self.cache.counts[o];
+                if self.out_of_sight(i) {
+                    // No ray of it can meet what changed: its hits are all carried over.
+                    if let Some(row) = self.renumbered(old) {
+                        carried.fetch_add(1, Ordering::Relaxed);
+                        return row;
+                    }
+                    return full();
+                }
+                // The old counts by old patch, less the old hits of the rays cast again.
+                let mut left: Vec<(u32, i64)> =
+                    old.iter().map(|&(j, c)| (j, i64::from(c))).collect();
+                let mut fresh: Vec<u32> = Vec::new();
+                let mut sound = true;
+                let mut again = 0u64;
+                rays_of(patches, i, rays, buried, |x, d| {
+                    if !self.crosses(x, d) {
+                        return;
+                    }
+                    again += 1;
+                    if let Some((h, true)) = self.old_occ.first_surface_from_surface(x, d, far) {
+                        let t = self.twin[h.triangle as usize];
+                        let old = (t != u32::MAX)
+                            .then(|| owners.patch_at(&patches.pieces, t, x + d * h.distance))
+                            .flatten()
+                            .and_then(|j| self.old_of[j]);
+                        // An old hit on a patch without a twin needs no taking out: its
+                        // column goes whole (every ray that reached it is cast again).
+                        if let Some(j) = old {
+                            match left.binary_search_by_key(&j, |e| e.0) {
+                                Ok(k) => left[k].1 -= 1,
+                                Err(_) => sound = false,
+                            }
+                        }
+                    }
+                    if let Some(j) = first_patch(patches, &owners, occ, x, d, far) {
+                        fresh.push(j as u32);
+                    }
+                });
+                let mut row: HitCounts = Vec::with_capacity(left.len() + fresh.len());
+                for (j, c) in left {
+                    let n = self.new_of[j as usize];
+                    if c < 0 {
+                        sound = false;
+                    } else if c > 0 && n != u32::MAX {
+                        row.push((n, c as u32));
+                    }
+                }
+                if !sound {
+                    return full();
+                }
+                recast.fetch_add(again, Ordering::Relaxed);
+                carried.fetch_add(1, Ordering::Relaxed);
+                row.extend(tally(fresh));
+                merge_sorted(row)
+            })
+            .collect();
+        let carried = carried.into_inner();
+        let stats = RowStats {
+            rows: rows.len(),
+            carried,
+            cast: rows.len() - carried,
+            rays_recast: recast.into_inner(),
+            surveyed: 0,
+            why_all: None,
+        };
+        (counts, stats)
+    }
+
+    /// An old row in the new numbering; `None` where a hit patch has no twin (then a ray of it
+    /// met what changed after all: it is cast again).
+    fn renumbered(&self, old: &HitCounts) -> Option<HitCounts> {
+        let row: Option<HitCounts> = old
+            .iter()
+            .map(|&(j, c)| {
+                let n = self.new_of[j as usize];
+                (n != u32::MAX).then_some((n, c))
+            })
+            .collect();
+        row.map(merge_sorted)
+    }
+}
+
+/// `(patch, count)` pairs sorted by patch, counts of one patch summed.
+fn merge_sorted(mut row: HitCounts) -> HitCounts {
+    row.sort_unstable_by_key(|e| e.0);
+    let mut merged: HitCounts = Vec::with_capacity(row.len());
+    for (j, c) in row {
+        match merged.last_mut() {
+            Some((k, n)) if *k == j => *n += c,
+            _ => merged.push((j, c)),
+        }
+    }
+    merged
 }

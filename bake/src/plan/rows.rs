@@ -33,6 +33,9 @@ pub struct Rows {
     pub patches: Vec<u32>,
     /// Each one's burial survey.
     pub burial: Vec<Vec<u32>>,
+    /// Whether each one's survey asked about other points too
+    /// ([`crate::geometry::Occluders::buried_traced`]).
+    pub recursed: Vec<bool>,
     /// Each one's hit counts.
     pub counts: Vec<HitCounts>,
 }
@@ -48,6 +51,10 @@ pub struct Cache {
     pub rays: u32,
     /// Every patch's burial survey.
     pub burial: Vec<Vec<u32>>,
+    /// Whether each survey asked about other points too.
+    pub recursed: Vec<bool>,
+    /// The scene's object names (the surveys name objects by index).
+    pub objects: Vec<String>,
     /// Every patch's hit counts.
     pub counts: Vec<HitCounts>,
     /// Every patch's identity ([`super::reuse::patch_keys`]).
@@ -110,6 +117,7 @@ impl Rows {
         w.u32(self.rays);
         w.u32s(&self.patches);
         w.lists(&self.burial);
+        w.flags(&self.recursed);
         w.counts(&self.counts);
         w.finish()
     }
@@ -125,10 +133,12 @@ impl Rows {
             rays: r.u32()?,
             patches: r.u32s()?,
             burial: r.lists()?,
+            recursed: r.flags()?,
             counts: r.counts()?,
         };
         r.end()?;
-        if rows.burial.len() != rows.patches.len() || rows.counts.len() != rows.patches.len() {
+        let n = rows.patches.len();
+        if rows.burial.len() != n || rows.counts.len() != n || rows.recursed.len() != n {
             return Err("its lists disagree in length".into());
         }
         Ok(rows)
@@ -142,6 +152,12 @@ impl Cache {
         w.bytes(&self.plan_hash);
         w.u32(self.rays);
         w.lists(&self.burial);
+        w.flags(&self.recursed);
+        w.u64(self.objects.len() as u64);
+        for o in &self.objects {
+            w.u64(o.len() as u64);
+            w.bytes(o.as_bytes());
+        }
         w.counts(&self.counts);
         w.u64(self.keys.len() as u64);
         for k in &self.keys {
@@ -178,6 +194,16 @@ impl Cache {
         let plan_hash = r.array()?;
         let rays = r.u32()?;
         let burial = r.lists()?;
+        let recursed = r.flags()?;
+        let n = r.len(8)?;
+        let mut objects = Vec::with_capacity(n);
+        for _ in 0..n {
+            let len = r.len(1)?;
+            objects.push(
+                String::from_utf8(r.take(len)?.to_vec())
+                    .map_err(|_| "an object's name is not UTF-8".to_string())?,
+            );
+        }
         let counts = r.counts()?;
         let n = r.len(16)?;
         let keys = (0..n).map(|_| r.array()).collect::<Result<_, _>>()?;
@@ -219,6 +245,8 @@ impl Cache {
             plan_hash,
             rays,
             burial,
+            recursed,
+            objects,
             counts,
             keys,
             triangles,
@@ -228,6 +256,7 @@ impl Cache {
         };
         let n = cache.keys.len();
         if cache.burial.len() != n
+            || cache.recursed.len() != n
             || cache.counts.len() != n
             || cache.emits.len() != cache.triangles.len()
             || cache.counts.iter().flatten().any(|&(j, _)| j as usize >= n)
@@ -261,6 +290,10 @@ impl Writer {
     fn u32s(&mut self, v: &[u32]) {
         self.u64(v.len() as u64);
         v.iter().for_each(|&x| self.u32(x));
+    }
+    fn flags(&mut self, v: &[bool]) {
+        self.u64(v.len() as u64);
+        self.bytes(&v.iter().map(|&b| u8::from(b)).collect::<Vec<_>>());
     }
     fn lists(&mut self, v: &[Vec<u32>]) {
         self.u64(v.len() as u64);
@@ -338,6 +371,10 @@ impl<'a> Reader<'a> {
         let n = self.len(4)?;
         (0..n).map(|_| self.u32()).collect()
     }
+    fn flags(&mut self) -> Result<Vec<bool>, String> {
+        let n = self.len(1)?;
+        Ok(self.take(n)?.iter().map(|&b| b != 0).collect())
+    }
     fn lists(&mut self) -> Result<Vec<Vec<u32>>, String> {
         let n = self.len(8)?;
         (0..n).map(|_| self.u32s()).collect()
@@ -374,6 +411,7 @@ mod tests {
             rays: 64,
             patches: vec![0, 4, 9],
             burial: vec![vec![], vec![u32::MAX, 2], vec![]],
+            recursed: vec![false, true, false],
             counts: vec![vec![(1, 5)], vec![], vec![(0, 1), (4, 60)]],
         };
         let bytes = rows.to_bytes();
@@ -383,8 +421,10 @@ mod tests {
         assert!(Rows::from_bytes(&bad).unwrap_err().contains("checksum"));
         assert!(Rows::from_bytes(&bytes[..bytes.len() - 5]).is_err());
         assert!(Rows::from_bytes(b"RADCACHE and more bytes than that, forty-four").is_err());
-        // The name follows the inputs, not the contents.
-        assert_ne!(rows.name(), Rows::file_name(&[2; 32], &[1; 32], 3));
+        // The name follows the inputs (scene, plan, shard), not the contents.
+        assert_eq!(rows.name(), Rows::file_name(&[2; 32], &[1; 32], 3));
+        assert_ne!(rows.name(), Rows::file_name(&[1; 32], &[2; 32], 3));
+        assert_ne!(rows.name(), Rows::file_name(&[2; 32], &[1; 32], 4));
         assert!(rows.name().starts_with("rows-3-"));
     }
 }

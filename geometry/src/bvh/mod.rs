@@ -13,7 +13,7 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
 use std::time::Duration;
@@ -72,6 +72,10 @@ pub struct Occluders {
 /// instead of 4410). A power of two, so the scaling is exact in the exponent; f32 keeps the
 /// same relative precision at any scale.
 const LOCAL_EXTENT: f64 = 65_536.0;
+
+/// Padding of each triangle's box in the ray tree, in local units: about 12 f32 ulps at the
+/// edge of the local frame (0.004 there), a millionth of the scene's diagonal.
+const PAD: f32 = 0.05;
 
 /// Whether `p`, a point in the plane of triangle `t` (or next to it), lies inside it by at
 /// least `margin` from every edge.
@@ -311,9 +315,19 @@ impl Occluders {
             (Bvh2::default(), CwBvh::default())
         } else {
             let params = BvhBuildParams::medium_build();
+            // Each leaf's box padded by PAD: a ray that meets a triangle at its edge, where
+            // the box is tight, passes the box test whatever the f32 rounding, so the trees
+            // of two scenes that differ elsewhere find the same first hit.
+            let boxes: Vec<Aabb> = bt
+                .iter()
+                .map(|t| {
+                    let b = t.aabb();
+                    Aabb::new(b.min - Vec3A::splat(PAD), b.max + Vec3A::splat(PAD))
+                })
+                .collect();
             (
                 build_bvh2_from_tris(&bt, params, &mut Duration::default()),
-                build_cwbvh_from_tris(&bt, params, &mut Duration::default()),
+                build_cwbvh(&boxes, params, &mut Duration::default()),
             )
         };
         let order: Vec<usize> = bvh.primitive_indices.iter().map(|&i| i as usize).collect();
@@ -554,16 +568,27 @@ impl Occluders {
     ) -> Option<(usize, f32)> {
         let mut hit = obvhs::ray::RayHit::none();
         let prims = &self.cw.primitive_indices;
-        self.cw
-            .ray_traverse(ray, &mut hit, |r, id| {
-                let t = self.rt[id].intersect(r);
-                if t < f32::INFINITY && (pass(prims[id]) || self.sifts(sieve, prims[id], r)) {
-                    f32::INFINITY
-                } else {
-                    t
+        // The nearest hit, ties at one distance (a ray through an edge two triangles share)
+        // going to the lower triangle index, so that the answer does not depend on the order
+        // the tree visits them in: trees built over scenes that differ elsewhere agree
+        // (`plan::reuse` relies on it). The padded leaves ([`PAD`]) make sure every
+        // triangle the ray meets is visited.
+        let best = std::cell::Cell::new((ray.tmax, u32::MAX, usize::MAX));
+        self.cw.ray_traverse(ray, &mut hit, |r, id| {
+            let t = self.rt[id].intersect(r);
+            if t < f32::INFINITY {
+                if pass(prims[id]) || self.sifts(sieve, prims[id], r) {
+                    return f32::INFINITY;
                 }
-            })
-            .then_some((hit.primitive_id as usize, hit.t))
+                let (bt, bp, _) = best.get();
+                if t < bt || (t == bt && bp != u32::MAX && prims[id] < bp) {
+                    best.set((t, prims[id], id));
+                }
+            }
+            t
+        });
+        let (t, p, id) = best.get();
+        (p != u32::MAX).then_some((id, t))
     }
 
     /// Whether the plane of triangle `t` (its index in the list given) holds `x`, within 1e-9
@@ -671,26 +696,57 @@ impl Occluders {
     /// merged them with the lit strips gave shaded steps up to 10 times the path tracer's
     /// light, `docs/decisions/shaded-steps.md`.)
     pub fn buried(&self, x: DVec3, normal: DVec3) -> bool {
-        self.buried_within(x, normal, BURIED_DEPTH)
+        self.buried_traced(x, normal).0
+    }
+
+    /// [`Self::buried`], and whether it asked about other points as well (the front faces it
+    /// met, in turn). Where it did not, its answer depends on nothing but the first surfaces
+    /// along [`Self::burial_directions`] from `x` and the triangles within a millionth of the
+    /// scene of `x`: a rebake keeps it where none of those changed (`plan::reuse`).
+    pub fn buried_traced(&self, x: DVec3, normal: DVec3) -> (bool, bool) {
+        let recursed = std::cell::Cell::new(false);
+        let buried = self.buried_within(x, normal, BURIED_DEPTH, &recursed);
+        (buried, recursed.get())
+    }
+
+    /// The directions [`Self::buried`] looks along from a point whose surface has `normal`:
+    /// the normal and eight directions 45° and 80° off it (not normalised).
+    pub fn burial_directions(normal: DVec3) -> [DVec3; 9] {
+        let (t1, t2) = normal.any_orthonormal_pair();
+        let g = 80f64.to_radians().tan();
+        [
+            DVec3::ZERO,
+            t1,
+            -t1,
+            t2,
+            -t2,
+            t1 * g,
+            -t1 * g,
+            t2 * g,
+            -t2 * g,
+        ]
+        .map(|t| normal + t)
     }
 
     /// [`Self::buried`]; a front face met where another ray met a plain back face and no ray
     /// left is asked in turn whether it is buried (with `depth − 1`; at depth 0 it is taken as
     /// buried), and if so counts as a back face: the ray met it inside a solid, so `x` lies
     /// inside that solid too.
-    fn buried_within(&self, x: DVec3, normal: DVec3, depth: u32) -> bool {
+    fn buried_within(
+        &self,
+        x: DVec3,
+        normal: DVec3,
+        depth: u32,
+        recursed: &std::cell::Cell<bool>,
+    ) -> bool {
         if self.rt.is_empty() || !normal.is_finite() {
             return false;
         }
         // What the surface looks out on: the first hits along the normal and eight directions
         // 45° and 80° off it. A front face met by any of them: exposed.
-        let (t1, t2) = normal.any_orthonormal_pair();
-        let tilts = [DVec3::ZERO, t1, -t1, t2, -t2];
-        let grazing = [t1, -t1, t2, -t2].map(|t| t * 80f64.to_radians().tan());
         let (mut back, mut plain_back, mut tied) = (true, false, false);
         let mut fronts: Vec<(DVec3, DVec3)> = Vec::new();
-        for &t in tilts.iter().chain(&grazing) {
-            let d = normal + t;
+        for d in Self::burial_directions(normal) {
             // A ray that leaves with a front face met: exposed, whatever the other rays meet.
             let Some(hit) = self.closest_hit_passing(
                 x,
@@ -727,10 +783,13 @@ impl Occluders {
             if !(back && plain_back) {
                 return false;
             }
-            return depth == 0
-                || fronts
-                    .iter()
-                    .all(|&(p, n)| self.buried_within(p, n, depth - 1));
+            if depth == 0 {
+                return true;
+            }
+            recursed.set(true);
+            return fronts
+                .iter()
+                .all(|&(p, n)| self.buried_within(p, n, depth - 1, recursed));
         }
         // Ties alone (a panel's sheets out of order) or with rays that leave: exposed.
         if tied && !(back && plain_back) {
