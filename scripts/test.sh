@@ -24,3 +24,8 @@ fi
 # the message is harmless, this silences it.
 export NODEVICE_SELECT=1
 cargo test --workspace "$@"
+
+# The distributed bake through Ray (a local cluster of two workers) against the one-process bake,
+# with a worker killed mid-shard (docs/distributed.md), on the binary the tests just built;
+# installs Ray from scripts/ray-requirements.txt where it is missing.
+scripts/ray_test.sh target/debug/radiosity

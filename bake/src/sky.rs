@@ -51,6 +51,30 @@ pub struct SkyReport {
 /// the `sky` effect, report and timing; with `on` false the file gets no SKY section (a sky
 /// cannot light it) and the effect says so.
 pub(crate) fn attach(out: BakeOutput, on: bool, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
+    attach_with(out, on, hooks, None)
+}
+
+/// How a planned bake measures the sky ([`crate::plan`]): each file patch's rays seeded by
+/// the patch's identity, and where an earlier bake is given, a patch's visibility carried
+/// over from it.
+pub(crate) struct PlannedSky {
+    /// Seed of each file patch's rays.
+    pub(crate) seeds: Vec<u64>,
+    /// For each file patch, the visibility of the earlier bake's patch of the same identity
+    /// and the same direct-light samples, where there is one.
+    pub(crate) old: Vec<Option<[f32; SH_COEFFICIENTS]>>,
+    /// Boxes of what changed since ([`crate::plan::reuse::Diff`]): a patch keeps its old
+    /// visibility where none of its rays' lines crosses one.
+    pub(crate) boxes: Vec<(DVec3, DVec3)>,
+}
+
+/// [`attach`], planned.
+pub(crate) fn attach_with(
+    out: BakeOutput,
+    on: bool,
+    hooks: Hooks<'_>,
+    planned: Option<&PlannedSky>,
+) -> Result<BakeOutput, BakeError> {
     let BakeOutput {
         file,
         mut report,
@@ -75,7 +99,7 @@ pub(crate) fn attach(out: BakeOutput, on: bool, hooks: Hooks<'_>) -> Result<Bake
     hooks.start("sky")?;
     let t = std::time::Instant::now();
     let rt = BakedScene::new(file);
-    let (visibility, measured) = measure(&rt, hooks)?;
+    let (visibility, measured) = measure(&rt, hooks, planned)?;
     let mut file = rt.file;
     let bytes = visibility.to_bytes().len();
     let seconds = t.elapsed().as_secs_f64();
@@ -123,6 +147,7 @@ pub(crate) fn attach(out: BakeOutput, on: bool, hooks: Hooks<'_>) -> Result<Bake
 fn measure(
     rt: &BakedScene,
     hooks: Hooks<'_>,
+    planned: Option<&PlannedSky>,
 ) -> Result<(SkyVisibility<'static>, SkyReport), BakeError> {
     let n = rt.n();
     let (Some(mesh), Some(occ)) = (rt.file.mesh.as_ref(), rt.occluders()) else {
@@ -145,7 +170,26 @@ fn measure(
         hooks.check()?;
         let chunk: Vec<([f32; SH_COEFFICIENTS], u64)> = (start..(start + CHUNK).min(n))
             .into_par_iter()
-            .map(|p| patch_visibility(occ, mesh.samples_of(p), p))
+            .map(|p| {
+                let samples = mesh.samples_of(p);
+                let Some(plan) = planned else {
+                    return patch_visibility(occ, samples, p as u64);
+                };
+                let seed = plan.seeds[p];
+                if let Some(t) = plan.old[p] {
+                    let mut clear = true;
+                    sky_rays(samples, seed, |origin, dir, _| {
+                        clear &= !plan
+                            .boxes
+                            .iter()
+                            .any(|&b| crate::plan::reuse::crosses(origin, dir, f64::INFINITY, b));
+                    });
+                    if clear {
+                        return (t, sky_ray_count(samples));
+                    }
+                }
+                patch_visibility(occ, samples, seed)
+            })
             .collect();
         for (t, r) in chunk {
             patches.push(t);
@@ -189,17 +233,16 @@ fn scramble(kind: u64, k: u64) -> [u32; 2] {
     [v as u32, (v >> 32) as u32]
 }
 
-/// A patch's `T` (module docs) and the rays it cast.
-fn patch_visibility(
-    occ: &Occluders,
+/// Calls `ray(origin, direction, weight)` for each of a patch's sky rays (`seed`: its
+/// streams'; the patch's index in a bake without a plan).
+fn sky_rays(
     samples: &[radiosity_core::PatchSample],
-    patch: usize,
-) -> ([f32; SH_COEFFICIENTS], u64) {
+    seed: u64,
+    mut ray: impl FnMut(DVec3, DVec3, f64),
+) {
     let total: f64 = samples.iter().map(|s| f64::from(s.area)).sum();
-    let mut t = [0f64; SH_COEFFICIENTS];
-    let mut rays = 0u64;
     if !(total > 0.0) {
-        return ([0.0; SH_COEFFICIENTS], 0);
+        return;
     }
     for (k, s) in samples.iter().enumerate() {
         let share = f64::from(s.area) / total;
@@ -207,24 +250,44 @@ fn patch_visibility(
         let origin = DVec3::from(s.position.map(f64::from));
         let n = DVec3::from(s.normal.map(f64::from));
         let (t1, t2) = n.any_orthonormal_pair();
-        let sc = scramble(0x5c1e_5ca7, ((patch as u64) << 20) ^ k as u64);
+        let sc = scramble(0x5c1e_5ca7, (seed << 20) ^ k as u64);
         let w = PI * share / count as f64;
         for i in 0..count {
             let [u1, u2] = sobol2(sc, i as u32);
             let (r, phi) = (u1.sqrt(), std::f64::consts::TAU * u2);
             let dir = (t1 * phi.cos() + t2 * phi.sin()) * r + n * (1.0 - u1).max(0.0).sqrt();
-            if occ
-                .closest_hit_from_surface(origin, dir, f64::INFINITY)
-                .is_none()
-            {
-                let y = sh_basis(dir.as_vec3().to_array());
-                for (a, y) in t.iter_mut().zip(y) {
-                    *a += w * f64::from(y);
-                }
+            ray(origin, dir, w);
+        }
+    }
+}
+
+/// The sky rays of a patch of these samples.
+fn sky_ray_count(samples: &[radiosity_core::PatchSample]) -> u64 {
+    let mut rays = 0;
+    sky_rays(samples, 0, |_, _, _| rays += 1);
+    rays
+}
+
+/// A patch's `T` (module docs) and the rays it cast.
+fn patch_visibility(
+    occ: &Occluders,
+    samples: &[radiosity_core::PatchSample],
+    seed: u64,
+) -> ([f32; SH_COEFFICIENTS], u64) {
+    let mut t = [0f64; SH_COEFFICIENTS];
+    let mut rays = 0u64;
+    sky_rays(samples, seed, |origin, dir, w| {
+        rays += 1;
+        if occ
+            .closest_hit_from_surface(origin, dir, f64::INFINITY)
+            .is_none()
+        {
+            let y = sh_basis(dir.as_vec3().to_array());
+            for (a, y) in t.iter_mut().zip(y) {
+                *a += w * f64::from(y);
             }
         }
-        rays += count as u64;
-    }
+    });
     (t.map(|v| v as f32), rays)
 }
 

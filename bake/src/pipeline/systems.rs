@@ -93,10 +93,13 @@ pub(crate) enum SystemsCut<'a> {
     },
 }
 
-/// An earlier level baked with the same plan, and its systems' records.
+/// An earlier level baked with the same plan, its systems' records, the identity of each of
+/// its file's patches, and the boxes of what changed since ([`crate::plan::reuse::Diff`]).
 pub(crate) struct OldSystems {
     pub(crate) level: RadFile<'static>,
     pub(crate) records: Vec<SystemRecord>,
+    pub(crate) file_keys: Vec<[u8; 16]>,
+    pub(crate) boxes: Vec<(glam::DVec3, glam::DVec3)>,
 }
 
 /// A level's bake with its systems' records, and for each system that was not taken from
@@ -461,16 +464,59 @@ pub(crate) fn systems_bake(
         coupling_bytes,
     });
     let report = report::store(&mut file, report)?;
+    let sky = plan_hash.map(|_| planned_sky(system, &file, &patch_source, old));
     let out = BakeOutput {
         file,
         report,
         patch_source,
     };
     Ok(SystemsBake {
-        output: crate::sky::attach(out, params.sky, hooks)?,
+        output: crate::sky::attach_with(out, params.sky, hooks, sky.as_ref())?,
         records,
         rebaked,
     })
+}
+
+/// A planned level's sky: each file patch's rays seeded by its identity, and the visibility
+/// of an earlier bake's patch of the same identity and samples offered for carrying over.
+fn planned_sky(
+    system: &Discretised,
+    file: &RadFile<'_>,
+    patch_source: &[u32],
+    old: Option<&OldSystems>,
+) -> crate::sky::PlannedSky {
+    let seeds = (patch_source.iter())
+        .map(|&i| system.patches.patches[i as usize].seed)
+        .collect();
+    let none = || vec![None; patch_source.len()];
+    let carried = old.and_then(|o| {
+        let (mesh, old_mesh, old_sky) = (
+            file.mesh.as_ref()?,
+            o.level.mesh.as_ref()?,
+            o.level.sky.as_ref()?,
+        );
+        let at: std::collections::HashMap<[u8; 16], usize> = (o.file_keys.iter().enumerate())
+            .map(|(p, k)| (*k, p))
+            .collect();
+        let nine = radiosity_core::SH_COEFFICIENTS;
+        Some(
+            (0..patch_source.len())
+                .map(|p| {
+                    let q = *at.get(&system.keys[patch_source[p] as usize])?;
+                    (mesh.samples_of(p) == old_mesh.samples_of(q)).then(|| {
+                        let mut t = [0f32; radiosity_core::SH_COEFFICIENTS];
+                        t.copy_from_slice(old_sky.values.get(q * nine..(q + 1) * nine)?);
+                        Some(t)
+                    })?
+                })
+                .collect(),
+        )
+    });
+    crate::sky::PlannedSky {
+        seeds,
+        old: carried.unwrap_or_else(none),
+        boxes: old.map(|o| o.boxes.clone()).unwrap_or_default(),
+    }
 }
 
 fn objects_of(scene: &Scene) -> Vec<Cow<'static, str>> {

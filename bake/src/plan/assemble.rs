@@ -189,10 +189,29 @@ pub fn assemble(
         .sparse
         .take()
         .ok_or_else(|| refuse("internal: a planned bake's form factors are sparse rows".into()))?;
-    let old = reuse.map(|r| OldSystems {
-        level: r.level.clone(),
-        records: r.cache.systems.clone(),
-    });
+    let old = match reuse {
+        None => None,
+        Some(r) => {
+            let occ = scene.occluders();
+            let boxes = super::reuse::Diff::new(scene, &d.patches, &occ, rays, &d.keys, &r.cache)
+                .map(|diff| diff.boxes().to_vec());
+            Some(OldSystems {
+                level: r.level.clone(),
+                records: r.cache.systems.clone(),
+                file_keys: (r.cache.sources.iter())
+                    .map(|&i| r.cache.keys[i as usize])
+                    .collect(),
+                // Where every row was cast again (the bounds moved), nothing is carried: the
+                // whole scene is a box.
+                boxes: boxes.unwrap_or_else(|_| {
+                    vec![(
+                        glam::DVec3::splat(f64::NEG_INFINITY),
+                        glam::DVec3::splat(f64::INFINITY),
+                    )]
+                }),
+            })
+        }
+    };
     let cut = SystemsCut::Plan {
         regions: &plan.regions,
         plan_hash,
@@ -231,6 +250,7 @@ pub fn assemble(
         emits,
         coverage: scene.coverage.clone(),
         systems: bake.records,
+        sources: bake.output.patch_source.clone(),
     };
     Ok(Assembled {
         output: bake.output,

@@ -109,9 +109,8 @@ impl Plan {
                 plan.format, plan.version
             )));
         }
-        if !(plan.cell_size.is_finite() && plan.cell_size > 0.0)
-            || !plan.grid_origin.iter().all(|v| v.is_finite())
-        {
+        let finite = plan.grid_origin.iter().all(|v| v.is_finite());
+        if !(plan.cell_size.is_finite() && plan.cell_size > 0.0 && finite) {
             return Err(bad("cell_size must be positive and grid_origin finite"));
         }
         if !plan.regions.is_well_formed() {

@@ -105,7 +105,7 @@ fn triangle_key(t: &[DVec3; 3], emits: bool, coverage: f32) -> [u64; 11] {
 }
 
 /// Whether the ray `x + t·d`, `t` in `[0, far]`, crosses the box `[lo, hi]`.
-fn crosses(x: DVec3, d: DVec3, far: f64, (lo, hi): (DVec3, DVec3)) -> bool {
+pub(crate) fn crosses(x: DVec3, d: DVec3, far: f64, (lo, hi): (DVec3, DVec3)) -> bool {
     let (mut t0, mut t1) = (0.0f64, far);
     for a in 0..3 {
         let inv = 1.0 / d[a];
@@ -274,6 +274,11 @@ impl<'a> Diff<'a> {
             far: 10.0 * occ.extent(),
             rays,
         })
+    }
+
+    /// Boxes of what changed, padded.
+    pub(crate) fn boxes(&self) -> &[(DVec3, DVec3)] {
+        &self.boxes
     }
 
     /// Whether the ray from `x` along `d` crosses what changed.

@@ -67,6 +67,8 @@ pub struct Cache {
     pub coverage: Vec<f32>,
     /// Each system of the level, in order.
     pub systems: Vec<SystemRecord>,
+    /// Each of the level's file patches' patch (its index in `keys`).
+    pub sources: Vec<u32>,
 }
 
 /// One system of a planned bake: its region, the hash of everything its matrix is made
@@ -175,6 +177,7 @@ impl Cache {
         for &c in &self.coverage {
             w.bytes(&c.to_le_bytes());
         }
+        w.u32s(&self.sources);
         w.u64(self.systems.len() as u64);
         for s in &self.systems {
             w.u32(s.region);
@@ -222,6 +225,7 @@ impl Cache {
         let coverage = (0..n)
             .map(|_| r.array().map(f32::from_le_bytes))
             .collect::<Result<_, _>>()?;
+        let sources = r.u32s()?;
         let n = r.len(64)?;
         let mut systems = Vec::with_capacity(n);
         for _ in 0..n {
@@ -253,6 +257,7 @@ impl Cache {
             emits,
             coverage,
             systems,
+            sources,
         };
         let n = cache.keys.len();
         if cache.burial.len() != n
@@ -260,6 +265,7 @@ impl Cache {
             || cache.counts.len() != n
             || cache.emits.len() != cache.triangles.len()
             || cache.counts.iter().flatten().any(|&(j, _)| j as usize >= n)
+            || cache.sources.iter().any(|&i| i as usize >= n)
         {
             return Err("its lists disagree in length".into());
         }
