@@ -98,7 +98,11 @@ pub(crate) fn attach_with(
     }
     hooks.start("sky")?;
     let t = std::time::Instant::now();
-    let rt = BakedScene::new(file);
+    let mut rt = BakedScene::new(file);
+    if planned.is_some() {
+        // A planned bake carries visibility over from another scene's tree: both robust.
+        rt.make_occluders_robust();
+    }
     let (visibility, measured) = measure(&rt, hooks, planned)?;
     let mut file = rt.file;
     let bytes = visibility.to_bytes().len();

@@ -87,6 +87,12 @@ impl BakedScene {
         self.occluders.as_ref()
     }
 
+    /// Makes the mesh's occluders answer rays independently of the tree's shape
+    /// ([`Occluders::robust`]), as a planned bake measures with them.
+    pub fn make_occluders_robust(&mut self) {
+        self.occluders = self.occluders.take().map(Occluders::robust);
+    }
+
     /// Direct irradiance at a point with unit `normal` from every light, shadow rays through
     /// the mesh (or unshadowed when the file has no mesh — callers refuse that case first).
     pub fn direct_at(&self, lights: &[Light], point: DVec3, normal: DVec3) -> Rgb {

@@ -50,26 +50,15 @@ fn town(dir: &Path, moved: bool) -> std::path::PathBuf {
         let (x1, z1) = (x0 + w, z0 + w);
         writeln!(obj, "o box{k}").unwrap();
         // Four walls facing out and a roof (counter-clockwise seen from outside).
-        quad(
-            &mut obj,
+        for face in [
             [[x0, 0.0, z0], [x1, 0.0, z0], [x1, h, z0], [x0, h, z0]],
-        );
-        quad(
-            &mut obj,
             [[x1, 0.0, z0], [x1, 0.0, z1], [x1, h, z1], [x1, h, z0]],
-        );
-        quad(
-            &mut obj,
             [[x1, 0.0, z1], [x0, 0.0, z1], [x0, h, z1], [x1, h, z1]],
-        );
-        quad(
-            &mut obj,
             [[x0, 0.0, z1], [x0, 0.0, z0], [x0, h, z0], [x0, h, z1]],
-        );
-        quad(
-            &mut obj,
             [[x0, h, z0], [x1, h, z0], [x1, h, z1], [x0, h, z1]],
-        );
+        ] {
+            quad(&mut obj, face);
+        }
     }
     let path = dir.join(if moved { "moved.obj" } else { "town.obj" });
     std::fs::write(&path, obj).unwrap();

@@ -179,8 +179,12 @@ pub(crate) fn discretise_with(
     if !occlusion.on {
         ffp.visibility = Visibility::Off;
     }
-    // A plan's rows are always ray-cast, so they always have the BVH.
-    let occluders = (occlusion.on || given.is_some()).then(|| scene.occluders());
+    // A plan's rows are always ray-cast, so they always have the BVH, robust as the shards'
+    // ([`crate::geometry::Occluders::robust`]).
+    let occluders = match given {
+        Some(_) => Some(scene.occluders().robust()),
+        None => occlusion.on.then(|| scene.occluders()),
+    };
     effects.insert("occlusion", occlusion);
     effects.insert("emission", effects::plan_emission(&patches));
     lap("plan", &mut timings);

@@ -192,7 +192,7 @@ pub fn assemble(
     let old = match reuse {
         None => None,
         Some(r) => {
-            let occ = scene.occluders();
+            let occ = scene.occluders().robust();
             let boxes = super::reuse::Diff::new(scene, &d.patches, &occ, rays, &d.keys, &r.cache)
                 .map(|diff| diff.boxes().to_vec());
             Some(OldSystems {

@@ -356,7 +356,7 @@ impl GivenRows {
 /// One shard's rows of `scene` under `plan` (`shard`: its index; `None`: every patch):
 /// each of its patches' burial survey and hit counts. `reuse`: an earlier bake's cache with
 /// the same plan, whose counts are carried over where no ray may meet what changed
-/// ([`reuse::count_rows_reusing`]): the rows are the same either way.
+/// ([`reuse`]): the rows are the same either way.
 pub fn shard_rows(
     scene: &Scene,
     plan: &Plan,
@@ -378,7 +378,7 @@ pub fn shard_rows(
     hooks.start("simplify")?;
     let mut patches = simplify(scene, &params.voxel)?;
     let keys = reuse::seed_patches(scene, &mut patches);
-    let occ = scene.occluders();
+    let occ = scene.occluders().robust();
     let rows = plan.shard_patches(&patches, shard);
     let go_on = |done: usize, total: usize| hooks.report(done, total);
     let diff = reuse.map(|cache| {

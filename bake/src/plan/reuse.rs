@@ -189,7 +189,8 @@ impl<'a> Diff<'a> {
             return Err("the old bake cast another number of rays a patch");
         }
         let old_occ = Occluders::with_emitters(&cache.triangles, cache.emits.clone())
-            .with_coverage(cache.coverage.clone());
+            .with_coverage(cache.coverage.clone())
+            .robust();
         if old_occ.frame() != occ.frame() || old_occ.extent() != occ.extent() {
             return Err("the scene's bounds changed, and with them every ray's f32 coordinates");
         }

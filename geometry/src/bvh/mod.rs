@@ -7,13 +7,13 @@
 //! ([`LOCAL_EXTENT`]), so a scene far from the origin loses no precision and one of any size
 //! looks the same to obvhs, whose CWBVH has an absolute epsilon.
 
-use glam::{DVec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::cwbvh::builder::{build_cwbvh, build_cwbvh_from_tris};
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
 use std::time::Duration;
@@ -34,6 +34,10 @@ pub struct Occluders {
     /// Ray-test triangles in CWBVH primitive order (`cw.primitive_indices` maps them to the
     /// triangle list the BVH was built from).
     rt: Vec<RayTriangle>,
+    /// Each of [`Self::rt`]'s triangles' own (unpadded) box, for [`NEAR`] (robust only).
+    tight: Vec<Aabb>,
+    /// Whether rays are answered independently of the tree's shape ([`Self::robust`]).
+    robust: bool,
     /// Where each triangle, by its index in the list given, sits in [`Self::corners`] (for
     /// [`Self::reaches`]).
     slot: Vec<u32>,
@@ -73,6 +77,11 @@ pub struct Occluders {
 /// instead of 4410). A power of two, so the scaling is exact in the exponent; f32 keeps the
 /// same relative precision at any scale.
 const LOCAL_EXTENT: f64 = 65_536.0;
+
+/// obvhs enters no box that the ray leaves within this of its origin (`cwbvh::node::EPSILON`,
+/// local units): a triangle whose own box the ray leaves that near stays unmet, as it was with
+/// tight leaves, whatever [`PAD`] adds to its leaf.
+const NEAR: f32 = 1e-4;
 
 /// Padding of each triangle's box in the ray tree, in local units: about 12 f32 ulps at the
 /// edge of the local frame (0.004 there), a millionth of the scene's diagonal.
@@ -241,6 +250,49 @@ impl Occluders {
         occ
     }
 
+    /// The same occluders with the ray tree's answer independent of its shape, so that the
+    /// trees of two scenes that differ elsewhere answer a ray that meets nothing of the
+    /// difference alike (a planned bake's rebake relies on it, `bake::plan::reuse`): each
+    /// leaf's box padded by [`PAD`] (a ray that meets a triangle at its edge, where a tight box
+    /// could lose it to f32 rounding, visits it), a triangle whose own box the ray leaves
+    /// within [`NEAR`] of its origin not met (what the tight leaves did), and a tie at one
+    /// distance going to the face turned to the ray, then to the lower triangle index
+    /// ([`Self::before`]). A bake without a plan keeps the plain tree.
+    pub fn robust(mut self) -> Self {
+        if self.rt.is_empty() || self.robust {
+            self.robust = true;
+            return self;
+        }
+        let (origin, scale) = (self.origin, self.scale);
+        let bt: Vec<BvhTriangle> = (0..self.slot.len() as u32)
+            .map(|t| {
+                let c = self.given(t);
+                BvhTriangle {
+                    v0: to_local(c[0], origin, scale),
+                    v1: to_local(c[1], origin, scale),
+                    v2: to_local(c[2], origin, scale),
+                }
+            })
+            .collect();
+        let boxes: Vec<Aabb> = bt
+            .iter()
+            .map(|t| {
+                let b = t.aabb();
+                Aabb::new(b.min - Vec3A::splat(PAD), b.max + Vec3A::splat(PAD))
+            })
+            .collect();
+        let params = BvhBuildParams::medium_build();
+        self.cw = build_cwbvh(&boxes, params, &mut Duration::default());
+        let prims = &self.cw.primitive_indices;
+        self.rt = prims
+            .iter()
+            .map(|&i| RayTriangle::new(&bt[i as usize]))
+            .collect();
+        self.tight = prims.iter().map(|&i| bt[i as usize].aabb()).collect();
+        self.robust = true;
+        self
+    }
+
     /// For [`Self::covers`]: each emitting triangle against the triangles near its box, kept
     /// where the other does not emit, faces the same way and its plane holds the emitter's
     /// corners (within 1e-9 of the extent).
@@ -316,19 +368,9 @@ impl Occluders {
             (Bvh2::default(), CwBvh::default())
         } else {
             let params = BvhBuildParams::medium_build();
-            // Each leaf's box padded by PAD: a ray that meets a triangle at its edge, where
-            // the box is tight, passes the box test whatever the f32 rounding, so the trees
-            // of two scenes that differ elsewhere find the same first hit.
-            let boxes: Vec<Aabb> = bt
-                .iter()
-                .map(|t| {
-                    let b = t.aabb();
-                    Aabb::new(b.min - Vec3A::splat(PAD), b.max + Vec3A::splat(PAD))
-                })
-                .collect();
             (
                 build_bvh2_from_tris(&bt, params, &mut Duration::default()),
-                build_cwbvh(&boxes, params, &mut Duration::default()),
+                build_cwbvh_from_tris(&bt, params, &mut Duration::default()),
             )
         };
         let order: Vec<usize> = bvh.primitive_indices.iter().map(|&i| i as usize).collect();
@@ -338,6 +380,8 @@ impl Occluders {
                 .iter()
                 .map(|&i| RayTriangle::new(&bt[i as usize]))
                 .collect(),
+            tight: Vec::new(),
+            robust: false,
             slot: {
                 let mut slot = vec![0u32; tris.len()];
                 for (k, &i) in order.iter().enumerate() {
@@ -569,20 +613,40 @@ impl Occluders {
     ) -> Option<(usize, f32)> {
         let mut hit = obvhs::ray::RayHit::none();
         let prims = &self.cw.primitive_indices;
-        // The nearest hit, ties at one distance (a ray through an edge two triangles share)
-        // going to the lower triangle index, so that the answer does not depend on the order
-        // the tree visits them in: trees built over scenes that differ elsewhere agree
-        // (`plan::reuse` relies on it). The padded leaves ([`PAD`]) make sure every
-        // triangle the ray meets is visited.
+        if !self.robust {
+            return self
+                .cw
+                .ray_traverse(ray, &mut hit, |r, id| {
+                    let t = self.rt[id].intersect(r);
+                    if t < f32::INFINITY && (pass(prims[id]) || self.sifts(sieve, prims[id], r)) {
+                        f32::INFINITY
+                    } else {
+                        t
+                    }
+                })
+                .then_some((hit.primitive_id as usize, hit.t));
+        }
+        // Robust ([`Self::robust`]): the nearest hit, a tie at one distance (a ray through an edge two triangles share,
+        // the two sheets of a panel modelled face to face) going to the face turned to the
+        // ray, then to the lower triangle index ([`Self::before`]), so that the answer does
+        // not depend on the order the tree visits them in: trees built over scenes that differ
+        // elsewhere agree (`plan::reuse` relies on it). The padded leaves ([`PAD`]) make sure
+        // every triangle the ray meets is visited.
+        let dir = DVec3::from(Vec3::from(ray.direction));
         let best = std::cell::Cell::new((ray.tmax, u32::MAX, usize::MAX));
         self.cw.ray_traverse(ray, &mut hit, |r, id| {
             let t = self.rt[id].intersect(r);
+            // A triangle whose own box the ray leaves within obvhs's node epsilon of its
+            // origin: its tight leaf was never entered before the padding, so it stays hidden.
+            if t < f32::INFINITY && self.leaves_near(id, r) {
+                return f32::INFINITY;
+            }
             if t < f32::INFINITY {
                 if pass(prims[id]) || self.sifts(sieve, prims[id], r) {
                     return f32::INFINITY;
                 }
                 let (bt, bp, _) = best.get();
-                if t < bt || (t == bt && bp != u32::MAX && prims[id] < bp) {
+                if t < bt || (t == bt && bp != u32::MAX && self.before(prims[id], bp, dir)) {
                     best.set((t, prims[id], id));
                 }
             }
@@ -672,6 +736,22 @@ impl Occluders {
         }
         let margin = 1e-6 * self.extent;
         !inside_by(self.given(target), to, margin)
+    }
+
+    /// Whether `ray` leaves the own box of [`Self::rt`]'s triangle `id` within [`NEAR`] of
+    /// its origin.
+    fn leaves_near(&self, id: usize, ray: &Ray) -> bool {
+        let b = &self.tight[id];
+        let t1 = (b.min - ray.origin) * ray.inv_direction;
+        let t2 = (b.max - ray.origin) * ray.inv_direction;
+        t1.max(t2).min_element() < NEAR
+    }
+
+    /// Whether triangle `a` goes before `b` met at the same distance along `dir`: a face
+    /// turned to the ray before one turned away, then the lower index.
+    fn before(&self, a: u32, b: u32, dir: DVec3) -> bool {
+        let away = |t: u32| self.front(t).dot(dir) >= 0.0;
+        (away(a), a) < (away(b), b)
     }
 
     /// The corners of triangle `t` (its index in the list given).
