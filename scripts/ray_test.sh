@@ -181,5 +181,6 @@ check "ray_bake.py --reuse after a box moved: the full bake's file" ray_moved
 check "bake-assemble refuses a missing shard" missing_shard
 check "ray_bake.py without Ray: exit 2, how to install" without_ray
 
-echo "ray_test: $((passed)) passed, $failed failed in $(($(date +%s) - start)) s"
+echo "ray_test took $(($(date +%s) - start)) s"
+echo "ray_test: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

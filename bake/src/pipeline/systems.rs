@@ -147,8 +147,10 @@ fn plan_partition(system: &Discretised, regions: &Region) -> (Partition, Vec<u32
     (Partition { system, count }, used)
 }
 
-/// BLAKE3 of everything system `s`'s file is made from: the plan, its region, its own form
-/// factors, reflectances, patches and the scene's object names.
+/// BLAKE3 of everything system `s`'s file is made from (the plan, its region, its own form
+/// factors, reflectances, patches and the scene's object names), and of three parts of it to
+/// say what changed: its patches with the object names, its reflectances, its own form
+/// factors.
 fn input_hash(
     plan_hash: &[u8; 32],
     region: u32,
@@ -156,20 +158,53 @@ fn input_hash(
     reflectance: &[[f64; 3]],
     patches: &[radiosity_core::Patch],
     scene: &Scene,
-) -> [u8; 32] {
+) -> ([u8; 32], [[u8; 16]; 3]) {
+    let short = |h: blake3::Hasher| {
+        let mut k = [0u8; 16];
+        k.copy_from_slice(&h.finalize().as_bytes()[..16]);
+        k
+    };
+    let mut own = blake3::Hasher::new();
+    own.update(bytemuck::cast_slice(patches));
+    for o in &scene.objects {
+        own.update(o.as_bytes());
+        own.update(&[0xff]);
+    }
+    let mut rho = blake3::Hasher::new();
+    reflectance.iter().flatten().for_each(|v| {
+        rho.update(&v.to_bits().to_le_bytes());
+    });
+    let mut paths = blake3::Hasher::new();
+    paths.update(&(block.n as u64).to_le_bytes());
+    block.values.iter().for_each(|v| {
+        paths.update(&v.to_bits().to_le_bytes());
+    });
+    let parts = [short(own), short(rho), short(paths)];
     let mut h = blake3::Hasher::new();
     h.update(plan_hash);
     h.update(&region.to_le_bytes());
-    h.update(&(block.n as u64).to_le_bytes());
-    for v in block.values.iter().chain(reflectance.iter().flatten()) {
-        h.update(&v.to_bits().to_le_bytes());
+    parts.iter().for_each(|p| {
+        h.update(p);
+    });
+    (*h.finalize().as_bytes(), parts)
+}
+
+/// Why a system whose inputs' parts are `now` was not taken from a bake whose were `then`.
+fn changed(now: &[[u8; 16]; 3], then: &[[u8; 16]; 3]) -> String {
+    let what = [
+        "its patches (their geometry, reflectance or emission, or the scene's object names)",
+        "its reflectances",
+        "the light paths among its patches (its own form factors)",
+    ];
+    let list: Vec<&str> = (0..3)
+        .filter(|&k| now[k] != then[k])
+        .map(|k| what[k])
+        .collect();
+    if list.is_empty() {
+        "the plan's parameters for it changed".to_owned()
+    } else {
+        format!("changed: {}", list.join("; "))
     }
-    h.update(bytemuck::cast_slice(patches));
-    for o in &scene.objects {
-        h.update(o.as_bytes());
-        h.update(&[0xff]);
-    }
-    *h.finalize().as_bytes()
 }
 
 /// [`second_half_systems`] cut as `cut` says, with its systems' records.
@@ -263,17 +298,16 @@ pub(crate) fn systems_bake(
             .map(|&k| system.core_patches[k as usize])
             .collect();
         let region = region_of[s];
-        let input = plan_hash.map_or([0; 32], |h| {
+        let (input, parts) = plan_hash.map_or(([0; 32], [[0; 16]; 3]), |h| {
             input_hash(&h, region, &block, &reflectance, &patches, scene)
         });
         let (why, kept) = match old {
             None => (None, None),
             Some(old) => match old.records.iter().position(|o| o.region == region) {
                 None => (Some("its region held no system before".to_owned()), None),
-                Some(k) if old.records[k].input != input => (
-                    Some("its geometry, materials or light paths changed".to_owned()),
-                    None,
-                ),
+                Some(k) if old.records[k].input != input => {
+                    (Some(changed(&parts, &old.records[k].parts)), None)
+                }
                 Some(k) => (None, Some(k)),
             },
         };
@@ -332,6 +366,7 @@ pub(crate) fn systems_bake(
         records.push(SystemRecord {
             region,
             input,
+            parts,
             err2: e,
             norm2: d,
             matrix_bytes: bytes as u64,

@@ -79,6 +79,9 @@ pub struct SystemRecord {
     pub region: u32,
     /// BLAKE3 of its transfer's inputs.
     pub input: [u8; 32],
+    /// BLAKE3 (16 bytes) of its patches, its reflectances and its own form factors: what
+    /// a rebake says changed.
+    pub parts: [[u8; 16]; 3],
     /// Squared compression error and squared norm of its matrix.
     pub err2: f64,
     /// Squared norm of its transfer.
@@ -182,6 +185,7 @@ impl Cache {
         for s in &self.systems {
             w.u32(s.region);
             w.bytes(&s.input);
+            s.parts.iter().for_each(|p| w.bytes(p));
             w.f64(s.err2);
             w.f64(s.norm2);
             w.u64(s.matrix_bytes);
@@ -226,11 +230,12 @@ impl Cache {
             .map(|_| r.array().map(f32::from_le_bytes))
             .collect::<Result<_, _>>()?;
         let sources = r.u32s()?;
-        let n = r.len(64)?;
+        let n = r.len(112)?;
         let mut systems = Vec::with_capacity(n);
         for _ in 0..n {
             let region = r.u32()?;
             let input = r.array()?;
+            let parts = [r.array()?, r.array()?, r.array()?];
             let (err2, norm2, matrix_bytes) = (r.f64()?, r.f64()?, r.u64()?);
             let len = r.len(1)?;
             let bounces_text = String::from_utf8(r.take(len)?.to_vec())
@@ -238,6 +243,7 @@ impl Cache {
             systems.push(SystemRecord {
                 region,
                 input,
+                parts,
                 err2,
                 norm2,
                 matrix_bytes,
