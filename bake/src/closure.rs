@@ -424,7 +424,7 @@ pub(crate) fn surveyed_starts(seen: &[u32]) -> u32 {
 }
 
 /// [`survey`] of patch `i`, and whether a burial question asked about other points too.
-fn survey_one(patches: &Patches, occ: &Occluders, i: usize) -> (Vec<u32>, bool) {
+pub(crate) fn survey_one(patches: &Patches, occ: &Occluders, i: usize) -> (Vec<u32>, bool) {
     let Some(starts) = Starts::new(patches, i) else {
         return (Vec::new(), false);
     };

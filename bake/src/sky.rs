@@ -181,15 +181,16 @@ fn measure(
                 };
                 let seed = plan.seeds[p];
                 if let Some(t) = plan.old[p] {
-                    let mut clear = true;
+                    let (mut clear, mut rays) = (true, 0u64);
                     sky_rays(samples, seed, |origin, dir, _| {
+                        rays += 1;
                         clear &= !plan
                             .boxes
                             .iter()
                             .any(|&b| crate::plan::reuse::crosses(origin, dir, f64::INFINITY, b));
                     });
                     if clear {
-                        return (t, sky_ray_count(samples));
+                        return (t, rays);
                     }
                 }
                 patch_visibility(occ, samples, seed)
@@ -263,13 +264,6 @@ fn sky_rays(
             ray(origin, dir, w);
         }
     }
-}
-
-/// The sky rays of a patch of these samples.
-fn sky_ray_count(samples: &[radiosity_core::PatchSample]) -> u64 {
-    let mut rays = 0;
-    sky_rays(samples, 0, |_, _, _| rays += 1);
-    rays
 }
 
 /// A patch's `T` (module docs) and the rays it cast.

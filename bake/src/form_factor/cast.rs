@@ -319,11 +319,7 @@ pub(crate) fn count_rows<'b>(
             if stopped.load(Ordering::Relaxed) {
                 return Vec::new();
             }
-            let mut hits: Vec<u32> = Vec::new();
-            cast_row(patches, &owners, occ, i, rays, burial(i), |j| {
-                hits.push(j as u32)
-            });
-            let row = tally(hits);
+            let row = count_row(patches, &owners, occ, i, rays, burial(i));
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(p) = progress
                 && !p(d, total)
@@ -333,6 +329,23 @@ pub(crate) fn count_rows<'b>(
             row
         })
         .collect()
+}
+
+/// The hit counts of patch `i`'s rays (`buried`: its survey), through `owners` built once for
+/// many rows.
+pub(crate) fn count_row(
+    patches: &Patches,
+    owners: &Owners,
+    occ: &Occluders,
+    i: usize,
+    rays: u32,
+    buried: &[u32],
+) -> HitCounts {
+    let mut hits: Vec<u32> = Vec::new();
+    cast_row(patches, owners, occ, i, rays, buried, |j| {
+        hits.push(j as u32)
+    });
+    tally(hits)
 }
 
 /// `(patch, count)` of a list of hits, patches increasing.

@@ -12,7 +12,7 @@
 //! are those a full cast gives, and anything inconsistent falls back to the full cast.
 
 use super::Cache;
-use crate::closure::{survey_rows, surveyed_starts};
+use crate::closure::{survey_one, surveyed_starts};
 use crate::form_factor::Progress;
 use crate::form_factor::cast::{self, HitCounts, Starts, first_patch, rays_of, tally};
 use crate::geometry::Occluders;
@@ -324,8 +324,7 @@ impl<'a> Diff<'a> {
                     Some(o) => (self.cache.burial[o].clone(), false),
                     None => {
                         again.fetch_add(1, Ordering::Relaxed);
-                        let (mut b, mut r) = survey_rows(self.patches, self.occ, &[i as u32]);
-                        (b.pop().unwrap_or_default(), r.pop().unwrap_or_default())
+                        survey_one(self.patches, self.occ, i)
                     }
                 }
             })
@@ -367,11 +366,7 @@ impl<'a> Diff<'a> {
                 let i = i as usize;
                 let d = done.fetch_add(1, Ordering::Relaxed) + 1;
                 let _ = progress(d, total);
-                let full = || {
-                    cast::count_rows(patches, occ, rays, &[i as u32], &|_| buried, None)
-                        .pop()
-                        .unwrap_or_default()
-                };
+                let full = || cast::count_row(patches, &owners, occ, i, rays, buried);
                 let Some(o) = self.old_of[i].map(|o| o as usize) else {
                     return full();
                 };
