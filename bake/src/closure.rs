@@ -6,9 +6,9 @@ use crate::effects::Effect;
 use crate::exchange::Exchange;
 use crate::form_factor::Starts;
 use crate::geometry::Occluders;
-use crate::hemisphere::{cosine_direction, patch_point_at, patch_rng};
+use crate::patch::points::{cosine_direction, patch_point_at, patch_rng};
 use crate::pipeline::{BakeParams, ClosureReport};
-use crate::simplify::Patches;
+use crate::patch::Patches;
 use crate::simplify::runtime_mesh::direct_points;
 use crate::transfer::closure_of_sums;
 use rayon::prelude::*;
@@ -70,7 +70,7 @@ pub(crate) fn expose(
         None => vec![(0.0, Vec::new()); patches.len()],
     };
     for (i, (_, by)) in buried.iter().enumerate() {
-        let mut shares = crate::simplify::object_shares(patches.pieces_of(i));
+        let mut shares = crate::patch::object_shares(patches.pieces_of(i));
         if shares.len() < 2 {
             continue;
         }

@@ -5,8 +5,8 @@
 
 use crate::effects::Effect;
 use crate::geometry::Occluders;
-use crate::hemisphere::{Owners, shares};
-use crate::simplify::Patches;
+use crate::patch::points::{Owners, shares};
+use crate::patch::Patches;
 use rayon::prelude::*;
 use serde::Serialize;
 

@@ -3,7 +3,7 @@
 //! patches kept), and is reported under `effects` in `bake --json`.
 
 use crate::scene::Scene;
-use crate::simplify::Patches;
+use crate::patch::Patches;
 use glam::DVec3;
 use serde::Serialize;
 use std::collections::BTreeMap;

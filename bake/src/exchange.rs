@@ -9,7 +9,7 @@ use crate::form_factor::{
     form_factors_surveyed,
 };
 use crate::geometry::Occluders;
-use crate::simplify::Patches;
+use crate::patch::Patches;
 use crate::transfer::{Dense, cap_row_sums, enforce_closure};
 
 /// The form factors of `patches` as the discretisation holds them, with their summary: sparse

@@ -43,7 +43,7 @@ pub use radiosity_geometry as geometry;
 
 pub mod form_factor;
 
-pub(crate) mod hemisphere;
+pub mod patch;
 
 pub mod effects;
 

@@ -12,9 +12,9 @@
 //! row, `y_o = Σ_j F_oj·B_j`, one sparse dot a part a frame.
 
 use crate::geometry::Occluders;
-use crate::hemisphere::{Owners, cosine_direction, patch_point_on};
+use crate::patch::points::{Owners, cosine_direction, patch_point_on};
 use crate::rng::SplitMix64;
-use crate::simplify::{Patches, Piece};
+use crate::patch::{Patches, Piece};
 use radiosity_core::probes::{SH_COEFFICIENTS, sh_basis};
 use rayon::prelude::*;
 

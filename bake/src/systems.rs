@@ -11,7 +11,7 @@
 //! ranks are `r < s` is cut by the positions `r + 1 ..= s`, a difference array over the ranks.
 
 use crate::form_factor::SparseFormFactors;
-use crate::simplify::Patches;
+use crate::patch::Patches;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 

@@ -22,10 +22,11 @@
 use crate::BakeError;
 use crate::form_factor::{FormFactorParams, Progress, Visibility, form_factor_rows};
 use crate::geometry::Occluders;
-use crate::hemisphere::{Owners, shares};
+use crate::patch::points::{Owners, shares};
 use crate::rng::SplitMix64;
 use crate::scene::Scene;
-use crate::simplify::{Patches, VoxelParams, simplify};
+use crate::patch::Patches;
+use crate::simplify::{VoxelParams, simplify};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;

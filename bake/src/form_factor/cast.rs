@@ -30,21 +30,15 @@
 use super::Progress;
 use crate::closure::{BURIED_POINTS, EXPOSED};
 use crate::geometry::Occluders;
-use crate::hemisphere::{Owners, cosine_at, patch_point_at};
+use crate::patch::points::{Owners, cosine_at, patch_point_at};
 use crate::rng::{SplitMix64, sobol2};
-use crate::simplify::{Patches, Piece};
+use crate::patch::{Patches, Piece};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Seed of the ray streams (any fixed value: it only has to differ from the checks' seeds).
 const SEED: u64 = 0x5EED_CA57_F0F0_0001;
-
-/// The seed of patch `i`'s ray streams ([`crate::simplify::BakePatch::seed`]) in a bake
-/// without a plan.
-pub(crate) fn index_seed(i: usize) -> u64 {
-    (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-}
 
 /// The ray streams of a patch's `seed`: the two scrambles and the permutation's generator.
 fn streams(seed: u64) -> ([u32; 2], [u32; 2], SplitMix64) {

@@ -12,7 +12,7 @@ use crate::geometry::Occluders;
 use crate::geometry::point_polygon::point_to_polygon;
 use crate::geometry::polygon::point_polygon_distance;
 use crate::geometry::quadrature::{Adaptive, Sample, integrate_bounded};
-use crate::simplify::Piece;
+use crate::patch::Piece;
 use glam::DVec3;
 
 impl Pairs<'_> {

@@ -13,7 +13,7 @@ use crate::geometry::Occluders;
 use crate::geometry::point_polygon::point_to_polygon;
 use crate::geometry::polygon::point_polygon_distance;
 use crate::geometry::quadrature::{Adaptive, Rule, Sample, integrate_bounded};
-use crate::simplify::Piece;
+use crate::patch::Piece;
 use glam::DVec3;
 
 /// The exchange `A_src·F(src → dst)` by integrating over `src`.

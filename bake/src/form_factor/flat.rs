@@ -2,7 +2,7 @@
 //! instead of the pieces in scenes above [`super::FormFactorParams::exact_pieces`] pieces.
 
 use crate::geometry::polygon::{MAX_VERTICES, Polygon};
-use crate::simplify::Piece;
+use crate::patch::Piece;
 use glam::DVec3;
 
 /// Rays per quadrature leaf and `per_sample` between a site and its far partner: a partly

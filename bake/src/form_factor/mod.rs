@@ -76,7 +76,7 @@ pub use params::{FormFactorParams, FormFactorSummary, ManyPieces, RAYS_PER_PATCH
 pub(crate) use clustered::{FAR_RAYS, MAX_PAIR_RAYS};
 
 use crate::geometry::bvh::{CONTACT_GAP, Occluders};
-use crate::simplify::{Patches, Piece};
+use crate::patch::{Patches, Piece};
 use exact::Contribution;
 use flat::Sites;
 use glam::DVec3;

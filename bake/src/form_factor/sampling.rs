@@ -3,7 +3,7 @@
 
 use crate::geometry::polygon::Polygon;
 use crate::rng::SplitMix64;
-use crate::simplify::Piece;
+use crate::patch::Piece;
 use glam::DVec3;
 
 /// Points on a polygon for shadow rays: the `k`-th point of a deterministic low-discrepancy

@@ -33,7 +33,8 @@ use crate::form_factor::{
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
-use crate::simplify::{Patches, simplify};
+use crate::patch::Patches;
+use crate::simplify::simplify;
 use crate::transfer::{BounceSpec, Dense, TransferError, transfer};
 use radiosity_core::{Bounces, Format, Patch, RadFile, Rgb};
 use std::borrow::Cow;
@@ -94,7 +95,7 @@ pub struct Discretised {
     pub form_factors: FormFactorSummary,
     /// Largest reciprocity error of F.
     pub reciprocity_error: f64,
-    /// Each patch's identity under a plan ([`crate::plan::reuse::patch_keys`]); empty
+    /// Each patch's identity under a plan ([`crate::patch::identity::patch_keys`]); empty
     /// without one.
     pub keys: Vec<[u8; 16]>,
     /// Milliseconds of `simplify`, `plan`, `form_factors` and `closure` (burial and closure).
@@ -165,7 +166,7 @@ pub(crate) fn discretise_with(
     hooks.start("simplify")?;
     let mut patches = simplify(scene, &params.voxel)?;
     let keys = match given {
-        Some(_) => crate::plan::reuse::seed_patches(scene, &mut patches),
+        Some(_) => crate::patch::identity::seed_patches(scene, &mut patches),
         None => Vec::new(),
     };
     lap("simplify", &mut timings);

@@ -30,7 +30,8 @@ use crate::geometry::Occluders;
 use crate::host::BakeFlags;
 use crate::pipeline::{BakeParams, Hooks, SystemsChoice, discretise};
 use crate::scene::{LoadOptions, Scene};
-use crate::simplify::{Patches, Resolution, VoxelParams, simplify};
+use crate::patch::Patches;
+use crate::simplify::{Resolution, VoxelParams, simplify};
 use crate::systems::{Region, partition_regions};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -377,7 +378,7 @@ pub fn shard_rows(
     let rays = plan.rays()?;
     hooks.start("simplify")?;
     let mut patches = simplify(scene, &params.voxel)?;
-    let keys = reuse::seed_patches(scene, &mut patches);
+    let keys = crate::patch::identity::seed_patches(scene, &mut patches);
     let occ = scene.occluders().robust();
     let rows = plan.shard_patches(&patches, shard);
     let go_on = |done: usize, total: usize| hooks.report(done, total);

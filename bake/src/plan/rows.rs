@@ -57,7 +57,7 @@ pub struct Cache {
     pub objects: Vec<String>,
     /// Every patch's hit counts.
     pub counts: Vec<HitCounts>,
-    /// Every patch's identity ([`super::reuse::patch_keys`]).
+    /// Every patch's identity ([`super::crate::patch::identity::patch_keys`]).
     pub keys: Vec<[u8; 16]>,
     /// The scene's triangles.
     pub triangles: Vec<[DVec3; 3]>,

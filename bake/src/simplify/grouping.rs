@@ -380,7 +380,7 @@ pub(super) fn matrix_count(loose: &Loose<'_>, grouping: &Grouping) -> usize {
                 && (0..BURIED_LOOK).all(|k| {
                     let u = (f64::from(k) + 0.5) / f64::from(BURIED_LOOK);
                     let v = f64::from(k.reverse_bits()) / 2f64.powi(32);
-                    let (x, n) = crate::hemisphere::patch_point_at(pieces, total, u, v);
+                    let (x, n) = crate::patch::points::patch_point_at(pieces, total, u, v);
                     occ.buried(x, n)
                 })
         })

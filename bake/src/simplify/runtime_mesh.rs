@@ -3,7 +3,7 @@
 //! patches, and the points where direct light on each patch is sampled.
 
 use crate::scene::Scene;
-use crate::simplify::Patches;
+use crate::patch::Patches;
 use glam::DVec3;
 use radiosity_core::{CornerWeight, Mesh, MeshTriangle, PatchSample, Rgb};
 use std::borrow::Cow;
@@ -199,10 +199,10 @@ const MIN_OBJECT_POINTS: u32 = 16;
 /// and the frame does not pay a shadow ray per facet (`docs/decisions/direct-light-points.md`).
 /// No randomness: the same patch gets the same points.
 pub(crate) fn direct_points(
-    pieces: &[crate::simplify::Piece],
+    pieces: &[crate::patch::Piece],
     min_points: u32,
 ) -> Vec<DirectPoint> {
-    let live: Vec<crate::simplify::Piece> =
+    let live: Vec<crate::patch::Piece> =
         pieces.iter().filter(|q| q.area > 0.0).cloned().collect();
     // Where each live piece stands in `pieces`.
     let index: Vec<u32> = (0..pieces.len() as u32)
@@ -213,7 +213,7 @@ pub(crate) fn direct_points(
         return Vec::new();
     }
     // `at[j]`: where `within[j]` stands among the live pieces.
-    let hammersley = |within: &[crate::simplify::Piece],
+    let hammersley = |within: &[crate::patch::Piece],
                       at: &dyn Fn(usize) -> usize,
                       area: f64,
                       n: u32,
@@ -222,7 +222,7 @@ pub(crate) fn direct_points(
         for k in 0..n {
             let u = (f64::from(k) + 0.5) / nf;
             let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
-            let (piece, x, normal) = crate::hemisphere::patch_point_on(within, area, u, v);
+            let (piece, x, normal) = crate::patch::points::patch_point_on(within, area, u, v);
             let j = within
                 .iter()
                 .position(|q| core::ptr::eq(q, piece))
@@ -246,7 +246,7 @@ pub(crate) fn direct_points(
     // The 1e-9 keeps an exact multiple (half of a patch, K even) from rounding up.
     let share = |a: f64| (k_all * a / total - 1e-9).ceil().max(1.0) as u32;
     // Per piece: its count and where it stands among the live pieces.
-    let each_piece = |at: usize, q: &crate::simplify::Piece, points: &mut Vec<DirectPoint>| {
+    let each_piece = |at: usize, q: &crate::patch::Piece, points: &mut Vec<DirectPoint>| {
         let n = share(q.area);
         if n == 1 {
             points.push(DirectPoint {
@@ -269,7 +269,7 @@ pub(crate) fn direct_points(
         objects.dedup();
         for o in objects {
             let at: Vec<usize> = (0..live.len()).filter(|&j| live[j].object == o).collect();
-            let within: Vec<crate::simplify::Piece> = at.iter().map(|&j| live[j]).collect();
+            let within: Vec<crate::patch::Piece> = at.iter().map(|&j| live[j]).collect();
             let area: f64 = within.iter().map(|q| q.area).sum();
             let n = ((budget * area / total - 1e-9).ceil() as u32).max(MIN_OBJECT_POINTS);
             if within.len() > n as usize {
@@ -313,7 +313,7 @@ fn sample(position: DVec3, normal: DVec3, area: f64) -> PatchSample {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simplify::Piece;
+    use crate::patch::Piece;
     use glam::dvec3;
 
     fn piece(a: DVec3, b: DVec3, c: DVec3) -> Piece {

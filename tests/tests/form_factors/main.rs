@@ -15,7 +15,8 @@ use radiosity_bake::form_factor::{
 };
 use radiosity_bake::geometry::Occluders;
 use radiosity_bake::scene::Scene;
-use radiosity_bake::simplify::{Patches, VoxelParams, simplify};
+use radiosity_bake::patch::Patches;
+use radiosity_bake::simplify::{VoxelParams, simplify};
 
 /// The Cornell box of `scenes/cornell-box`.
 fn cornell_box() -> Scene {

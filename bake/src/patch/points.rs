@@ -6,7 +6,7 @@
 
 use crate::geometry::Occluders;
 use crate::rng::SplitMix64;
-use crate::simplify::{Patches, Piece};
+use crate::patch::{Patches, Piece};
 use glam::DVec3;
 
 /// Which patch a point of a scene triangle belongs to: the piece of that triangle nearest to it.
