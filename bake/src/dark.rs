@@ -5,8 +5,8 @@
 
 use crate::effects::Effect;
 use crate::geometry::Occluders;
-use crate::patch::points::{Owners, shares};
 use crate::patch::Patches;
+use crate::patch::points::{Owners, shares};
 use rayon::prelude::*;
 use serde::Serialize;
 

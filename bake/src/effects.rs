@@ -2,8 +2,8 @@
 //! why. Each decision changes the work done (channels stored, rays cast, bounces computed,
 //! patches kept), and is reported under `effects` in `bake --json`.
 
-use crate::scene::Scene;
 use crate::patch::Patches;
+use crate::scene::Scene;
 use glam::DVec3;
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -47,9 +47,10 @@ pub mod patch;
 
 pub mod effects;
 
+/// The surface other objects bury, taken out of the patches.
+pub(crate) mod exposure;
+
 pub(crate) mod closure;
-/// F during the discretisation, dense or as sparse rows.
-pub(crate) mod exchange;
 
 pub(crate) mod dark;
 /// Each object's own gather row in the patches it shares.

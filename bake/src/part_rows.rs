@@ -13,8 +13,8 @@
 
 use crate::geometry::Occluders;
 use crate::patch::points::{Owners, cosine_direction, patch_point_on};
-use crate::rng::SplitMix64;
 use crate::patch::{Patches, Piece};
+use crate::rng::SplitMix64;
 use radiosity_core::probes::{SH_COEFFICIENTS, sh_basis};
 use rayon::prelude::*;
 

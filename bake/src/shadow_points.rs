@@ -14,8 +14,8 @@
 
 use crate::effects::Effect;
 use crate::geometry::Occluders;
-use crate::patch::points::cosine_at;
 use crate::patch::Patches;
+use crate::patch::points::cosine_at;
 use crate::simplify::runtime_mesh::direct_points;
 use rayon::prelude::*;
 

@@ -2,10 +2,10 @@
 //! done, and compression quality on the Cornell box.
 
 use radiosity_bake::order::OrderKind;
+use radiosity_bake::patch::Patches;
 use radiosity_bake::pipeline::check_dark;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, FormatChoice, Hooks, bake};
 use radiosity_bake::scene::Scene;
-use radiosity_bake::patch::Patches;
 use radiosity_bake::simplify::{VoxelParams, simplify};
 use radiosity_bake::transfer::BounceSpec;
 use radiosity_core::{Bounces, Format, Rgb};

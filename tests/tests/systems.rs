@@ -4,8 +4,8 @@
 use radiosity_bake::form_factor::{
     FormFactorParams, ManyPieces, SparseFormFactors, form_factors_sparse,
 };
-use radiosity_bake::scene::Scene;
 use radiosity_bake::patch::Patches;
+use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{VoxelParams, simplify};
 use radiosity_bake::systems::{Region, Split, partition, partition_regions};
 use radiosity_bake::transfer::{BounceSpec, Dense, transfer_matrix};

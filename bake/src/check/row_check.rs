@@ -22,10 +22,10 @@
 use crate::BakeError;
 use crate::form_factor::{FormFactorParams, Progress, Visibility, form_factor_rows};
 use crate::geometry::Occluders;
+use crate::patch::Patches;
 use crate::patch::points::{Owners, shares};
 use crate::rng::SplitMix64;
 use crate::scene::Scene;
-use crate::patch::Patches;
 use crate::simplify::{VoxelParams, simplify};
 use rayon::prelude::*;
 use serde::Serialize;

@@ -23,16 +23,16 @@
 //! ray may meet the front of a face inside it too, as in boxes standing inside boxes): the row
 //! is the mean over the patch's whole area, as the quadrature's is, and the closure divides by
 //! the exposed share afterwards. A partly buried patch's rays start at the points the burial
-//! survey looked at ([`crate::closure::survey`]: 512, eight rays each at 4096 a patch), so
+//! survey looked at ([`crate::form_factor::burial::survey`]: 512, eight rays each at 4096 a patch), so
 //! that each start's burial is asked once and the share divided by is measured at the very
 //! starts (`docs/decisions/burial-survey.md`).
 
 use super::Progress;
-use crate::closure::{BURIED_POINTS, EXPOSED};
+use crate::form_factor::burial::{BURIED_POINTS, EXPOSED};
 use crate::geometry::Occluders;
 use crate::patch::points::{Owners, cosine_at, patch_point_at};
-use crate::rng::{SplitMix64, sobol2};
 use crate::patch::{Patches, Piece};
+use crate::rng::{SplitMix64, sobol2};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -52,7 +52,7 @@ fn streams(seed: u64) -> ([u32; 2], [u32; 2], SplitMix64) {
 }
 
 /// Where patch `i`'s rays start: point `k` of a scrambled Sobol' (0, 2)-sequence mapped onto
-/// its pieces by area. The burial survey ([`crate::closure::survey`]) looks at the first
+/// its pieces by area. The burial survey ([`crate::form_factor::burial::survey`]) looks at the first
 /// [`BURIED_POINTS`] of them, so that a partly buried patch's rays start only where it knows.
 pub(crate) struct Starts<'a> {
     pieces: &'a [Piece],

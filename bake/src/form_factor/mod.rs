@@ -60,10 +60,12 @@
 //! On Greg Ward's conference room (330 000 triangles, 4410 patches) this took the form factors
 //! from an estimated 4 h to minutes on 2 cores (ARCHITECTURE.md has the measurements).
 
+pub(crate) mod burial;
 pub(crate) mod cast;
 mod clustered;
 mod exact;
 mod flat;
+pub(crate) mod matrix;
 mod params;
 mod sampling;
 
@@ -517,7 +519,7 @@ pub fn form_factor_rows(
         // Every row of a ray-cast matrix pools both sides of its pairs, so the rows come from
         // the whole matrix, whose cost follows the patches anyway.
         let mut matrix = vec![0f32; n * n];
-        let burial = crate::closure::survey(patches, occ);
+        let burial = crate::form_factor::burial::survey(patches, occ);
         let cover = coverage(patches, Some(occ));
         let rays = cast::cast(
             patches,
@@ -584,7 +586,7 @@ pub fn form_factors(
     form_factors_surveyed(patches, occluders, params, None, progress)
 }
 
-/// [`form_factors`], with the burial survey ([`crate::closure::survey`]) where the caller has
+/// [`form_factors`], with the burial survey ([`crate::form_factor::burial::survey`]) where the caller has
 /// it; the ray-cast rows take one of their own otherwise.
 pub(crate) fn form_factors_surveyed(
     patches: &Patches,
@@ -600,7 +602,7 @@ pub(crate) fn form_factors_surveyed(
         let burial = match burial {
             Some(b) => b,
             None => {
-                own = crate::closure::survey(patches, occ);
+                own = crate::form_factor::burial::survey(patches, occ);
                 &own
             }
         };
@@ -678,7 +680,7 @@ pub fn form_factors_sparse(
     form_factors_sparse_surveyed(patches, occluders, params, None, progress)
 }
 
-/// [`form_factors_sparse`], with the burial survey ([`crate::closure::survey`]) where the
+/// [`form_factors_sparse`], with the burial survey ([`crate::form_factor::burial::survey`]) where the
 /// caller has it.
 pub(crate) fn form_factors_sparse_surveyed(
     patches: &Patches,
@@ -692,7 +694,7 @@ pub(crate) fn form_factors_sparse_surveyed(
     let burial = match burial {
         Some(b) => b,
         None => {
-            own = crate::closure::survey(patches, occ);
+            own = crate::form_factor::burial::survey(patches, occ);
             &own
         }
     };

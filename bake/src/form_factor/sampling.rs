@@ -2,8 +2,8 @@
 //! the systematic sampling that spreads a pair's rays over its contributions.
 
 use crate::geometry::polygon::Polygon;
-use crate::rng::SplitMix64;
 use crate::patch::Piece;
+use crate::rng::SplitMix64;
 use glam::DVec3;
 
 /// Points on a polygon for shadow rays: the `k`-th point of a deterministic low-discrepancy

@@ -50,4 +50,3 @@ pub(crate) fn seed_patches(scene: &Scene, patches: &mut Patches) -> Vec<[u8; 16]
     }
     keys
 }
-

@@ -142,4 +142,3 @@ pub(crate) fn object_shares(pieces: &[Piece]) -> Vec<(u32, f64)> {
     }
     shares
 }
-

@@ -5,8 +5,8 @@
 //! ([`crate::pipeline`]), and [`crate::check::row_check`] to check rows of F.
 
 use crate::geometry::Occluders;
-use crate::rng::SplitMix64;
 use crate::patch::{Patches, Piece};
+use crate::rng::SplitMix64;
 use glam::DVec3;
 
 /// Which patch a point of a scene triangle belongs to: the piece of that triangle nearest to it.

@@ -9,31 +9,33 @@ mod params;
 mod report;
 pub(crate) mod systems;
 
-pub use crate::closure::Exposure;
+pub use crate::closure::ClosureReport;
 pub use crate::dark::{DarkCheck, check_dark};
+pub use crate::exposure::Exposure;
 pub use params::{BakeParams, FormatChoice, Hooks};
 pub use radiosity_runtime::{ObjectShares, SharedPatch};
-pub use report::{BakeReport, Bytes, ClosureReport, store};
+pub use report::{BakeReport, Bytes, store};
 pub use systems::{AUTO_ONE_MATRIX, AUTO_SYSTEM_PATCHES, SystemsChoice, SystemsReport};
 
 use report::{BakeSummary, Measured};
 
 use crate::BakeError;
-use crate::closure::{closure_effect, escape_check, expose};
+use crate::closure::{closure_effect, escape_check};
 use crate::dark::dark_patches;
 use crate::effects::{self, Effect, Effects};
 use crate::encode::{
     EncodeError, EncodeParams, ErrorWeights, SparseSelection, default_correction_fraction,
     default_sparse_fraction, encode_dense_with,
 };
-use crate::exchange::{Exchange, dense_live_sparse};
+use crate::exposure::expose;
+use crate::form_factor::matrix::{Exchange, dense_live_sparse};
 use crate::form_factor::{
     FAR_RAYS, FormFactorSummary, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, SparseFormFactors,
     Visibility,
 };
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
-use crate::scene::Scene;
 use crate::patch::Patches;
+use crate::scene::Scene;
 use crate::simplify::simplify;
 use crate::transfer::{BounceSpec, Dense, TransferError, transfer};
 use radiosity_core::{Bounces, Format, Patch, RadFile, Rgb};
@@ -201,11 +203,11 @@ pub(crate) fn discretise_with(
             // closure.
             let burial = occluders
                 .as_ref()
-                .map(|o| crate::closure::survey(&patches, o))
+                .map(|o| crate::form_factor::burial::survey(&patches, o))
                 .unwrap_or_default();
             lap("burial", &mut timings);
             let go_on = |done: usize, total: usize| hooks.report(done, total);
-            let f = crate::exchange::form_factors(
+            let f = crate::form_factor::matrix::form_factors(
                 &patches,
                 occluders.as_ref(),
                 &ffp,
@@ -255,7 +257,14 @@ pub(crate) fn discretise_with(
     let areas: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let escape = |live: &[bool]| escape_check(&patches, checks_occ(), live, params.seed);
     let raw_sums: Vec<f64> = (0..n_all).map(|i| f.row_sum(i)).collect();
-    let (closure, closed) = closure_effect(&patches, &mut f, &areas, &exposure, params, &escape);
+    let (closure, closed) = closure_effect(
+        &patches,
+        &mut f,
+        &areas,
+        &exposure,
+        params.closure_tolerance,
+        &escape,
+    );
     effects.insert("closed", closed);
     lap("closure", &mut timings);
 
@@ -347,7 +356,7 @@ pub(crate) fn discretise_with(
     // between surfaces: the transfer is zero and the file carries everything else (patches,
     // mesh, direct light, probes), so that one code path serves every asset.
     let (f_live, sparse) = match f {
-        Exchange::Dense(d) => (crate::exchange::live_rows_dense(d, &live), None),
+        Exchange::Dense(d) => (crate::form_factor::matrix::live_rows_dense(d, &live), None),
         sparse => (Dense::new(0, Vec::new()), Some(sparse.live_sparse(&live))),
     };
     let reflectance: Vec<[f64; 3]> = live

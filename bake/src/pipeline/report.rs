@@ -3,6 +3,7 @@
 
 use super::Discretised;
 use crate::BakeError;
+use crate::closure::ClosureReport;
 use crate::effects::Effects;
 use crate::form_factor::FormFactorSummary;
 use crate::order::{self, Candidate};
@@ -100,25 +101,6 @@ pub struct BakeReport {
     pub systems: Option<super::SystemsReport>,
 }
 
-/// Closure measurements.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ClosureReport {
-    /// Smallest row sum of F over patches that see anything and are not partly buried (whose
-    /// rows mix two estimates, see `closure_effect`), before any correction.
-    pub min_row_sum: f64,
-    /// Largest row sum, before any correction.
-    pub max_row_sum: f64,
-    /// The patch of the largest row sum, in simplification order (`Patches::patches`, the
-    /// numbering `radiosity check-rows --patch` takes).
-    pub max_row_patch: Option<usize>,
-    /// Largest relative change of a row sum made by the closure correction (0 when open), apart
-    /// from the rows of partly buried patches.
-    pub correction: f64,
-    /// Share of hemisphere rays from the patches that left the scene
-    /// (`row_check::escape_check`), asked only when the row sums say closed; above
-    /// `row_check::ESCAPE_LIMIT` the scene is open after all.
-    pub escaped: Option<f64>,
-}
 /// `‖a − b‖ / ‖a‖` over all entries (0 for an all-zero `a` equal to `b`).
 pub(crate) fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
     let num: f64 = a

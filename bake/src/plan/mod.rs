@@ -24,13 +24,13 @@ pub use assemble::{
 pub use rows::{Cache, Rows};
 
 use crate::BakeError;
-use crate::exchange::{Exchange, sparse_exchange};
+use crate::form_factor::matrix::{Exchange, sparse_exchange};
 use crate::form_factor::{FormFactors, ManyPieces, cast};
 use crate::geometry::Occluders;
 use crate::host::BakeFlags;
+use crate::patch::Patches;
 use crate::pipeline::{BakeParams, Hooks, SystemsChoice, discretise};
 use crate::scene::{LoadOptions, Scene};
-use crate::patch::Patches;
 use crate::simplify::{Resolution, VoxelParams, simplify};
 use crate::systems::{Region, partition_regions};
 use glam::DVec3;
@@ -220,7 +220,7 @@ pub fn make_plan(
     let n = d.len();
     let ff = match &d.sparse {
         Some(s) => s.clone(),
-        None => crate::exchange::dense_live_sparse(&d.f, &(0..n).collect::<Vec<_>>()),
+        None => crate::form_factor::matrix::dense_live_sparse(&d.f, &(0..n).collect::<Vec<_>>()),
     };
     let count = params.systems.count_for(n).unwrap_or(1).clamp(1, n.max(1));
     let centres: Vec<DVec3> = d
@@ -399,7 +399,7 @@ pub fn shard_rows(
         }
         why => {
             hooks.start("burial")?;
-            let (burial, recursed) = crate::closure::survey_rows(&patches, &occ, &rows);
+            let (burial, recursed) = crate::form_factor::burial::survey_rows(&patches, &occ, &rows);
             hooks.start("form factors")?;
             let burial_of = |k: usize| {
                 let at = rows.binary_search(&(k as u32)).expect("a row of the shard");

@@ -12,13 +12,13 @@
 //! are those a full cast gives, and anything inconsistent falls back to the full cast.
 
 use super::Cache;
-use crate::closure::{survey_one, surveyed_starts};
 use crate::form_factor::Progress;
+use crate::form_factor::burial::{survey_one, surveyed_starts};
 use crate::form_factor::cast::{self, HitCounts, Starts, first_patch, rays_of, tally};
 use crate::geometry::Occluders;
+use crate::patch::Patches;
 use crate::patch::points::Owners;
 use crate::scene::Scene;
-use crate::patch::Patches;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::HashMap;

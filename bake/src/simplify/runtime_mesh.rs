@@ -2,8 +2,8 @@
 //! full-detail triangles with their materials, per-corner interpolation weights over the matrix
 //! patches, and the points where direct light on each patch is sampled.
 
-use crate::scene::Scene;
 use crate::patch::Patches;
+use crate::scene::Scene;
 use glam::DVec3;
 use radiosity_core::{CornerWeight, Mesh, MeshTriangle, PatchSample, Rgb};
 use std::borrow::Cow;
@@ -198,12 +198,8 @@ const MIN_OBJECT_POINTS: u32 = 16;
 /// area in it, the same set through the object's pieces: each object keeps points of its own,
 /// and the frame does not pay a shadow ray per facet (`docs/decisions/direct-light-points.md`).
 /// No randomness: the same patch gets the same points.
-pub(crate) fn direct_points(
-    pieces: &[crate::patch::Piece],
-    min_points: u32,
-) -> Vec<DirectPoint> {
-    let live: Vec<crate::patch::Piece> =
-        pieces.iter().filter(|q| q.area > 0.0).cloned().collect();
+pub(crate) fn direct_points(pieces: &[crate::patch::Piece], min_points: u32) -> Vec<DirectPoint> {
+    let live: Vec<crate::patch::Piece> = pieces.iter().filter(|q| q.area > 0.0).cloned().collect();
     // Where each live piece stands in `pieces`.
     let index: Vec<u32> = (0..pieces.len() as u32)
         .filter(|&q| pieces[q as usize].area > 0.0)

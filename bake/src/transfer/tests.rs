@@ -1,4 +1,4 @@
-//! The transfer against explicit sums and closed forms, and the closure's row sums.
+//! The transfer against explicit sums and closed forms.
 
 use super::*;
 
@@ -163,52 +163,4 @@ fn auto_uses_as_few_bounces_as_the_energy_needs() {
     let (_, rep) =
         transfer_matrix(&f, &[[0.5; 3]; 2], 1, BounceSpec::Auto { tolerance: 1e-3 }).unwrap();
     assert_eq!(rep.bounces, Bounces::Infinite);
-}
-
-#[test]
-fn rows_above_one_are_capped_keeping_reciprocity() {
-    // Patch 0 sees patches 1 and 2 through the same solid angle (coincident faces): its
-    // row sums to 1.4. After capping every row is at most 1 (to rounding), reciprocity is
-    // exact, and rows that were below 1 did not grow.
-    let areas = [1.0, 2.0, 2.0];
-    let mut f = Dense::new(3, vec![0.0, 0.7, 0.7, 0.35, 0.0, 0.0, 0.35, 0.0, 0.0]);
-    let before: Vec<f64> = (0..3).map(|i| f.row(i).iter().sum()).collect();
-    let correction = cap_row_sums(&mut f, &areas);
-    assert!(correction > 0.25 && correction < 0.3, "{correction}");
-    for i in 0..3 {
-        let s: f64 = f.row(i).iter().sum();
-        assert!(s <= 1.0 + 1e-12, "row {i} sums to {s}");
-        assert!(s <= before[i] + 1e-15, "row {i} grew: {s} > {}", before[i]);
-        for j in 0..3 {
-            let (a, b) = (areas[i] * f.get(i, j), areas[j] * f.get(j, i));
-            assert!((a - b).abs() < 1e-15, "reciprocity {i},{j}: {a} vs {b}");
-        }
-    }
-    assert!(
-        (f.row(0).iter().sum::<f64>() - 1.0).abs() < 1e-12,
-        "the capped row is 1"
-    );
-    // Nothing above 1: untouched.
-    let mut g = Dense::new(2, vec![0.0, 0.5, 0.5, 0.0]);
-    assert_eq!(cap_row_sums(&mut g, &[1.0, 1.0]), 0.0);
-    assert_eq!(g.values, vec![0.0, 0.5, 0.5, 0.0]);
-}
-
-#[test]
-fn closure_enforcement_keeps_reciprocity_and_sums_rows_to_one() {
-    // Three patches of different areas, slightly off a closed enclosure.
-    let areas = [1.0, 2.0, 4.0];
-    let mut f = Dense::new(3, vec![0.0, 0.40, 0.585, 0.2, 0.1, 0.685, 0.15, 0.35, 0.49]);
-    let before = analyse_closure(&f, 0.02);
-    assert!(before.closed && before.min_row_sum < 0.99);
-    let correction = enforce_closure(&mut f, &areas);
-    assert!(correction > 0.0 && correction < 0.02, "{correction}");
-    for i in 0..3 {
-        let s: f64 = f.row(i).iter().sum();
-        assert!((s - 1.0).abs() < 1e-12, "row {i} sums to {s}");
-        for j in 0..3 {
-            let (a, b) = (areas[i] * f.get(i, j), areas[j] * f.get(j, i));
-            assert!((a - b).abs() < 1e-12, "reciprocity {i},{j}: {a} vs {b}");
-        }
-    }
 }

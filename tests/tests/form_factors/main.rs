@@ -14,8 +14,8 @@ use radiosity_bake::form_factor::{
     form_factors, form_factors_sparse,
 };
 use radiosity_bake::geometry::Occluders;
-use radiosity_bake::scene::Scene;
 use radiosity_bake::patch::Patches;
+use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{VoxelParams, simplify};
 
 /// The Cornell box of `scenes/cornell-box`.

@@ -1,4 +1,4 @@
-//! The form factors as the discretisation corrects them (burial, closure, dark patches), held
+//! F held as the discretisation corrects it (burial, closure, dark patches), held
 //! dense for one matrix or as sparse rows for a level cut into systems
 //! ([`crate::pipeline::SystemsChoice`]): a level of 65 536 patches needs 34 GB dense in f64,
 //! its ray-cast rows about 600 entries each. Both forms do the same f64 arithmetic entry by
@@ -10,7 +10,10 @@ use crate::form_factor::{
 };
 use crate::geometry::Occluders;
 use crate::patch::Patches;
-use crate::transfer::{Dense, cap_row_sums, enforce_closure};
+pub(crate) mod dense;
+
+pub use dense::Dense;
+use dense::{cap_row_sums, enforce_closure};
 
 /// The form factors of `patches` as the discretisation holds them, with their summary: sparse
 /// rows where `level` (the bake cuts the patches into systems) and the rows are ray-cast (a
