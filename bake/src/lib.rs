@@ -35,6 +35,10 @@
 // The stages in pipeline order, one a group so that rustfmt keeps the order.
 pub mod scene;
 
+// Beneath the stages.
+pub mod error;
+pub mod hooks;
+
 pub mod simplify;
 
 // The geometry stage and the random streams live in `radiosity-geometry`, which the runtime
@@ -52,11 +56,13 @@ pub(crate) mod exposure;
 
 pub(crate) mod closure;
 
-pub(crate) mod dark;
+pub(crate) mod dark_patches;
 /// Each object's own gather row in the patches it shares.
 pub(crate) mod part_rows;
 /// Direct-light points where shadows fall.
 pub mod shadow_points;
+
+pub mod discretise;
 
 pub mod transfer;
 
@@ -76,7 +82,6 @@ pub mod plan;
 
 // Beside the pipeline.
 pub mod check;
-pub mod error;
 pub mod host;
 pub mod limits;
 pub use radiosity_geometry::rng;

@@ -15,6 +15,41 @@ use crate::patch::Patches;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+/// How a bake cuts its patches into systems.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SystemsChoice {
+    /// One matrix for the whole scene (the bake as it always was).
+    Off,
+    /// Into this many systems (at least 1; at most one a patch).
+    Count(usize),
+    /// Systems of at most [`AUTO_SYSTEM_PATCHES`] patches where the live patches are more
+    /// than [`AUTO_ONE_MATRIX`], one matrix otherwise (the default).
+    #[default]
+    Auto,
+}
+
+/// The most patches [`SystemsChoice::Auto`] bakes as one matrix: its transfer costs n³
+/// (about 4 min at 8192 patches on two cores, 23 min at 16 384), where a system of 2048
+/// costs about 2 s (`docs/decisions/systems.md`).
+pub const AUTO_ONE_MATRIX: usize = 8192;
+/// The largest system [`SystemsChoice::Auto`] makes. MEASURED on a city of 63 011 live
+/// patches (`docs/decisions/systems.md`): systems of ≤ 2048 against ≤ 4096 bake in 5 min 24 s
+/// against 6 min 50 s and light a CPU frame in about 38 ms against 50 (the systems' gathers
+/// read half the bytes; the coupling grows from 19 M to 24 M entries), equally close to the
+/// path tracer (0.91% and 0.92% per object).
+pub const AUTO_SYSTEM_PATCHES: usize = 2048;
+
+impl SystemsChoice {
+    /// The systems for `n` live patches: `None` for one matrix.
+    pub fn count_for(self, n: usize) -> Option<usize> {
+        match self {
+            SystemsChoice::Off => None,
+            SystemsChoice::Count(k) => Some(k),
+            SystemsChoice::Auto => (n > AUTO_ONE_MATRIX).then(|| n.div_ceil(AUTO_SYSTEM_PATCHES)),
+        }
+    }
+}
+
 /// Space cut into systems by axis-aligned planes (a k-d tree): a point belongs to the leaf it
 /// reaches going `below` where its coordinate on `axis` is less than `at`, `above` otherwise.
 /// A plan keeps its systems this way ([`crate::plan`]), so they still apply to a scene

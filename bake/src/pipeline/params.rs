@@ -1,6 +1,6 @@
-//! What a bake can be told: [`BakeParams`] and its presets, the storage format choice, and
-//! the front end's [`Hooks`].
+//! What a bake can be told: [`BakeParams`] and its presets, and the storage format choice.
 
+use crate::discretise::DiscretiseParams;
 use crate::encode::EncodeParams;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
@@ -113,55 +113,17 @@ impl BakeParams {
     }
 }
 
-/// Callbacks for a front end: stage names as they start, the progress of the counting stages,
-/// and a cancellation flag.
-#[derive(Clone, Copy, Default)]
-pub struct Hooks<'a> {
-    /// Called with a stage name when it starts.
-    pub stage: Option<&'a (dyn Fn(&str) + Sync)>,
-    /// Work done / total within the current stage (form-factor rows, transfer quarters,
-    /// probes), called from worker threads.
-    pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
-    /// Set by the front end to stop the bake: checked between stages and between the rows of
-    /// the form factors and the probes; a bake that sees it set returns
-    /// [`BakeError::Cancelled`](crate::BakeError::Cancelled).
-    pub cancel: Option<&'a std::sync::atomic::AtomicBool>,
-}
-
-impl Hooks<'_> {
-    /// Starts stage `name` ([`Self::stage`]), or returns [`BakeError::Cancelled`] when the
-    /// front end has asked to stop.
-    ///
-    /// [`BakeError::Cancelled`]: crate::BakeError::Cancelled
-    pub fn start(&self, name: &str) -> Result<(), crate::BakeError> {
-        self.check()?;
-        if let Some(f) = self.stage {
-            f(name);
+impl BakeParams {
+    /// The part of these parameters the discretisation looks at.
+    pub fn discretise(&self) -> DiscretiseParams {
+        DiscretiseParams {
+            voxel: self.voxel,
+            form_factors: self.form_factors,
+            direct_points: self.direct_points,
+            shadow_points: self.shadow_points,
+            closure_tolerance: self.closure_tolerance,
+            seed: self.seed,
+            systems: self.systems,
         }
-        Ok(())
-    }
-
-    /// [`BakeError::Cancelled`](crate::BakeError::Cancelled) when the front end has asked to
-    /// stop.
-    pub fn check(&self) -> Result<(), crate::BakeError> {
-        if self.cancelled() {
-            Err(crate::BakeError::Cancelled)
-        } else {
-            Ok(())
-        }
-    }
-
-    /// Whether the front end has asked to stop.
-    pub fn cancelled(&self) -> bool {
-        self.cancel
-            .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
-    }
-
-    /// Reports `done` of `total` in the current stage; returns whether to go on.
-    pub fn report(&self, done: usize, total: usize) -> bool {
-        if let Some(p) = self.progress {
-            p(done, total);
-        }
-        !self.cancelled()
     }
 }

@@ -4,10 +4,12 @@
 
 use super::reuse::RowStats;
 use super::rows::{Cache, Rows};
-use super::{GivenRows, Plan, scene_hash, shard_rows};
+use super::{Plan, scene_hash, shard_rows};
 use crate::BakeError;
+use crate::discretise::GivenRows;
+use crate::hooks::Hooks;
+use crate::pipeline::BakeOutput;
 use crate::pipeline::systems::{OldSystems, SystemsCut, systems_bake};
-use crate::pipeline::{BakeOutput, Hooks, discretise_with};
 use crate::scene::Scene;
 use radiosity_core::RadFile;
 use serde::Serialize;
@@ -184,7 +186,7 @@ pub fn assemble(
         counts,
         rays,
     };
-    let mut d = discretise_with(scene, &params, hooks, Some(given))?;
+    let mut d = crate::discretise::discretise(scene, &params.discretise(), hooks, Some(given))?;
     let ff = d
         .sparse
         .take()

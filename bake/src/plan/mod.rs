@@ -24,9 +24,7 @@ pub use assemble::{
 pub use rows::{Cache, Rows};
 
 use crate::BakeError;
-use crate::form_factor::matrix::{Exchange, sparse_exchange};
-use crate::form_factor::{FormFactors, ManyPieces, cast};
-use crate::geometry::Occluders;
+use crate::form_factor::{ManyPieces, cast};
 use crate::host::BakeFlags;
 use crate::patch::Patches;
 use crate::pipeline::{BakeParams, Hooks, SystemsChoice, discretise};
@@ -323,35 +321,6 @@ pub fn scene_hash(scene: &Scene) -> [u8; 32] {
     h.update(format!("{:?}", scene.reflectance_limit).as_bytes());
     h.update(bytemuck::cast_slice(&scene.coverage));
     *h.finalize().as_bytes()
-}
-
-/// The burial surveys and hit counts of every patch, as the shards computed them: what
-/// [`crate::pipeline::discretise`] takes in place of its own.
-pub(crate) struct GivenRows {
-    pub(crate) burial: Vec<Vec<u32>>,
-    pub(crate) counts: Vec<cast::HitCounts>,
-    pub(crate) rays: u32,
-}
-
-impl GivenRows {
-    /// The surveys and the pooled form factors of `patches`.
-    #[allow(clippy::type_complexity)]
-    pub(crate) fn exchange(
-        self,
-        patches: &Patches,
-        occ: &Occluders,
-    ) -> Result<(Vec<Vec<u32>>, (Exchange, FormFactors)), BakeError> {
-        if self.counts.len() != patches.len() || self.burial.len() != patches.len() {
-            return Err(BakeError::InvalidParams(format!(
-                "the shards hold rows of {} patches, the scene under the plan has {}: they were made from another scene",
-                self.counts.len(),
-                patches.len()
-            )));
-        }
-        let cover = crate::form_factor::coverage(patches, Some(occ));
-        let s = cast::pool(patches, &self.counts, self.rays, cover.as_deref());
-        Ok((self.burial, sparse_exchange(s, patches.pieces.len())))
-    }
 }
 
 /// One shard's rows of `scene` under `plan` (`shard`: its index; `None`: every patch):
