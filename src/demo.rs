@@ -20,7 +20,7 @@ const FRAMES: usize = 36;
 pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::Result<()> {
     let args = BakeArgs::with_patches(patches);
     let params = radiosity_bake::pipeline::BakeParams {
-        probes: radiosity_bake::probes::ProbeSpec::Auto,
+        probes: radiosity_bake::passes::probes::ProbeSpec::Auto,
         ..crate::bake::params(&args)?
     };
     crate::output::create_dir(out)?;

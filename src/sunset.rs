@@ -65,7 +65,7 @@ pub(crate) fn run(
     );
     let args = BakeArgs::with_patches(patches);
     let params = radiosity_bake::pipeline::BakeParams {
-        probes: radiosity_bake::probes::ProbeSpec::None,
+        probes: radiosity_bake::passes::probes::ProbeSpec::None,
         ..crate::bake::params(&args)?
     };
     crate::output::create_dir(out)?;

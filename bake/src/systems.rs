@@ -432,7 +432,7 @@ impl Split {
 
     /// System `s`'s own form factors `F_ss`, dense, in its own numbering (position minus its
     /// range's start): what its transfer is computed from.
-    pub fn own_block(&self, ff: &SparseFormFactors, s: usize) -> crate::transfer::Dense {
+    pub fn own_block(&self, ff: &SparseFormFactors, s: usize) -> crate::form_factor::matrix::Dense {
         let r = self.ranges[s].clone();
         let m = r.len();
         let mut local = std::collections::HashMap::with_capacity(m);
@@ -447,6 +447,6 @@ impl Split {
                 }
             }
         }
-        crate::transfer::Dense::new(m, values)
+        crate::form_factor::matrix::Dense::new(m, values)
     }
 }

@@ -12,6 +12,7 @@
 //! on the bake.
 #![deny(missing_docs)]
 
+pub mod aabb;
 pub mod bvh;
 pub mod point_polygon;
 pub mod polygon;

@@ -157,10 +157,10 @@ pub(super) fn bench_probes(
     let direct = bench_direct(&rt)
         .map_err(|e| eprintln!("note: no direct-light frame: {e:#}"))
         .ok();
-    let (probes, report) = radiosity_bake::probes::bake(
+    let (probes, report) = radiosity_bake::passes::probes::bake(
         &rt,
-        &radiosity_bake::probes::ProbeSpec::Auto,
-        radiosity_bake::probes::ProbeRank::Auto,
+        &radiosity_bake::passes::probes::ProbeSpec::Auto,
+        radiosity_bake::passes::probes::ProbeRank::Auto,
         radiosity_bake::pipeline::Hooks::default(),
     )?
     .context("probes at auto")?;

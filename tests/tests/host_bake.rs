@@ -148,7 +148,10 @@ fn bad_options_are_refused_before_any_work_naming_the_key() {
     let (p, _) = flags(r#"{"bounces": 3, "probe_rank": 128, "probes": "none"}"#)
         .params()
         .unwrap();
-    assert_eq!(p.probe_rank, radiosity_bake::probes::ProbeRank::Rank(128));
+    assert_eq!(
+        p.probe_rank,
+        radiosity_bake::passes::probes::ProbeRank::Rank(128)
+    );
     let (p, _) = flags(r#"{"direct_points": 2, "shadow_points": 8}"#)
         .params()
         .unwrap();

@@ -14,13 +14,13 @@ use crate::BakeError;
 use crate::closure::ClosureReport;
 use crate::effects::Effects;
 use crate::exposure::Exposure;
+use crate::form_factor::matrix::Dense;
 use crate::form_factor::{FormFactorParams, FormFactorSummary, SparseFormFactors};
 use crate::hooks::Hooks;
 use crate::patch::Patches;
 use crate::scene::Scene;
 use crate::simplify::VoxelParams;
 use crate::systems::SystemsChoice;
-use crate::transfer::Dense;
 use radiosity_core::Patch;
 use std::collections::BTreeMap;
 

@@ -6,6 +6,7 @@ use crate::closure::{ClosureReport, closure_effect, escape_check};
 use crate::dark_patches::dark_patches;
 use crate::effects::{self, Effect, Effects};
 use crate::exposure::{Exposure, expose};
+use crate::form_factor::matrix::Dense;
 use crate::form_factor::matrix::{Exchange, live_rows_dense};
 use crate::form_factor::{
     FAR_RAYS, FormFactorParams, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
@@ -16,7 +17,6 @@ use crate::part_rows::PartRow;
 use crate::patch::Patches;
 use crate::scene::Scene;
 use crate::simplify::runtime_mesh::{MAX_DIRECT_POINTS, direct_points};
-use crate::transfer::Dense;
 use glam::DVec3;
 use std::cell::OnceCell;
 use std::collections::BTreeMap;

@@ -4,8 +4,8 @@
 use crate::BakeError;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
+use crate::passes::probes::{ProbeRank, ProbeSpec};
 use crate::pipeline::{BakeParams, FormatChoice, SystemsChoice};
-use crate::probes::{ProbeRank, ProbeSpec};
 use crate::scene::{LoadOptions, Scene};
 use crate::simplify::VoxelParams;
 use crate::transfer::BounceSpec;

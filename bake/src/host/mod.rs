@@ -92,7 +92,7 @@ pub fn bake_file(
     let standing = Arc::new(Mutex::new(Standing {
         stage: "load",
         within: 0.0,
-        probes: params.probes != crate::probes::ProbeSpec::None,
+        probes: params.probes != crate::passes::probes::ProbeSpec::None,
     }));
     let (done, result) = std::sync::mpsc::channel();
     let worker = {

@@ -5,8 +5,8 @@
 //! (`closure`), dark patches (`dark`)), [`bake_discretised`] the second (transfer, order,
 //! encode, measure, the runtime mesh and the report (`report`)); [`bake`] runs both.
 
+mod measure;
 mod params;
-mod report;
 pub(crate) mod systems;
 
 pub use crate::closure::ClosureReport;
@@ -14,13 +14,15 @@ pub use crate::dark_patches::{DarkCheck, check_dark};
 pub use crate::discretise::Discretised;
 pub use crate::exposure::Exposure;
 pub use crate::hooks::Hooks;
+pub use crate::report::SystemsReport;
+pub use crate::report::{BakeReport, Bytes, store};
 pub use crate::systems::{AUTO_ONE_MATRIX, AUTO_SYSTEM_PATCHES, SystemsChoice};
 pub use params::{BakeParams, FormatChoice};
 pub use radiosity_runtime::{ObjectShares, SharedPatch};
-pub use report::{BakeReport, Bytes, store};
-pub use systems::SystemsReport;
+pub use systems::SystemRecord;
 
-use report::{BakeSummary, Measured};
+use crate::passes::{self, sky::Sky};
+use measure::{BakeSummary, Measured};
 
 use crate::BakeError;
 use crate::effects::{Effect, Effects};
@@ -212,15 +214,17 @@ fn second_half(
         timings,
         sample_objects,
     };
-    let report = report::report(scene, system, &file, summary);
-    let report = report::store(&mut file, report)?;
-    let out = BakeOutput {
+    let report = measure::report(scene, system, &file, summary);
+    let sky = Sky {
+        on: params.sky,
+        planned: None,
+    };
+    let (file, report) = passes::run(file, report, &[&params.probes_pass(), &sky], false, hooks)?;
+    Ok(BakeOutput {
         file,
         report,
         patch_source,
-    };
-    let out = crate::probes::attach(out, &params.probes, params.probe_rank, hooks)?;
-    crate::sky::attach(out, params.sky, hooks)
+    })
 }
 
 /// Gives `file` what the runtime draws and shades with, in the file's numbering (`perm[k]`:

@@ -4,7 +4,7 @@ use crate::discretise::DiscretiseParams;
 use crate::encode::EncodeParams;
 use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
-use crate::probes::{ProbeRank, ProbeSpec};
+use crate::passes::probes::{ProbeRank, ProbeSpec, ProbesPass};
 use crate::simplify::VoxelParams;
 use crate::transfer::BounceSpec;
 use radiosity_core::Format;
@@ -114,6 +114,14 @@ impl BakeParams {
 }
 
 impl BakeParams {
+    /// The probes pass these parameters ask for.
+    pub fn probes_pass(&self) -> ProbesPass {
+        ProbesPass {
+            spec: self.probes.clone(),
+            rank: self.probe_rank,
+        }
+    }
+
     /// The part of these parameters the discretisation looks at.
     pub fn discretise(&self) -> DiscretiseParams {
         DiscretiseParams {

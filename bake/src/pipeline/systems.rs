@@ -3,7 +3,7 @@
 //! each system's own multi-bounce transfer and encoding, the form factors between systems
 //! kept whole as the coupling (nothing truncated), and one level file ([`LevelSystems`]).
 
-use super::report::{self, BakeSummary, Measured};
+use super::measure::{self, BakeSummary, Measured};
 use super::{
     BakeOutput, BakeParams, Discretised, Hooks, attach_runtime, encode_error, encode_params_for,
     transfer_step,
@@ -13,36 +13,39 @@ use crate::effects::Effect;
 use crate::encode::{ErrorWeights, SparseSelection, encode_dense_with};
 use crate::form_factor::SparseFormFactors;
 use crate::order::{Candidate, OrderKind};
-use crate::plan::rows::SystemRecord;
+use crate::passes::{
+    self,
+    sky::{PlannedSky, Sky},
+};
+use crate::report::SystemsReport;
 use crate::scene::Scene;
 use crate::systems::{Partition, Region, Split, partition_sites};
 use crate::transfer::BounceSpec;
 use radiosity_core::container::LevelSystems;
 use radiosity_core::{Bounces, DecodeMode, MatrixLayout, RadFile, Rgb, TransferMatrix};
-use serde::Serialize;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-/// What a systems bake reports (`report.systems`).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SystemsReport {
-    /// Systems.
-    pub count: usize,
-    /// Patches of each system, in the level's order.
-    pub sizes: Vec<usize>,
-    /// Share of the exchange `Σ A_i F_ij` that crosses between systems (carried by the
-    /// coupling, not by any system's transfer).
-    pub crossing_share: f64,
-    /// Entries of the coupling.
-    pub coupling_entries: usize,
-    /// Share of the exchange dropped between systems: 0, every crossing entry is kept.
-    pub dropped_share: f64,
-    /// Bytes of the systems' matrices (blocks, sparse entries, corrections) and of the
-    /// coupling.
-    pub matrix_bytes: usize,
-    /// Bytes of the coupling.
-    pub coupling_bytes: usize,
+/// One system of a planned bake: its region, the hash of everything its matrix is made
+/// from, and what the level's report takes from its bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SystemRecord {
+    /// Its region in the plan.
+    pub region: u32,
+    /// BLAKE3 of its transfer's inputs.
+    pub input: [u8; 32],
+    /// BLAKE3 (16 bytes) of its patches, its reflectances and its own form factors: what
+    /// a rebake says changed.
+    pub parts: [[u8; 16]; 3],
+    /// Squared compression error and squared norm of its matrix.
+    pub err2: f64,
+    /// Squared norm of its transfer.
+    pub norm2: f64,
+    /// Bytes of its matrix.
+    pub matrix_bytes: u64,
+    /// The `bounces` effect line its transfer wrote.
+    pub bounces_text: String,
 }
 
 /// How a level is cut into systems.
@@ -193,8 +196,8 @@ pub(crate) fn systems_bake(
     let mut effects = system.effects.clone();
 
     let probes_note = match params.probes {
-        crate::probes::ProbeSpec::None => None,
-        crate::probes::ProbeSpec::Auto => Some(
+        crate::passes::probes::ProbeSpec::None => None,
+        crate::passes::probes::ProbeSpec::Auto => Some(
             "a level cut into systems has no probes yet (their rows would gather across systems)",
         ),
         _ => {
@@ -452,7 +455,7 @@ pub(crate) fn systems_bake(
         timings,
         sample_objects,
     };
-    let mut report = report::report(scene, system, &file, summary);
+    let mut report = measure::report(scene, system, &file, summary);
     report.bytes.blocks = matrix_bytes;
     report.systems = Some(SystemsReport {
         count: sizes.len(),
@@ -463,15 +466,21 @@ pub(crate) fn systems_bake(
         matrix_bytes,
         coupling_bytes,
     });
-    let report = report::store(&mut file, report)?;
-    let sky = plan_hash.map(|_| planned_sky(system, &file, &patch_source, old));
-    let out = BakeOutput {
-        file,
-        report,
-        patch_source,
+    // A level's probes and sky are the passes of one matrix, over the level's file: each
+    // probe's weights name the patches it sees, whichever system they are in, and the frame
+    // lights them with the level's light.
+    let sky = Sky {
+        on: params.sky,
+        planned: plan_hash.map(|_| planned_sky(system, &file, &patch_source, old)),
     };
+    let robust = plan_hash.is_some();
+    let (file, report) = passes::run(file, report, &[&params.probes_pass(), &sky], robust, hooks)?;
     Ok(SystemsBake {
-        output: crate::sky::attach_with(out, params.sky, hooks, sky.as_ref())?,
+        output: BakeOutput {
+            file,
+            report,
+            patch_source,
+        },
         records,
         rebaked,
     })
@@ -484,7 +493,7 @@ fn planned_sky(
     file: &RadFile<'_>,
     patch_source: &[u32],
     old: Option<&OldSystems>,
-) -> crate::sky::PlannedSky {
+) -> PlannedSky {
     let seeds = (patch_source.iter())
         .map(|&i| system.patches.patches[i as usize].seed)
         .collect();
@@ -512,7 +521,7 @@ fn planned_sky(
                 .collect(),
         )
     });
-    crate::sky::PlannedSky {
+    PlannedSky {
         seeds,
         old: carried.unwrap_or_else(none),
         boxes: old.map(|o| o.boxes.clone()).unwrap_or_default(),

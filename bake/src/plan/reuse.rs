@@ -20,6 +20,7 @@ use crate::patch::Patches;
 use crate::patch::points::Owners;
 use crate::scene::Scene;
 use glam::DVec3;
+use radiosity_geometry::aabb::crosses;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -63,25 +64,6 @@ fn triangle_key(t: &[DVec3; 3], emits: bool, coverage: f32) -> [u64; 11] {
     k[9] = u64::from(emits);
     k[10] = u64::from(coverage.to_bits());
     k
-}
-
-/// Whether the ray `x + t·d`, `t` in `[0, far]`, crosses the box `[lo, hi]`.
-pub(crate) fn crosses(x: DVec3, d: DVec3, far: f64, (lo, hi): (DVec3, DVec3)) -> bool {
-    let (mut t0, mut t1) = (0.0f64, far);
-    for a in 0..3 {
-        let inv = 1.0 / d[a];
-        let (mut ta, mut tb) = ((lo[a] - x[a]) * inv, (hi[a] - x[a]) * inv);
-        if ta > tb {
-            std::mem::swap(&mut ta, &mut tb);
-        }
-        // NaN (a zero direction on an axis with x on a face) keeps the ray: conservative.
-        t0 = if ta > t0 { ta } else { t0 };
-        t1 = if tb < t1 { tb } else { t1 };
-        if t0 > t1 {
-            return false;
-        }
-    }
-    true
 }
 
 /// Boxes that overlap merged until none does (a moved building's triangles and patches

@@ -8,6 +8,7 @@
 //! layout is part of the contract, and it is a dozen fields.
 
 use crate::form_factor::cast::HitCounts;
+use crate::pipeline::SystemRecord;
 use glam::DVec3;
 
 const ROWS_MAGIC: &[u8; 8] = b"RADROWS\0";
@@ -57,7 +58,7 @@ pub struct Cache {
     pub objects: Vec<String>,
     /// Every patch's hit counts.
     pub counts: Vec<HitCounts>,
-    /// Every patch's identity ([`super::crate::patch::identity::patch_keys`]).
+    /// Every patch's identity ([`crate::patch::identity::patch_keys`]).
     pub keys: Vec<[u8; 16]>,
     /// The scene's triangles.
     pub triangles: Vec<[DVec3; 3]>,
@@ -69,27 +70,6 @@ pub struct Cache {
     pub systems: Vec<SystemRecord>,
     /// Each of the level's file patches' patch (its index in `keys`).
     pub sources: Vec<u32>,
-}
-
-/// One system of a planned bake: its region, the hash of everything its matrix is made
-/// from, and what the level's report takes from its bake.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SystemRecord {
-    /// Its region in the plan.
-    pub region: u32,
-    /// BLAKE3 of its transfer's inputs.
-    pub input: [u8; 32],
-    /// BLAKE3 (16 bytes) of its patches, its reflectances and its own form factors: what
-    /// a rebake says changed.
-    pub parts: [[u8; 16]; 3],
-    /// Squared compression error and squared norm of its matrix.
-    pub err2: f64,
-    /// Squared norm of its transfer.
-    pub norm2: f64,
-    /// Bytes of its matrix.
-    pub matrix_bytes: u64,
-    /// The `bounces` effect line its transfer wrote.
-    pub bounces_text: String,
 }
 
 impl Rows {

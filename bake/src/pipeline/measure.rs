@@ -1,105 +1,16 @@
-//! What the bake reports: the `bake --json` object ([`BakeReport`], `docs/contract.md`), also
-//! stored in the file's REPORT section for `inspect`, and the error measures it holds.
+//! The measurements the bake reports: the compression errors of the chosen order and the
+//! others, the lighting error, and the report assembled from a discretisation and a file.
 
 use super::Discretised;
-use crate::BakeError;
-use crate::closure::ClosureReport;
 use crate::effects::Effects;
-use crate::form_factor::FormFactorSummary;
 use crate::order::{self, Candidate};
+use crate::report::{BakeReport, Bytes};
 use crate::scene::Scene;
 use radiosity_core::{
     Bounces, DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, TransferMatrix,
 };
 use radiosity_runtime::SharedPatch;
-use serde::Serialize;
-use std::borrow::Cow;
 use std::collections::BTreeMap;
-
-/// Sizes in bytes.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Bytes {
-    /// The whole `.rad` file.
-    pub total: usize,
-    /// Block data.
-    pub blocks: usize,
-    /// Sparse arrays.
-    pub sparse: usize,
-    /// Block corrections (their four arrays).
-    pub corrections: usize,
-    /// Blocks corrected.
-    pub corrected_blocks: usize,
-    /// The PROBES section (0 without probes).
-    pub probes: usize,
-    /// The SKY section (0 without one, or where nothing sees the sky).
-    pub sky: usize,
-    /// The PARTS section (0 where no patch holds parts of several objects).
-    pub parts: usize,
-}
-
-/// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
-/// file's REPORT section for `inspect`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct BakeReport {
-    /// Patches in the matrix.
-    pub patches: usize,
-    /// Stored channels.
-    pub channels: usize,
-    /// Storage format.
-    pub format: &'static str,
-    /// Patch order used.
-    pub order: &'static str,
-    /// Bounces (a number, or "infinite").
-    pub bounces: serde_json::Value,
-    /// Sizes.
-    pub bytes: Bytes,
-    /// Shadow rays cast for form factors.
-    pub rays_cast: u64,
-    /// The form-factor quadrature and rays asked for (`FormFactorParams::summary`).
-    pub form_factors: FormFactorSummary,
-    /// Relative Frobenius error of the decoded matrix, per order measured (the chosen one
-    /// exactly, the others estimated on sampled blocks of the encoder's first pass, which the
-    /// bake's own encode improves on: see `order::ErrorMeter`).
-    pub compression_rmse: BTreeMap<String, f64>,
-    /// RMS error of the compressed log texture in 8-bit codes, per order measured as
-    /// `compression_rmse` is (`order::ErrorEstimate::code_rms`): the paper's own measure (its
-    /// Fig. 4 compares the compressed texture with the uncompressed one). Empty for the float
-    /// formats.
-    pub compression_code_rmse: BTreeMap<String, f64>,
-    /// Relative L2 error of the irradiance from the scene's own emitters caused by compression
-    /// (`null` without emitters).
-    pub lighting_error: Option<f64>,
-    /// Every effect decision with its reason.
-    pub effects: Effects,
-    /// Row sums of F before any correction, and the correction applied.
-    pub closure: ClosureReport,
-    /// Largest reciprocity error of F.
-    pub reciprocity_error: f64,
-    /// Milliseconds per stage.
-    pub timings_ms: BTreeMap<&'static str, f64>,
-    /// Warnings from loading and simplification.
-    pub warnings: Vec<String>,
-    /// Exposed area of each object (file object order): its full-detail area less the part
-    /// buried under other objects, dark patches included.
-    pub object_areas: Vec<f64>,
-    /// Whole full-detail area of each object (file object order), buried and dropped parts
-    /// included: what `solve`'s per-object means are taken over.
-    pub object_surface_areas: Vec<f64>,
-    /// Power each object emits over its whole full-detail surface (file object order, RGB,
-    /// `Σ A·E` in W per scene unit² of area): `solve` counts the part outside the matrix with
-    /// radiosity `B = E` (it receives nothing).
-    pub object_emitted_power: Vec<[f64; 3]>,
-    /// The patches holding parts of more than one object (file patch order), with each
-    /// object's exposed area in them; every other patch belongs to its `object` whole.
-    pub shared_patches: Vec<SharedPatch>,
-    /// The light probes' placement and storage (`None` without probes).
-    pub probes: Option<crate::probes::ProbeReport>,
-    /// The sky visibility's measurement (`None` under `--sky off`).
-    pub sky: Option<crate::sky::SkyReport>,
-    /// The cut into systems (absent for one matrix).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub systems: Option<super::SystemsReport>,
-}
 
 /// `‖a − b‖ / ‖a‖` over all entries (0 for an all-zero `a` equal to `b`).
 pub(crate) fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
@@ -319,25 +230,4 @@ fn emitted_power(scene: &Scene) -> Vec<[f64; 3]> {
         }
     }
     p
-}
-
-/// Stores `report` in `file`'s REPORT section with `bytes.total` the size of the file that
-/// results; call it again after changing the file (probes added).
-pub fn store(file: &mut RadFile<'static>, mut report: BakeReport) -> Result<BakeReport, BakeError> {
-    // The report stores the file size, which depends on the report: write twice (the size
-    // field has the same width both times only by luck, so measure until it is stable).
-    for _ in 0..3 {
-        file.report = Some(Cow::Owned(
-            serde_json::to_string(&report).expect("report serialises"),
-        ));
-        let total = file
-            .to_bytes()
-            .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?
-            .len();
-        if total == report.bytes.total {
-            break;
-        }
-        report.bytes.total = total;
-    }
-    Ok(report)
 }

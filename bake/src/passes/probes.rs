@@ -19,8 +19,10 @@
 //! probe of the cell is in sight, a tent twice as wide; no probe there either: "outside the
 //! probe grid".
 
+use super::Pass;
 use crate::BakeError;
-use crate::pipeline::{BakeOutput, Hooks};
+use crate::hooks::Hooks;
+use crate::report::{BakeReport, ProbeReport};
 use crate::rng::SplitMix64;
 use glam::{DVec3, Vec3};
 use radiosity_core::{ProbeFactors, ProbeWeight, Probes, SH_COEFFICIENTS, probes::sh_basis};
@@ -94,25 +96,6 @@ impl ProbeSpec {
         }
         Ok(ProbeSpec::Points(points))
     }
-}
-
-/// What the bake says about its probes.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct ProbeReport {
-    /// Probes kept.
-    pub placed: usize,
-    /// Probes dropped for lying inside solid objects.
-    pub dropped_inside: usize,
-    /// Weights the rays found (patch and probe pairs), before any factoring.
-    pub weights: usize,
-    /// The rank of the stored factors, `None` for rows of weights.
-    pub rank: Option<usize>,
-    /// Bytes of the PROBES section.
-    pub bytes: usize,
-    /// The lattice step (or the median distance between scattered probes).
-    pub spacing: f64,
-    /// Seconds spent placing, weighing and factoring.
-    pub seconds: f64,
 }
 
 fn bounds(rt: &BakedScene) -> Result<(DVec3, DVec3), BakeError> {
@@ -549,42 +532,38 @@ fn factor(rows: &[Vec<ProbeWeight>], patches: usize, k: usize) -> Option<ProbeFa
     })
 }
 
-/// Places and weighs the probes of `spec` in a bake's file and stores its report again (its
-/// `probes`, the PROBES section's bytes, the file's new size and the `probes` and `total`
-/// timings). The output unchanged for [`ProbeSpec::None`].
-pub(crate) fn attach(
-    out: BakeOutput,
-    spec: &ProbeSpec,
-    rank: ProbeRank,
-    hooks: Hooks<'_>,
-) -> Result<BakeOutput, BakeError> {
-    if *spec == ProbeSpec::None {
-        return Ok(out);
+/// The probes pass: places and weighs the probes of `spec` in a bake's file, and records
+/// them in the report (its `probes`, the PROBES section's bytes and the `probes` and `total`
+/// timings). Nothing for [`ProbeSpec::None`].
+pub struct ProbesPass {
+    /// Where probes go.
+    pub spec: ProbeSpec,
+    /// How their weights are stored.
+    pub rank: ProbeRank,
+}
+
+impl Pass for ProbesPass {
+    fn run(
+        &self,
+        rt: &mut BakedScene,
+        report: &mut BakeReport,
+        hooks: Hooks<'_>,
+    ) -> Result<(), BakeError> {
+        if self.spec == ProbeSpec::None {
+            return Ok(());
+        }
+        hooks.start("probes")?;
+        let t = std::time::Instant::now();
+        if let Some((probes, r)) = bake(rt, &self.spec, self.rank, hooks)? {
+            rt.file.probes = Some(probes);
+            report.bytes.probes = r.bytes;
+            report.probes = Some(r);
+        }
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        report.timings_ms.insert("probes", ms);
+        *report.timings_ms.entry("total").or_insert(0.0) += ms;
+        Ok(())
     }
-    hooks.start("probes")?;
-    let t = std::time::Instant::now();
-    let BakeOutput {
-        file,
-        mut report,
-        patch_source,
-    } = out;
-    let rt = BakedScene::new(file);
-    let baked = bake(&rt, spec, rank, hooks)?;
-    let mut file = rt.file;
-    if let Some((probes, r)) = baked {
-        file.probes = Some(probes);
-        report.bytes.probes = r.bytes;
-        report.probes = Some(r);
-    }
-    let ms = t.elapsed().as_secs_f64() * 1e3;
-    report.timings_ms.insert("probes", ms);
-    *report.timings_ms.entry("total").or_insert(0.0) += ms;
-    let report = crate::pipeline::store(&mut file, report)?;
-    Ok(BakeOutput {
-        file,
-        report,
-        patch_source,
-    })
 }
 
 #[cfg(test)]

@@ -10,17 +10,18 @@
 //! over the sphere; an escaping one adds `4π·Y_k(ω)/R_p` to `V_k`. An unoccluded patch gets
 //! `T_0 = π·Y_0` exactly, whatever the rays (its uniform-sky irradiance is then `π·L`).
 
+use super::Pass;
 use crate::BakeError;
 use crate::effects::Effect;
 use crate::geometry::rng::sobol2;
-use crate::pipeline::{BakeOutput, Hooks};
+use crate::hooks::Hooks;
+use crate::report::{BakeReport, SkyReport};
 use glam::DVec3;
 use radiosity_core::probes::sh_basis;
 use radiosity_core::{SH_COEFFICIENTS, SkyVisibility};
 use radiosity_geometry::Occluders;
 use radiosity_runtime::BakedScene;
 use rayon::prelude::*;
-use serde::Serialize;
 use std::f64::consts::PI;
 
 /// Rays a patch casts at the sky (at least one a sample). 512 put a half-occluded patch's
@@ -31,27 +32,15 @@ pub const SKY_RAYS: usize = 512;
 /// Rays a probe casts at the sky, over the whole sphere.
 pub const PROBE_SKY_RAYS: usize = 1024;
 
-/// What the sky stage measured (`sky` in `bake --json`).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SkyReport {
-    /// Rays cast at the sky.
-    pub rays: u64,
-    /// Share of the matrix's surface (area-weighted) that sees the sky: the mean over it of
-    /// `T_0/(π·Y_0)`.
-    pub open_share: f64,
-    /// Patches that see any sky.
-    pub open_patches: usize,
-    /// Bytes of the SKY section (0: nothing sees the sky).
-    pub bytes: usize,
-    /// Seconds the stage took.
-    pub seconds: f64,
-}
-
-/// Measures the sky visibility of a bake's file (`on`), stores the SKY section, and records
-/// the `sky` effect, report and timing; with `on` false the file gets no SKY section (a sky
-/// cannot light it) and the effect says so.
-pub(crate) fn attach(out: BakeOutput, on: bool, hooks: Hooks<'_>) -> Result<BakeOutput, BakeError> {
-    attach_with(out, on, hooks, None)
+/// The sky pass: measures the sky visibility of a bake's file, stores the SKY section, and
+/// records the `sky` effect, report and timing; off, the file gets no SKY section (a sky
+/// cannot light it) and the effect says so. Runs after the probes: their visibility is
+/// measured too.
+pub struct Sky {
+    /// Whether to measure (`--sky`).
+    pub on: bool,
+    /// How a planned bake measures it (`None` for a bake without a plan).
+    pub(crate) planned: Option<PlannedSky>,
 }
 
 /// How a planned bake measures the sky ([`crate::plan`]): each file patch's rays seeded by
@@ -68,83 +57,62 @@ pub(crate) struct PlannedSky {
     pub(crate) boxes: Vec<(DVec3, DVec3)>,
 }
 
-/// [`attach`], planned.
-pub(crate) fn attach_with(
-    out: BakeOutput,
-    on: bool,
-    hooks: Hooks<'_>,
-    planned: Option<&PlannedSky>,
-) -> Result<BakeOutput, BakeError> {
-    let BakeOutput {
-        file,
-        mut report,
-        patch_source,
-    } = out;
-    if !on {
-        let mut file = file;
-        report.effects.insert(
-            "sky",
+impl Pass for Sky {
+    fn run(
+        &self,
+        rt: &mut BakedScene,
+        report: &mut BakeReport,
+        hooks: Hooks<'_>,
+    ) -> Result<(), BakeError> {
+        if !self.on {
+            report.effects.insert(
+                "sky",
+                Effect::new(
+                    false,
+                    "--sky off: no sky visibility stored; a sky cannot light the file",
+                ),
+            );
+            return Ok(());
+        }
+        hooks.start("sky")?;
+        let t = std::time::Instant::now();
+        let (visibility, measured) = measure(rt, hooks, self.planned.as_ref())?;
+        let bytes = visibility.to_bytes().len();
+        let seconds = t.elapsed().as_secs_f64();
+        let effect = if visibility.is_closed() {
             Effect::new(
                 false,
-                "--sky off: no sky visibility stored; a sky cannot light the file",
-            ),
-        );
-        let report = crate::pipeline::store(&mut file, report)?;
-        return Ok(BakeOutput {
-            file,
-            report,
-            patch_source,
+                format!(
+                    "no ray of {} from the patches and probes leaves the scene: closed, a sky adds nothing",
+                    measured.rays
+                ),
+            )
+        } else {
+            Effect::new(
+                true,
+                format!(
+                    // No seconds here: the report's text stays the same from bake to bake but
+                    // for its timings (`timings_ms.sky`, `sky.seconds`).
+                    "{} of {} patches see the sky ({:.1}% of the surface, cosine-weighted): {} rays",
+                    measured.open_patches,
+                    rt.n(),
+                    100.0 * measured.open_share,
+                    measured.rays,
+                ),
+            )
+        };
+        rt.file.sky = Some(visibility);
+        report.effects.insert("sky", effect);
+        report.bytes.sky = bytes;
+        report.sky = Some(SkyReport {
+            bytes,
+            seconds,
+            ..measured
         });
+        report.timings_ms.insert("sky", seconds * 1e3);
+        *report.timings_ms.entry("total").or_insert(0.0) += seconds * 1e3;
+        Ok(())
     }
-    hooks.start("sky")?;
-    let t = std::time::Instant::now();
-    let mut rt = BakedScene::new(file);
-    if planned.is_some() {
-        // A planned bake carries visibility over from another scene's tree: both robust.
-        rt.make_occluders_robust();
-    }
-    let (visibility, measured) = measure(&rt, hooks, planned)?;
-    let mut file = rt.file;
-    let bytes = visibility.to_bytes().len();
-    let seconds = t.elapsed().as_secs_f64();
-    let effect = if visibility.is_closed() {
-        Effect::new(
-            false,
-            format!(
-                "no ray of {} from the patches and probes leaves the scene: closed, a sky adds nothing",
-                measured.rays
-            ),
-        )
-    } else {
-        Effect::new(
-            true,
-            format!(
-                // No seconds here: the report's text stays the same from bake to bake but
-                // for its timings (`timings_ms.sky`, `sky.seconds`).
-                "{} of {} patches see the sky ({:.1}% of the surface, cosine-weighted): {} rays",
-                measured.open_patches,
-                file.n(),
-                100.0 * measured.open_share,
-                measured.rays,
-            ),
-        )
-    };
-    file.sky = Some(visibility);
-    report.effects.insert("sky", effect);
-    report.bytes.sky = bytes;
-    report.sky = Some(SkyReport {
-        bytes,
-        seconds,
-        ..measured
-    });
-    report.timings_ms.insert("sky", seconds * 1e3);
-    *report.timings_ms.entry("total").or_insert(0.0) += seconds * 1e3;
-    let report = crate::pipeline::store(&mut file, report)?;
-    Ok(BakeOutput {
-        file,
-        report,
-        patch_source,
-    })
 }
 
 /// The section and the report's counts (bytes and seconds left to the caller).
@@ -184,10 +152,9 @@ fn measure(
                     let (mut clear, mut rays) = (true, 0u64);
                     sky_rays(samples, seed, |origin, dir, _| {
                         rays += 1;
-                        clear &= !plan
-                            .boxes
-                            .iter()
-                            .any(|&b| crate::plan::reuse::crosses(origin, dir, f64::INFINITY, b));
+                        clear &= !plan.boxes.iter().any(|&b| {
+                            radiosity_geometry::aabb::crosses(origin, dir, f64::INFINITY, b)
+                        });
                     });
                     if clear {
                         return (t, rays);
