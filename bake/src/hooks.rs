@@ -1,4 +1,8 @@
-//! A front end's hooks into a bake: stage names as they start, progress, cancellation.
+//! A front end's hooks into a bake: stage names as they start, progress, cancellation; and
+//! the stages' timings the report gives ([`Laps`]).
+
+use std::collections::BTreeMap;
+use std::time::Instant;
 
 /// Callbacks for a front end: stage names as they start, the progress of the counting stages,
 /// and a cancellation flag.
@@ -50,5 +54,38 @@ impl Hooks<'_> {
             p(done, total);
         }
         !self.cancelled()
+    }
+}
+
+/// Milliseconds per stage (the report's `timings_ms`), each lap from the end of the one before.
+pub(crate) struct Laps {
+    clock: Instant,
+    timings: BTreeMap<&'static str, f64>,
+}
+
+impl Laps {
+    /// Laps added to `timings` (those of the stages before), timed from now.
+    pub(crate) fn after(timings: BTreeMap<&'static str, f64>) -> Self {
+        Self {
+            clock: Instant::now(),
+            timings,
+        }
+    }
+
+    /// Records the time since the last lap as `name`'s.
+    pub(crate) fn lap(&mut self, name: &'static str) {
+        self.timings
+            .insert(name, self.clock.elapsed().as_secs_f64() * 1e3);
+        self.clock = Instant::now();
+    }
+
+    /// Records `ms` as `name`'s, a stage timed apart.
+    pub(crate) fn set(&mut self, name: &'static str, ms: f64) {
+        self.timings.insert(name, ms);
+    }
+
+    /// The timings.
+    pub(crate) fn into_timings(self) -> BTreeMap<&'static str, f64> {
+        self.timings
     }
 }

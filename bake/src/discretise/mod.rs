@@ -16,7 +16,7 @@ use crate::effects::Effects;
 use crate::exposure::Exposure;
 use crate::form_factor::matrix::Dense;
 use crate::form_factor::{FormFactorParams, FormFactorSummary, SparseFormFactors};
-use crate::hooks::Hooks;
+use crate::hooks::{Hooks, Laps};
 use crate::patch::Patches;
 use crate::scene::Scene;
 use crate::simplify::VoxelParams;
@@ -116,7 +116,7 @@ pub fn discretise(
     given: Option<GivenRows>,
 ) -> Result<Discretised, BakeError> {
     steps::check_points(params)?;
-    let mut laps = steps::Laps::new();
+    let mut laps = Laps::after(BTreeMap::new());
     hooks.start("simplify")?;
     let mut patches = crate::simplify::simplify(scene, &params.voxel)?;
     let keys = match given {

@@ -12,37 +12,13 @@ use crate::form_factor::{
     FAR_RAYS, FormFactorParams, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
 };
 use crate::geometry::Occluders;
-use crate::hooks::Hooks;
+use crate::hooks::{Hooks, Laps};
 use crate::part_rows::PartRow;
 use crate::patch::Patches;
 use crate::scene::Scene;
 use crate::simplify::runtime_mesh::{MAX_DIRECT_POINTS, direct_points};
 use glam::DVec3;
 use std::cell::OnceCell;
-use std::collections::BTreeMap;
-use std::time::Instant;
-
-/// Milliseconds per step, each from the end of the one before.
-pub(super) struct Laps {
-    clock: Instant,
-    timings: BTreeMap<&'static str, f64>,
-}
-
-impl Laps {
-    pub(super) fn new() -> Self {
-        Self {
-            clock: Instant::now(),
-            timings: BTreeMap::new(),
-        }
-    }
-
-    /// Records the time since the last lap as `name`'s.
-    pub(super) fn lap(&mut self, name: &'static str) {
-        self.timings
-            .insert(name, self.clock.elapsed().as_secs_f64() * 1e3);
-        self.clock = Instant::now();
-    }
-}
 
 /// Refuses direct-light point counts the runtime mesh cannot hold.
 pub(super) fn check_points(params: &DiscretiseParams) -> Result<(), BakeError> {
@@ -426,6 +402,6 @@ pub(super) fn finish(
         keys,
         form_factors: params.form_factors.summary(),
         reciprocity_error: c.reciprocity_error,
-        timings_ms: laps.timings,
+        timings_ms: laps.into_timings(),
     }
 }

@@ -9,7 +9,7 @@ use crate::BakeError;
 use crate::discretise::GivenRows;
 use crate::hooks::Hooks;
 use crate::pipeline::BakeOutput;
-use crate::pipeline::systems::{OldSystems, SystemsCut, systems_bake};
+use crate::pipeline::{OldSystems, SystemsCut, systems_bake};
 use crate::scene::Scene;
 use radiosity_core::RadFile;
 use serde::Serialize;

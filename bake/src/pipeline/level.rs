@@ -4,19 +4,20 @@
 //! kept whole as the coupling (nothing truncated), and one level file ([`LevelSystems`]).
 
 use super::measure::{self, BakeSummary, Measured};
-use super::{
-    BakeOutput, BakeParams, Discretised, Hooks, attach_runtime, encode_error, encode_params_for,
-    transfer_step,
+use super::steps::{
+    attach_runtime, encode_error, encode_params_for, finish, objects_of, transfer_step,
 };
+use super::{BakeOutput, BakeParams};
 use crate::BakeError;
+use crate::discretise::Discretised;
 use crate::effects::Effect;
+use crate::effects::Effects;
+use crate::encode::EncodeParams;
 use crate::encode::{ErrorWeights, SparseSelection, encode_dense_with};
 use crate::form_factor::SparseFormFactors;
+use crate::hooks::{Hooks, Laps};
 use crate::order::{Candidate, OrderKind};
-use crate::passes::{
-    self,
-    sky::{PlannedSky, Sky},
-};
+use crate::passes::sky::PlannedSky;
 use crate::report::SystemsReport;
 use crate::scene::Scene;
 use crate::systems::{Partition, Region, Split, partition_sites};
@@ -184,92 +185,214 @@ pub(crate) fn systems_bake(
     params: &BakeParams,
     hooks: Hooks<'_>,
 ) -> Result<SystemsBake, BakeError> {
-    let mut timings = system.timings_ms.clone();
     let t_all = Instant::now();
-    let mut clock = Instant::now();
-    let mut lap = |name: &'static str, timings: &mut BTreeMap<&'static str, f64>| {
-        timings.insert(name, clock.elapsed().as_secs_f64() * 1e3);
-        clock = Instant::now();
-    };
-    let n = system.len();
-    let channels = system.channels;
-    let mut effects = system.effects.clone();
-
-    let probes_note = match params.probes {
-        crate::passes::probes::ProbeSpec::None => None,
-        crate::passes::probes::ProbeSpec::Auto => Some(
-            "a level cut into systems has no probes yet (their rows would gather across systems)",
-        ),
-        _ => {
-            return Err(BakeError::InvalidParams(
-                "probes are not baked into a level cut into systems yet: give --probes none or --systems off".into(),
-            ));
-        }
-    };
+    let mut laps = Laps::after(system.timings_ms.clone());
     hooks.start("systems")?;
-    let centres: Vec<glam::DVec3> = system
-        .live
-        .iter()
-        .map(|&i| system.patches.patches[i].centre)
+    let level = Level::cut(system, &ff, cut);
+    laps.lap("systems");
+
+    let (format, encode_params) = encode_params_for(params, system.channels);
+    let mut matrices = Matrices::new(system.effects.clone(), level.split.ranges.len());
+    for s in 0..level.split.ranges.len() {
+        hooks.start(&format!("system {} of {}", s + 1, level.split.ranges.len()))?;
+        matrices.add(scene, system, &ff, &level, s, params, &encode_params, hooks)?;
+    }
+    laps.set("transfer", matrices.transfer_ms);
+    laps.set("encode", matrices.encode_ms);
+    laps.lap("system_matrices");
+
+    let rmse = matrices.rmse();
+    let coupling_entries = level.split.coupling.cols.len();
+    let coupling_bytes = 4 * (level.split.coupling.row_ptr.len() + 2 * coupling_entries);
+    let systems = LevelSystems::from_files(&matrices.files, level.split.coupling.clone())
+        .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?;
+    let order = &level.split.order;
+    let patch_source: Vec<u32> = (order.iter())
+        .map(|&k| system.live[k as usize] as u32)
         .collect();
-    let areas: Vec<f64> = system
-        .live
-        .iter()
-        .map(|&i| system.patches.patches[i].area)
-        .collect();
-    let (partition, region_of, plan_hash, old) = match cut {
-        SystemsCut::Least(count) => {
-            let p = partition_sites(&centres, &areas, &ff, n.div_ceil(count));
-            let regions = (0..p.count as u32).collect();
-            (p, regions, None, None)
-        }
-        SystemsCut::Plan {
-            regions,
+    let layout = MatrixLayout::none(system.channels as u32, format, encode_params.max_tile)
+        .map_err(|e| BakeError::InvalidParams(e.to_string()))?;
+    let mut file = RadFile {
+        compression_rmse: Some(rmse as f32),
+        systems: Some(systems),
+        ..RadFile::new(
+            Cow::Owned(
+                order
+                    .iter()
+                    .map(|&k| system.core_patches[k as usize])
+                    .collect(),
+            ),
+            Cow::Owned(order.clone()),
+            TransferMatrix::none(layout),
+            objects_of(scene),
+            matrices.bounces,
+        )
+    };
+    let sample_objects = attach_runtime(&mut file, scene, system, order, &patch_source, params.sky);
+    laps.lap("level");
+    let sizes: Vec<usize> = level.split.ranges.iter().map(|r| r.len()).collect();
+    matrices.effects.insert(
+        "systems",
+        Effect::new(
+            true,
+            format!(
+                "{} patches cut into {} systems of {:?} patches along the planes of least exchange: {:.2}% of the exchange crosses between them, carried by {coupling_entries} coupling entries (none dropped); each system has its own transfer",
+                system.len(),
+                sizes.len(),
+                sizes,
+                100.0 * level.crossing_share
+            ),
+        ),
+    );
+    let discretise_ms: f64 = system.timings_ms.values().sum();
+    laps.set("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
+    let chosen = unordered(order, &matrices);
+    let summary = BakeSummary {
+        format,
+        chosen: &chosen,
+        bounces: matrices.bounces,
+        measured: Measured {
+            rmse,
+            lighting_error: None,
+            compression_rmse: BTreeMap::from([(OrderKind::None.name().to_owned(), rmse)]),
+            compression_code_rmse: BTreeMap::new(),
+        },
+        effects: std::mem::take(&mut matrices.effects),
+        timings: laps.into_timings(),
+        sample_objects,
+    };
+    let mut report = measure::report(scene, system, &file, summary);
+    report.bytes.blocks = matrices.matrix_bytes;
+    report.systems = Some(SystemsReport {
+        count: sizes.len(),
+        sizes,
+        crossing_share: level.crossing_share,
+        coupling_entries,
+        dropped_share: 0.0,
+        matrix_bytes: matrices.matrix_bytes,
+        coupling_bytes,
+    });
+    // A level's probes and sky are the passes of one matrix, over the level's file: each
+    // probe's weights name the patches it sees, whichever system they are in, and the frame
+    // lights them with the level's light.
+    let planned = (level.plan_hash).map(|_| planned_sky(system, &file, &patch_source, level.old));
+    Ok(SystemsBake {
+        output: finish(file, report, patch_source, params, planned, hooks)?,
+        records: matrices.records,
+        rebaked: matrices.rebaked,
+    })
+}
+
+/// A level's cut: the split, each system's region, and a planned bake's hash and earlier
+/// bake.
+struct Level<'a> {
+    split: Split,
+    region_of: Vec<u32>,
+    plan_hash: Option<[u8; 32]>,
+    old: Option<&'a OldSystems>,
+    crossing_share: f64,
+}
+
+impl<'a> Level<'a> {
+    /// Cuts the live patches of `system` as `cut` says.
+    fn cut(system: &Discretised, ff: &SparseFormFactors, cut: SystemsCut<'a>) -> Self {
+        let live = || system.live.iter().map(|&i| &system.patches.patches[i]);
+        let centres: Vec<glam::DVec3> = live().map(|p| p.centre).collect();
+        let areas: Vec<f64> = live().map(|p| p.area).collect();
+        let (partition, region_of, plan_hash, old) = match cut {
+            SystemsCut::Least(count) => {
+                let p = partition_sites(&centres, &areas, ff, system.len().div_ceil(count));
+                let regions = (0..p.count as u32).collect();
+                (p, regions, None, None)
+            }
+            SystemsCut::Plan {
+                regions,
+                plan_hash,
+                old,
+            } => {
+                let (p, used) = plan_partition(system, regions);
+                (p, used, Some(plan_hash), old)
+            }
+        };
+        Self {
+            crossing_share: partition.crossing_share_sites(&areas, ff),
+            split: Split::new(ff, &partition),
+            region_of,
             plan_hash,
             old,
-        } => {
-            let (p, used) = plan_partition(system, regions);
-            (p, used, Some(plan_hash), old)
         }
-    };
-    let crossing_share = partition.crossing_share_sites(&areas, &ff);
-    let split = Split::new(&ff, &partition);
-    lap("systems", &mut timings);
+    }
+}
 
-    let (format, encode_params) = encode_params_for(params, channels);
-    // Every bounce inside each system: the light between systems converges to the
-    // infinite-bounce answer at run time, and one count of bounces serves the whole level.
-    let own_params = BakeParams {
-        bounces: match params.bounces {
-            BounceSpec::Auto { .. } => BounceSpec::Infinite,
-            b => b,
-        },
-        ..params.clone()
-    };
-    let (mut transfer_ms, mut encode_ms) = (0.0, 0.0);
-    let (mut err2, mut norm2) = (0.0f64, 0.0f64);
-    let mut files = Vec::with_capacity(split.ranges.len());
-    let mut bounces = Bounces::Infinite;
-    let mut matrix_bytes = 0;
-    let mut records = Vec::with_capacity(split.ranges.len());
-    let mut rebaked = Vec::with_capacity(split.ranges.len());
-    for (s, r) in split.ranges.iter().enumerate() {
-        hooks.start(&format!("system {} of {}", s + 1, split.ranges.len()))?;
-        let members = &split.order[r.clone()];
-        let block = split.own_block(&ff, s);
-        let reflectance: Vec<[f64; 3]> = members
-            .iter()
+/// The systems' matrices as they are made or taken from an earlier bake, with what the
+/// level's file and report take from them.
+struct Matrices {
+    effects: Effects,
+    files: Vec<RadFile<'static>>,
+    records: Vec<SystemRecord>,
+    rebaked: Vec<Option<String>>,
+    bounces: Bounces,
+    err2: f64,
+    norm2: f64,
+    matrix_bytes: usize,
+    transfer_ms: f64,
+    encode_ms: f64,
+}
+
+impl Matrices {
+    fn new(effects: Effects, systems: usize) -> Self {
+        Self {
+            effects,
+            files: Vec::with_capacity(systems),
+            records: Vec::with_capacity(systems),
+            rebaked: Vec::with_capacity(systems),
+            bounces: Bounces::Infinite,
+            err2: 0.0,
+            norm2: 0.0,
+            matrix_bytes: 0,
+            transfer_ms: 0.0,
+            encode_ms: 0.0,
+        }
+    }
+
+    /// The relative Frobenius error of the level's matrices together.
+    fn rmse(&self) -> f64 {
+        if self.norm2 > 0.0 {
+            (self.err2 / self.norm2).sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// System `s` of `level`: taken from the earlier bake where its inputs are unchanged,
+    /// else its own transfer, with every bounce inside it (the light between systems
+    /// converges to the infinite-bounce answer at run time, and one count of bounces serves
+    /// the whole level), encoded.
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &mut self,
+        scene: &Scene,
+        system: &Discretised,
+        ff: &SparseFormFactors,
+        level: &Level<'_>,
+        s: usize,
+        params: &BakeParams,
+        encode_params: &EncodeParams,
+        hooks: Hooks<'_>,
+    ) -> Result<(), BakeError> {
+        let members = &level.split.order[level.split.ranges[s].clone()];
+        let block = level.split.own_block(ff, s);
+        let reflectance: Vec<[f64; 3]> = (members.iter())
             .map(|&k| system.reflectance[k as usize])
             .collect();
-        let patches: Vec<radiosity_core::Patch> = members
-            .iter()
+        let patches: Vec<radiosity_core::Patch> = (members.iter())
             .map(|&k| system.core_patches[k as usize])
             .collect();
-        let region = region_of[s];
-        let (input, parts) = plan_hash.map_or(([0; 32], [[0; 16]; 3]), |h| {
+        let region = level.region_of[s];
+        let (input, parts) = level.plan_hash.map_or(([0; 32], [[0; 16]; 3]), |h| {
             input_hash(&h, region, &block, &reflectance, &patches, scene)
         });
-        let (why, kept) = match old {
+        let (why, kept) = match level.old {
             None => (None, None),
             Some(old) => match old.records.iter().position(|o| o.region == region) {
                 None => (Some("its region held no system before".to_owned()), None),
@@ -279,158 +402,107 @@ pub(crate) fn systems_bake(
                 Some(k) => (None, Some(k)),
             },
         };
-        if let (Some(k), Some(old)) = (kept, old) {
-            let levels = old.level.systems.as_ref().expect("a level");
-            let file = levels
-                .system(&old.level, k)
-                .map_err(|e| BakeError::InvalidParams(format!("the old level's system {k}: {e}")))?
-                .into_owned();
-            let record = SystemRecord {
-                region,
-                ..old.records[k].clone()
-            };
-            effects.insert("bounces", Effect::new(true, record.bounces_text.clone()));
-            bounces = file.bounces;
-            err2 += record.err2;
-            norm2 += record.norm2;
-            matrix_bytes += record.matrix_bytes as usize;
-            files.push(file);
-            records.push(record);
-            rebaked.push(None);
-            continue;
+        if let (Some(k), Some(old)) = (kept, level.old) {
+            return self.keep(old, k, region);
         }
+        let own_params = BakeParams {
+            bounces: match params.bounces {
+                BounceSpec::Auto { .. } => BounceSpec::Infinite,
+                b => b,
+            },
+            ..params.clone()
+        };
         let t = Instant::now();
         let (m, transfer) = transfer_step(
             &reflectance,
-            channels,
+            system.channels,
             Cow::Owned(block),
             &own_params,
-            &mut effects,
+            &mut self.effects,
             hooks,
         )?;
-        transfer_ms += t.elapsed().as_secs_f64() * 1e3;
-        bounces = transfer.bounces;
+        self.transfer_ms += t.elapsed().as_secs_f64() * 1e3;
+        self.bounces = transfer.bounces;
         let t = Instant::now();
         let emission: Vec<Rgb> = patches.iter().map(|p| p.emission).collect();
         let matrix = encode_dense_with(
-            r.len(),
-            channels,
+            members.len(),
+            system.channels,
             &m,
-            &encode_params,
+            encode_params,
             &ErrorWeights::for_emitters(&emission),
             SparseSelection::ErrorDriven,
         )
         .map_err(encode_error)?;
-        encode_ms += t.elapsed().as_secs_f64() * 1e3;
+        self.encode_ms += t.elapsed().as_secs_f64() * 1e3;
         let decoded = matrix.decode_dense(DecodeMode::D3d10);
         let (e, d) = m.iter().zip(&decoded).fold((0.0, 0.0), |(e, d), (a, b)| {
             let (a, b) = (f64::from(*a), f64::from(*b));
             (e + (a - b) * (a - b), d + a * a)
         });
-        err2 += e;
-        norm2 += d;
+        self.err2 += e;
+        self.norm2 += d;
         let bytes = matrix.blocks.len() + matrix.sparse.bytes() + matrix.corrections.bytes();
-        matrix_bytes += bytes;
-        records.push(SystemRecord {
+        self.matrix_bytes += bytes;
+        self.records.push(SystemRecord {
             region,
             input,
             parts,
             err2: e,
             norm2: d,
             matrix_bytes: bytes as u64,
-            bounces_text: effects
-                .get("bounces")
+            bounces_text: (self.effects.get("bounces"))
                 .map(|e| e.why.clone())
                 .unwrap_or_default(),
         });
-        rebaked.push(why.or_else(|| {
-            plan_hash
-                .is_some()
-                .then(|| "no earlier bake was given".to_owned())
+        self.rebaked.push(why.or_else(|| {
+            (level.plan_hash.is_some()).then(|| "no earlier bake was given".to_owned())
         }));
-        files.push(RadFile {
+        self.files.push(RadFile {
             compression_rmse: Some(if d > 0.0 { (e / d).sqrt() as f32 } else { 0.0 }),
             ..RadFile::new(
                 Cow::Owned(patches),
-                Cow::Owned((0..r.len() as u32).collect()),
+                Cow::Owned((0..members.len() as u32).collect()),
                 matrix,
                 objects_of(scene),
                 transfer.bounces,
             )
         });
+        Ok(())
     }
-    timings.insert("transfer", transfer_ms);
-    timings.insert("encode", encode_ms);
-    lap("system_matrices", &mut timings);
-    let rmse = if norm2 > 0.0 {
-        (err2 / norm2).sqrt()
-    } else {
-        0.0
-    };
 
-    let coupling_entries = split.coupling.cols.len();
-    let coupling_bytes = 4 * (split.coupling.row_ptr.len() + 2 * coupling_entries);
-    let systems = LevelSystems::from_files(&files, split.coupling.clone())
-        .map_err(|e| BakeError::InvalidParams(format!("internal: {e}")))?;
-    drop(files);
-    let patch_source: Vec<u32> = split
-        .order
-        .iter()
-        .map(|&k| system.live[k as usize] as u32)
-        .collect();
-    let layout = MatrixLayout::none(channels as u32, format, encode_params.max_tile)
-        .map_err(|e| BakeError::InvalidParams(e.to_string()))?;
-    let mut file = RadFile {
-        compression_rmse: Some(rmse as f32),
-        systems: Some(systems),
-        ..RadFile::new(
-            Cow::Owned(
-                split
-                    .order
-                    .iter()
-                    .map(|&k| system.core_patches[k as usize])
-                    .collect(),
-            ),
-            Cow::Owned(split.order.clone()),
-            TransferMatrix::none(layout),
-            objects_of(scene),
-            bounces,
-        )
-    };
-    let sample_objects = attach_runtime(
-        &mut file,
-        scene,
-        system,
-        &split.order,
-        &patch_source,
-        params.sky,
-    );
-    lap("level", &mut timings);
-    let sizes: Vec<usize> = split.ranges.iter().map(|r| r.len()).collect();
-    effects.insert(
-        "systems",
-        Effect::new(
-            true,
-            format!(
-                "{n} patches cut into {} systems of {:?} patches along the planes of least exchange: {:.2}% of the exchange crosses between them, carried by {coupling_entries} coupling entries (none dropped); each system has its own transfer",
-                sizes.len(),
-                sizes,
-                100.0 * crossing_share
-            ),
-        ),
-    );
-    if let Some(why) = probes_note {
-        effects.insert("probes", Effect::new(false, why.to_owned()));
+    /// The earlier bake's system `k`, now in `region`.
+    fn keep(&mut self, old: &OldSystems, k: usize, region: u32) -> Result<(), BakeError> {
+        let levels = old.level.systems.as_ref().expect("a level");
+        let file = levels
+            .system(&old.level, k)
+            .map_err(|e| BakeError::InvalidParams(format!("the old level's system {k}: {e}")))?
+            .into_owned();
+        let record = SystemRecord {
+            region,
+            ..old.records[k].clone()
+        };
+        (self.effects).insert("bounces", Effect::new(true, record.bounces_text.clone()));
+        self.bounces = file.bounces;
+        self.err2 += record.err2;
+        self.norm2 += record.norm2;
+        self.matrix_bytes += record.matrix_bytes as usize;
+        self.files.push(file);
+        self.records.push(record);
+        self.rebaked.push(None);
+        Ok(())
     }
-    let discretise_ms: f64 = system.timings_ms.values().sum();
-    timings.insert("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
-    let chosen = Candidate {
+}
+
+/// The level's numbering as the report's order: none, its error the systems' measured one.
+fn unordered(order: &[u32], matrices: &Matrices) -> Candidate {
+    Candidate {
         kind: OrderKind::None,
-        perm: split.order.clone(),
+        perm: order.to_vec(),
         error: crate::order::ErrorEstimate {
-            relative: rmse,
-            squared_error: err2,
-            squared_norm: norm2,
+            relative: matrices.rmse(),
+            squared_error: matrices.err2,
+            squared_norm: matrices.norm2,
             relative_std: 0.0,
             blocks_encoded: 0,
             blocks_nonzero: 0,
@@ -439,51 +511,7 @@ pub(crate) fn systems_bake(
         },
         order_ms: 0.0,
         measure_ms: 0.0,
-    };
-    let measured = Measured {
-        rmse,
-        lighting_error: None,
-        compression_rmse: BTreeMap::from([(OrderKind::None.name().to_owned(), rmse)]),
-        compression_code_rmse: BTreeMap::new(),
-    };
-    let summary = BakeSummary {
-        format,
-        chosen: &chosen,
-        bounces,
-        measured,
-        effects,
-        timings,
-        sample_objects,
-    };
-    let mut report = measure::report(scene, system, &file, summary);
-    report.bytes.blocks = matrix_bytes;
-    report.systems = Some(SystemsReport {
-        count: sizes.len(),
-        sizes,
-        crossing_share,
-        coupling_entries,
-        dropped_share: 0.0,
-        matrix_bytes,
-        coupling_bytes,
-    });
-    // A level's probes and sky are the passes of one matrix, over the level's file: each
-    // probe's weights name the patches it sees, whichever system they are in, and the frame
-    // lights them with the level's light.
-    let sky = Sky {
-        on: params.sky,
-        planned: plan_hash.map(|_| planned_sky(system, &file, &patch_source, old)),
-    };
-    let robust = plan_hash.is_some();
-    let (file, report) = passes::run(file, report, &[&params.probes_pass(), &sky], robust, hooks)?;
-    Ok(SystemsBake {
-        output: BakeOutput {
-            file,
-            report,
-            patch_source,
-        },
-        records,
-        rebaked,
-    })
+    }
 }
 
 /// A planned level's sky: each file patch's rays seeded by its identity, and the visibility
@@ -526,12 +554,4 @@ fn planned_sky(
         old: carried.unwrap_or_else(none),
         boxes: old.map(|o| o.boxes.clone()).unwrap_or_default(),
     }
-}
-
-fn objects_of(scene: &Scene) -> Vec<Cow<'static, str>> {
-    scene
-        .objects
-        .iter()
-        .map(|o| Cow::Owned(o.clone()))
-        .collect()
 }

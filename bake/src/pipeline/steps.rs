@@ -1,0 +1,192 @@
+//! The steps a bake's second half shares between one matrix ([`super::matrix`]) and a level
+//! ([`super::level`]): the transfer with its `bounces` decision, the storage format, what the
+//! runtime draws with (mesh, PARTS, coverage), and the passes that finish the file.
+
+use super::{BakeOutput, BakeParams, FormatChoice, file_mesh};
+use crate::BakeError;
+use crate::discretise::Discretised;
+use crate::effects::{Effect, Effects};
+use crate::encode::{
+    EncodeError, EncodeParams, default_correction_fraction, default_sparse_fraction,
+};
+use crate::hooks::Hooks;
+use crate::passes::{self, sky::PlannedSky, sky::Sky};
+use crate::report::BakeReport;
+use crate::scene::Scene;
+use crate::transfer::{BounceSpec, Dense, TransferError, TransferReport, transfer};
+use radiosity_core::{Bounces, Format, RadFile};
+use std::borrow::Cow;
+
+/// The transfer stage: `M` from the live patches' F and reflectances under `params.bounces`,
+/// and the `bounces` decision in `effects`.
+pub(super) fn transfer_step(
+    reflectance: &[[f64; 3]],
+    channels: usize,
+    f: Cow<'_, Dense>,
+    params: &BakeParams,
+    effects: &mut Effects,
+    hooks: Hooks<'_>,
+) -> Result<(Vec<f32>, TransferReport), BakeError> {
+    let (m, transfer) = transfer(f, reflectance, channels, params.bounces, hooks.progress)
+        .map_err(|e| match e {
+            TransferError::Divergent { .. } => BakeError::InvalidParams(e.to_string()),
+            other => BakeError::InvalidParams(other.to_string()),
+        })?;
+    effects.insert(
+        "bounces",
+        Effect::new(
+            true,
+            match transfer.bounces {
+                Bounces::Infinite => format!(
+                    "{} bounces needed at energy gain {:.4} per bounce: all of them, by LU (cheaper than 3 or more series terms)",
+                    bounces_needed(transfer.max_gain, params.bounces),
+                    transfer.max_gain
+                ),
+                Bounces::Finite(k) => format!(
+                    "{k} bounce(s) leave at most {:.1e} of the energy (gain {:.4} per bounce)",
+                    transfer.energy_left, transfer.max_gain
+                ),
+            },
+        ),
+    );
+    Ok((m, transfer))
+}
+
+/// The storage format (`params.format`, or the automatic choice for `channels`) and the
+/// encode parameters with the format's default sparse and correction shares where `params`
+/// leaves them open.
+pub(super) fn encode_params_for(params: &BakeParams, channels: usize) -> (Format, EncodeParams) {
+    let format = match params.format {
+        FormatChoice::Auto if channels == 1 => Format::Bc4,
+        FormatChoice::Auto => Format::Bc1,
+        FormatChoice::Fixed(f) => f,
+    };
+    let encode_params = EncodeParams {
+        format,
+        sparse_fraction: params
+            .sparse_fraction
+            .unwrap_or_else(|| default_sparse_fraction(format, channels)),
+        corrections: params
+            .corrections
+            .unwrap_or_else(|| default_correction_fraction(format, channels)),
+        ..params.encode
+    };
+    (format, encode_params)
+}
+
+/// Gives `file` what the runtime draws and shades with, in the file's numbering (`perm[k]`:
+/// the live patch of file patch `k`; `patch_source[k]`: its simplification patch): the mesh,
+/// the PARTS section and the triangles' coverage. Returns the object of each of the mesh's
+/// direct-light samples.
+pub(super) fn attach_runtime(
+    file: &mut RadFile<'static>,
+    scene: &Scene,
+    system: &Discretised,
+    perm: &[u32],
+    patch_source: &[u32],
+    sky: bool,
+) -> Vec<u32> {
+    let (mesh, sample_objects) = file_mesh(scene, system, patch_source);
+    file.parts = part_rows_section(system, perm, &mesh, sky);
+    file.mesh = Some(mesh);
+    file.coverage = scene
+        .coverage
+        .iter()
+        .any(|&c| c < 1.0)
+        .then(|| Cow::Owned(scene.coverage.clone()));
+    sample_objects
+}
+
+/// The PARTS section of the file: each shared patch's part rows ([`Discretised::part_rows`])
+/// in file numbering, their entries naming the mesh's samples; `None` where no patch is shared.
+fn part_rows_section(
+    system: &Discretised,
+    perm: &[u32],
+    mesh: &radiosity_core::Mesh<'_>,
+    with_sky: bool,
+) -> Option<radiosity_core::PartRows<'static>> {
+    let mut file_of = vec![0u32; perm.len()];
+    for (k, &at) in perm.iter().enumerate() {
+        file_of[at as usize] = k as u32;
+    }
+    let mut parts = Vec::new();
+    let (mut samples, mut counts, mut sky) = (Vec::new(), Vec::new(), Vec::new());
+    let mut entries: Vec<(u32, u16)> = Vec::new();
+    for (f, &at) in perm.iter().enumerate() {
+        let Some(rows) = system.part_rows.get(system.live[at as usize]) else {
+            continue;
+        };
+        for row in rows {
+            entries.clear();
+            entries.extend(row.entries.iter().map(|&(j, k, c)| {
+                let file_j = file_of[j as usize] as usize;
+                (mesh.sample_rows[file_j] + k, c)
+            }));
+            entries.sort_unstable();
+            parts.push(radiosity_core::Part {
+                patch: f as u32,
+                object: row.object,
+                scale: row.each as f32,
+                start: samples.len() as u32,
+            });
+            samples.extend(entries.iter().map(|e| e.0));
+            counts.extend(entries.iter().map(|e| e.1));
+            if with_sky {
+                sky.extend_from_slice(&row.sky);
+            }
+        }
+    }
+    (!parts.is_empty()).then_some(radiosity_core::PartRows {
+        parts: Cow::Owned(parts),
+        samples: Cow::Owned(samples),
+        counts: Cow::Owned(counts),
+        sky: Cow::Owned(sky),
+    })
+}
+
+/// Runs the passes `params` asks for (probes, then sky visibility: `planned` for a planned
+/// bake's, through the robust ray tree) over a finished file, and stores the report in it.
+pub(super) fn finish(
+    file: RadFile<'static>,
+    report: BakeReport,
+    patch_source: Vec<u32>,
+    params: &BakeParams,
+    planned: Option<PlannedSky>,
+    hooks: Hooks<'_>,
+) -> Result<BakeOutput, BakeError> {
+    let robust = planned.is_some();
+    let sky = Sky {
+        on: params.sky,
+        planned,
+    };
+    let (file, report) = passes::run(file, report, &[&params.probes_pass(), &sky], robust, hooks)?;
+    Ok(BakeOutput {
+        file,
+        report,
+        patch_source,
+    })
+}
+
+/// The scene's object names, as a file holds them.
+pub(super) fn objects_of(scene: &Scene) -> Vec<Cow<'static, str>> {
+    scene
+        .objects
+        .iter()
+        .map(|o| Cow::Owned(o.clone()))
+        .collect()
+}
+
+pub(super) fn encode_error(e: EncodeError) -> BakeError {
+    BakeError::InvalidParams(e.to_string())
+}
+
+fn bounces_needed(gain: f64, spec: BounceSpec) -> String {
+    let tol = match spec {
+        BounceSpec::Auto { tolerance } => tolerance,
+        _ => 1e-3,
+    };
+    if gain >= 1.0 || gain <= 0.0 {
+        return "unbounded".into();
+    }
+    format!("{:.0}", (tol.ln() / gain.ln()).ceil())
+}
