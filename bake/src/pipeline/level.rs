@@ -231,19 +231,8 @@ pub(crate) fn systems_bake(
     let sample_objects = attach_runtime(&mut file, scene, system, order, &patch_source, params.sky);
     laps.lap("level");
     let sizes: Vec<usize> = level.split.ranges.iter().map(|r| r.len()).collect();
-    matrices.effects.insert(
-        "systems",
-        Effect::new(
-            true,
-            format!(
-                "{} patches cut into {} systems of {:?} patches along the planes of least exchange: {:.2}% of the exchange crosses between them, carried by {coupling_entries} coupling entries (none dropped); each system has its own transfer",
-                system.len(),
-                sizes.len(),
-                sizes,
-                100.0 * level.crossing_share
-            ),
-        ),
-    );
+    let why = systems_why(system.len(), &sizes, level.crossing_share, coupling_entries);
+    matrices.effects.insert("systems", Effect::new(true, why));
     let discretise_ms: f64 = system.timings_ms.values().sum();
     laps.set("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let chosen = unordered(order, &matrices);
@@ -281,6 +270,16 @@ pub(crate) fn systems_bake(
         records: matrices.records,
         rebaked: matrices.rebaked,
     })
+}
+
+/// The `systems` decision's reason.
+fn systems_why(n: usize, sizes: &[usize], crossing_share: f64, coupling_entries: usize) -> String {
+    format!(
+        "{n} patches cut into {} systems of {:?} patches along the planes of least exchange: {:.2}% of the exchange crosses between them, carried by {coupling_entries} coupling entries (none dropped); each system has its own transfer",
+        sizes.len(),
+        sizes,
+        100.0 * crossing_share
+    )
 }
 
 /// A level's cut: the split, each system's region, and a planned bake's hash and earlier
@@ -435,11 +434,7 @@ impl Matrices {
         )
         .map_err(encode_error)?;
         self.encode_ms += t.elapsed().as_secs_f64() * 1e3;
-        let decoded = matrix.decode_dense(DecodeMode::D3d10);
-        let (e, d) = m.iter().zip(&decoded).fold((0.0, 0.0), |(e, d), (a, b)| {
-            let (a, b) = (f64::from(*a), f64::from(*b));
-            (e + (a - b) * (a - b), d + a * a)
-        });
+        let (e, d) = squared_error(&m, &matrix);
         self.err2 += e;
         self.norm2 += d;
         let bytes = matrix.blocks.len() + matrix.sparse.bytes() + matrix.corrections.bytes();
@@ -492,6 +487,15 @@ impl Matrices {
         self.rebaked.push(None);
         Ok(())
     }
+}
+
+/// The squared error of `matrix`, the encode of `m`, and the squared norm of `m`.
+fn squared_error(m: &[f32], matrix: &TransferMatrix<'_>) -> (f64, f64) {
+    let decoded = matrix.decode_dense(DecodeMode::D3d10);
+    m.iter().zip(&decoded).fold((0.0, 0.0), |(e, d), (a, b)| {
+        let (a, b) = (f64::from(*a), f64::from(*b));
+        (e + (a - b) * (a - b), d + a * a)
+    })
 }
 
 /// The level's numbering as the report's order: none, its error the systems' measured one.
