@@ -177,12 +177,18 @@ def loops(crate, verbose):
 
 
 def declared_layers(crate):
-    """The top-level modules of `crate`'s lib.rs in declaration order."""
+    """The top-level modules of `crate`'s lib.rs in declaration order: its `mod`s, and the
+    modules of other crates it re-exports (`pub use other_crate::m;`, `pub use c as m;`)."""
     text = strip(open(os.path.join(crate, "src", "lib.rs"), encoding="utf-8").read())
     order = []
-    for m in re.finditer(r"^\s*(?:pub(?:\([\w:]+\))?\s+)?(mod\s+(" + IDENT + r")|use\s+(" + IDENT + r")\s+as\s+(" + IDENT + r"))", text, re.M):
-        name = m.group(2) or m.group(4)
-        order.append(name)
+    for m in re.finditer(r"^\s*(?:pub(?:\([\w:]+\))?\s+)?(?:mod\s+(" + IDENT + r")|use\s+([\w:]+)(?:\s+as\s+(" + IDENT + r"))?\s*;)", text, re.M):
+        if m.group(1):
+            order.append(m.group(1))
+            continue
+        path = m.group(2).split("::")
+        if path[0] in order or path[0] in ("crate", "self", "super"):
+            continue  # an item of a module of its own, not a layer
+        order.append(m.group(3) or path[-1])
     return order
 
 

@@ -119,17 +119,44 @@ impl BakeArgs {
 
     /// The long names of the bake flags given on the command line of `matches`.
     pub(crate) fn given_in(matches: &clap::ArgMatches) -> Vec<String> {
-        use clap::parser::ValueSource;
-        let cmd = <Self as Args>::augment_args(clap::Command::new("bake flags"));
-        cmd.get_arguments()
-            .filter(|a| {
-                matches
-                    .try_get_raw(a.get_id().as_str())
-                    .is_ok_and(|v| v.is_some())
-                    && matches.value_source(a.get_id().as_str()) == Some(ValueSource::CommandLine)
-            })
-            .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
-            .collect()
+        given_in::<Self>(matches)
+    }
+}
+
+/// The probes' flags, which `bake` and `bake-plan` take beside the shared ones.
+#[derive(Args, Debug, Clone)]
+pub(crate) struct ProbeArgs {
+    /// Light probes for moving objects and points off the surfaces: `auto` (a lattice of about
+    /// 512 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
+    /// {"probes": [[x,y,z], ...]}; probes inside solid objects are dropped.
+    #[arg(long, default_value = "auto", allow_negative_numbers = true)]
+    pub(crate) probes: String,
+    /// What the probes store: `auto` (their weights factored to a rank of a sixteenth of the
+    /// patches, 128 to 512, where that makes the frame cheaper), `full` (every weight the
+    /// rays found), or a rank.
+    #[arg(long, default_value = "auto", allow_negative_numbers = true)]
+    pub(crate) probe_rank: String,
+}
+
+/// The long names of the flags of `A` given on the command line of `matches`.
+fn given_in<A: Args>(matches: &clap::ArgMatches) -> Vec<String> {
+    use clap::parser::ValueSource;
+    let cmd = A::augment_args(clap::Command::new("flags"));
+    cmd.get_arguments()
+        .filter(|a| {
+            matches
+                .try_get_raw(a.get_id().as_str())
+                .is_ok_and(|v| v.is_some())
+                && matches.value_source(a.get_id().as_str()) == Some(ValueSource::CommandLine)
+        })
+        .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
+        .collect()
+}
+
+impl ProbeArgs {
+    /// The long names of the probes' flags given on the command line of `matches`.
+    pub(crate) fn given_in(matches: &clap::ArgMatches) -> Vec<String> {
+        given_in::<Self>(matches)
     }
 }
 

@@ -1,6 +1,6 @@
 //! `radiosity bake SCENE.obj -o OUT.rad`: the whole bake, a progress bar, an atomic write.
 
-use crate::args::BakeArgs;
+use crate::args::{BakeArgs, ProbeArgs};
 use anyhow::Context;
 pub(crate) use radiosity_bake::host::{BakeFlags, capped_loading};
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, Hooks, bake};
@@ -28,6 +28,16 @@ pub(crate) fn flags(args: &BakeArgs) -> BakeFlags {
         probe_rank: None,
         sky: Some(args.sky.clone()),
         systems: Some(args.systems.as_str().into()),
+    }
+}
+
+/// The shared flags and the probes' as the library's [`BakeFlags`]: what `bake` and
+/// `bake-plan` take.
+pub(crate) fn flags_with_probes(args: &BakeArgs, probes: &ProbeArgs) -> BakeFlags {
+    BakeFlags {
+        probes: Some(probes.probes.clone()),
+        probe_rank: Some(probes.probe_rank.clone()),
+        ..flags(args)
     }
 }
 
@@ -97,16 +107,10 @@ pub(crate) fn run(
     scene: &Path,
     output: &Path,
     args: &BakeArgs,
-    probes: &str,
-    probe_rank: &str,
+    probes: &ProbeArgs,
     json_out: bool,
 ) -> anyhow::Result<()> {
-    let (params, load) = BakeFlags {
-        probes: Some(probes.into()),
-        probe_rank: Some(probe_rank.into()),
-        ..flags(args)
-    }
-    .params()?;
+    let (params, load) = flags_with_probes(args, probes).params()?;
     // Refuse an unwritable destination before spending minutes on the bake.
     crate::output::check_file(output)?;
     let (mut out, load_ms) = bake_scene(scene, None, &load, &params, json_out)?;

@@ -33,7 +33,7 @@ mod solve;
 mod sunset;
 mod view_factors;
 
-use args::BakeArgs;
+use args::{BakeArgs, ProbeArgs};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -81,16 +81,8 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
-        /// Light probes for moving objects and points off the surfaces: `auto` (a lattice of about
-        /// 512 cells over the scene), `none`, a grid spacing in scene units, or a JSON file
-        /// {"probes": [[x,y,z], ...]}; probes inside solid objects are dropped.
-        #[arg(long, default_value = "auto", allow_negative_numbers = true)]
-        probes: String,
-        /// What the probes store: `auto` (their weights factored to a rank of a sixteenth of the
-        /// patches, 128 to 512, where that makes the frame cheaper), `full` (every weight the
-        /// rays found), or a rank.
-        #[arg(long, default_value = "auto", allow_negative_numbers = true)]
-        probe_rank: String,
+        #[command(flatten)]
+        probes: ProbeArgs,
         /// Bake with this plan (`radiosity bake-plan`): its grid, systems and flags; bake flags
         /// given as well must agree with it.
         #[arg(long, value_name = "PLAN.json")]
@@ -114,6 +106,8 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         bake: BakeArgs,
+        #[command(flatten)]
+        probes: ProbeArgs,
         /// Shards: groups of neighbouring systems (default: one a system).
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
         shards: Option<u32>,
@@ -339,6 +333,11 @@ fn parse() -> Result<Cli, clap::Error> {
     {
         bake.given = BakeArgs::given_in(sub);
     }
+    if let (Some((_, sub)), Command::Bake { bake, .. } | Command::BakePlan { bake, .. }) =
+        (matches.subcommand(), &mut cli.command)
+    {
+        bake.given.extend(ProbeArgs::given_in(sub));
+    }
     Ok(cli)
 }
 
@@ -386,27 +385,42 @@ fn main() -> ExitCode {
             scene,
             output,
             bake,
+            probes,
             plan: Some(plan),
             reuse,
             json,
-            ..
-        } => planned::run_bake(&scene, &output, &bake, &plan, reuse.as_deref(), json),
+        } => planned::run_bake(
+            &scene,
+            &output,
+            &bake,
+            &probes,
+            &plan,
+            reuse.as_deref(),
+            json,
+        ),
         Command::Bake {
             scene,
             output,
             bake,
             probes,
-            probe_rank,
             json,
             ..
-        } => bake::run(&scene, &output, &bake, &probes, &probe_rank, json),
+        } => bake::run(&scene, &output, &bake, &probes, json),
         Command::BakePlan {
             scene,
             output,
             bake,
+            probes,
             shards,
             json,
-        } => planned::run_plan(&scene, &output, &bake, shards.map(|k| k as usize), json),
+        } => planned::run_plan(
+            &scene,
+            &output,
+            &bake,
+            &probes,
+            shards.map(|k| k as usize),
+            json,
+        ),
         Command::BakeShard {
             scene,
             plan,

@@ -1,8 +1,8 @@
 //! `bake-plan`, `bake-shard`, `bake-assemble`, `compare`, and `bake --plan [--reuse]`: the
 //! distributed bake's steps (`radiosity_bake::plan`, `docs/distributed.md`).
 
-use crate::args::BakeArgs;
-use crate::bake::{flags, load_scene};
+use crate::args::{BakeArgs, ProbeArgs};
+use crate::bake::{flags_with_probes, load_scene};
 use anyhow::{Context, anyhow, bail};
 use radiosity_bake::host::BakeFlags;
 use radiosity_bake::pipeline::Hooks;
@@ -20,8 +20,13 @@ pub(crate) fn read_plan(path: &Path) -> anyhow::Result<Plan> {
 }
 
 /// Refuses bake flags given on the command line that the plan does not say.
-fn refuse_contradictions(plan: &Plan, args: &BakeArgs, path: &Path) -> anyhow::Result<()> {
-    let cli = serde_json::to_value(flags(args))?;
+fn refuse_contradictions(
+    plan: &Plan,
+    args: &BakeArgs,
+    probes: &ProbeArgs,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let cli = serde_json::to_value(flags_with_probes(args, probes))?;
     let planned = serde_json::to_value(&plan.flags)?;
     for flag in &args.given {
         let key = flag.trim_start_matches("--").replace('-', "_");
@@ -57,13 +62,11 @@ pub(crate) fn run_plan(
     scene_path: &Path,
     output: &Path,
     args: &BakeArgs,
+    probes: &ProbeArgs,
     shards: Option<usize>,
     json: bool,
 ) -> anyhow::Result<()> {
-    let f: BakeFlags = BakeFlags {
-        probes: None,
-        ..flags(args)
-    };
+    let f: BakeFlags = flags_with_probes(args, probes);
     let (params, _) = f.params()?;
     crate::output::check_file(output)?;
     let scene = load_scene(scene_path, &f.params()?.1)?;
@@ -199,12 +202,13 @@ pub(crate) fn run_bake(
     scene_path: &Path,
     output: &Path,
     args: &BakeArgs,
+    probes: &ProbeArgs,
     plan_path: &Path,
     reuse: Option<&Path>,
     json: bool,
 ) -> anyhow::Result<()> {
     let plan = read_plan(plan_path)?;
-    refuse_contradictions(&plan, args, plan_path)?;
+    refuse_contradictions(&plan, args, probes, plan_path)?;
     crate::output::check_file(output)?;
     let scene = scene_of(scene_path, &plan)?;
     let old = reuse.map(Reuse::read).transpose()?;

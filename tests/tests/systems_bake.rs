@@ -162,3 +162,78 @@ fn sparse_rows_bake_the_level_the_dense_matrix_does() {
         dense.report.reciprocity_error.to_bits()
     );
 }
+
+/// A level's probes: the probes pass runs over the level's file as over one matrix's, so each
+/// probe sees the same patches and, lit by the level's steady state, gives the light the
+/// one-matrix bake's probes give.
+#[test]
+fn a_level_has_probes_lit_as_the_one_matrix_probes() {
+    use radiosity_bake::passes::probes::ProbeSpec;
+    use radiosity_runtime::BakedScene;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lit_room(dir.path());
+    let with_probes = |systems| BakeParams {
+        probes: ProbeSpec::Spacing(0.5),
+        ..params(systems)
+    };
+    let single = bake(&scene, &with_probes(SystemsChoice::Off), Hooks::default()).unwrap();
+    let cut = bake(
+        &scene,
+        &with_probes(SystemsChoice::Count(3)),
+        Hooks::default(),
+    )
+    .unwrap();
+    let (a, b) = (&single.report.probes, &cut.report.probes);
+    let (a, b) = (
+        a.as_ref().expect("probes"),
+        b.as_ref().expect("a level's probes"),
+    );
+    assert!(b.placed > 0 && b.placed == a.placed, "{a:?} {b:?}");
+    assert!(cut.file.systems.is_some());
+
+    // The level's steady state (as in the test above) and the one matrix's light, each in
+    // its own file numbering, reflected off the patches and gathered by each file's probes.
+    let level = BakedScene::new(cut.file.clone());
+    let systems = cut.file.systems.as_ref().unwrap();
+    let gathers: Vec<ReferenceGather<'_>> = (0..systems.count())
+        .map(|s| {
+            let f = systems.system(&cut.file, s).unwrap();
+            ReferenceGather::new(f.matrix.into_owned(), DecodeMode::D3d10)
+        })
+        .collect();
+    let rho: Vec<Rgb> = cut.file.patches.iter().map(|p| p.reflectance).collect();
+    let first: Vec<Rgb> = cut.file.patches.iter().map(|p| p.emission).collect();
+    let coupling = systems.coupling.clone().into_owned();
+    let mut light = Systems::new(gathers, systems.ranges(), coupling, rho.clone()).unwrap();
+    for _ in 0..80 {
+        light.frame(&first).unwrap();
+    }
+    let reflected =
+        |h: &[Rgb], rho: &[Rgb]| -> Vec<Rgb> { h.iter().zip(rho).map(|(h, r)| *r * *h).collect() };
+    let got = radiosity_runtime::probes::gather_all(
+        level.decoded_probes().unwrap(),
+        &reflected(light.gathered(), &rho),
+    );
+    let one = BakedScene::new(single.file.clone());
+    let x: Vec<Rgb> = single.file.patches.iter().map(|p| p.emission).collect();
+    let mut y = vec![Rgb::ZERO; x.len()];
+    ReferenceGather::new(single.file.matrix.clone(), DecodeMode::D3d10)
+        .gather(&x, &mut y)
+        .unwrap();
+    let rho1: Vec<Rgb> = single.file.patches.iter().map(|p| p.reflectance).collect();
+    let want =
+        radiosity_runtime::probes::gather_all(one.decoded_probes().unwrap(), &reflected(&y, &rho1));
+    let dc = |sh: &[Rgb; 9]| f64::from(sh[0].r + sh[0].g + sh[0].b);
+    let (e, w): (f64, f64) = got.iter().zip(&want).fold((0.0, 0.0), |(e, w), (g, t)| {
+        (e + (dc(g) - dc(t)).abs(), w + dc(t))
+    });
+    // The same rays meet the same patches in both files (the probes' weights are binary16 in
+    // either); the light differs by the steady state's f32 rounding (1e-4 above) and the
+    // weights' rounding (2⁻¹¹ relative) only.
+    assert!(w > 0.0);
+    assert!(
+        e / w < 2e-3,
+        "level probes {:.2e} off the one matrix's",
+        e / w
+    );
+}
