@@ -309,3 +309,96 @@ fn shards_assemble_into_the_one_process_bake_and_a_rebake_into_the_full_one() {
     ]);
     assert_one_line_error(&out, "one.rad.rows");
 }
+
+/// `bake-plan` takes every flag `bake` takes, the probes' among them; a planned bake (a level)
+/// has the probes its plan says, lit at `solve --points` like its patches; `bake --plan` with
+/// probes the plan does not say is refused.
+#[test]
+fn a_plan_carries_the_probes_and_its_level_has_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = town(d, false);
+    let plan = d.join("plan.json");
+    radiosity_ok(&[
+        "bake-plan",
+        s(&scene),
+        "-o",
+        s(&plan),
+        "--patches",
+        "600",
+        "--systems",
+        "2",
+        "--form-factors",
+        "draft",
+        "--probes",
+        "8",
+        "--probe-rank",
+        "full",
+    ]);
+    let level = d.join("level.rad");
+    let report = json(&radiosity_ok(&[
+        "bake",
+        s(&scene),
+        "-o",
+        s(&level),
+        "--plan",
+        s(&plan),
+        "--json",
+    ]));
+    assert_eq!(report["systems"]["count"], 2, "{}", report["systems"]);
+    let placed = report["probes"]["placed"].as_u64().unwrap_or(0);
+    assert!(placed > 0, "{}", report["probes"]);
+    assert_eq!(report["probes"]["rank"], serde_json::Value::Null);
+
+    // A point above the town's ground, lit by a sun: its probe irradiance is the direct
+    // light plus what the probes gather from the level's lit patches.
+    let lights = d.join("lights.json");
+    std::fs::write(
+        &lights,
+        r#"{"lights":[{"type":"directional","direction":[0.3,-1,0.2],"irradiance":[3,3,3]}]}"#,
+    )
+    .unwrap();
+    let points = d.join("points.json");
+    std::fs::write(
+        &points,
+        r#"{"points":[{"position":[15,1,15],"normal":[0,1,0]}]}"#,
+    )
+    .unwrap();
+    let solved = json(&radiosity_ok(&[
+        "solve",
+        s(&level),
+        "--lights",
+        s(&lights),
+        "--points",
+        s(&points),
+        "--json",
+    ]));
+    let p = &solved["points"][0];
+    assert_eq!(p["status"], "ok", "{p}");
+    let total = |k: &str| -> f64 {
+        p[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .sum()
+    };
+    // The reflected light the probes add is positive and smaller than the sun's own.
+    let (direct, probed) = (total("irradiance"), total("probe_irradiance"));
+    assert!(probed.is_finite() && probed > 0.0, "{p}");
+    assert!(direct > 0.0, "{p}");
+
+    // Probes the plan does not say: refused, naming the flag; nothing written.
+    let other = d.join("other.rad");
+    let out = radiosity(&[
+        "bake",
+        s(&scene),
+        "-o",
+        s(&other),
+        "--plan",
+        s(&plan),
+        "--probes",
+        "none",
+    ]);
+    assert_one_line_error(&out, "--probes contradicts the plan");
+    assert!(!other.exists());
+}

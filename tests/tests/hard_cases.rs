@@ -347,7 +347,7 @@ fn awkward_geometry_stays_finite_and_conserves_energy() {
     // `closed`: whether absorbed = emitted must hold. Coplanar overlapping faces are both seen
     // through the same solid angle, so the rows of the patches that see them sum to about
     // 1 + (overlap area seen): beyond the closure tolerance, the bake treats the scene as open
-    // and scales those rows down to 1 (`transfer::cap_row_sums`); only the bound can hold.
+    // and scales those rows down to 1 (`form_factor::matrix::dense::cap_row_sums`); only the bound can hold.
     // Before that cap the absorbed power came out 15% above the emitted.
     let cases: Vec<(&str, Vec<Quad>, bool)> = vec![
         ("shared edges", closed_box(1.0, 3, lamp_at), true),
