@@ -2,7 +2,7 @@
 //! [`escape_check`]), and the matching correction of F ([`closure_effect`]): a closed scene's
 //! rows rebalanced to sum to 1, an open scene's rows above 1 capped.
 
-use crate::effects::Effect;
+use crate::effect_plan::Effect;
 use crate::exposure::Exposure;
 use crate::form_factor::burial::BURIED_POINTS;
 use crate::form_factor::matrix::Exchange;

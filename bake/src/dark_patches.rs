@@ -3,7 +3,7 @@
 //! sky) stay with a zero row, since direct light still reaches them. Hemisphere rays from them
 //! ([`check_dark`]) check the zero rows.
 
-use crate::effects::Effect;
+use crate::effect_plan::Effect;
 use crate::geometry::Occluders;
 use crate::patch::Patches;
 use crate::patch::points::{Owners, shares};

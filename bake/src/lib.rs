@@ -9,7 +9,7 @@
 //! - Beneath the stages: [`error`], [`hooks`] (progress and cancellation), [`geometry`] and
 //!   [`rng`] (the `radiosity-geometry` crate), [`scene`] (OBJ + MTL and glTF loading),
 //!   [`patch`] (the patch model and per-patch helpers: points, hemisphere directions, seeds,
-//!   identity), [`effects`] (the effect plan: which effects a scene calls for, each with its
+//!   identity), [`effect_plan`] (the effect plan: which effects a scene calls for, each with its
 //!   reason).
 //! - The discretisation: [`simplify`] (scene → patches), [`form_factor`] (the burial survey
 //!   and F, dense or as sparse rows), `exposure` (buried surface taken out of the patches),
@@ -41,7 +41,7 @@ pub mod scene;
 
 pub mod patch;
 
-pub mod effects;
+pub mod effect_plan;
 
 // The discretisation.
 pub mod simplify;

@@ -12,7 +12,7 @@
 //! something, or a point whose own face turns away)? Such a patch gets `shadowed` points, the
 //! others keep `min`. The probe costs 256 rays a patch, once.
 
-use crate::effects::Effect;
+use crate::effect_plan::Effect;
 use crate::geometry::Occluders;
 use crate::patch::Patches;
 use crate::patch::points::cosine_at;

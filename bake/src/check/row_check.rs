@@ -216,7 +216,7 @@ pub fn check_scene(
     }
     let occ = scene.occluders();
     let mut ffp = *form_factors;
-    if !crate::effects::plan_occlusion(scene).on {
+    if !crate::effect_plan::plan_occlusion(scene).on {
         ffp.visibility = Visibility::Off;
     }
     let rows = if only.is_empty() {

@@ -12,7 +12,7 @@ pub use given::GivenRows;
 
 use crate::BakeError;
 use crate::closure::ClosureReport;
-use crate::effects::Effects;
+use crate::effect_plan::Effects;
 use crate::exposure::Exposure;
 use crate::form_factor::matrix::Dense;
 use crate::form_factor::{FormFactorParams, FormFactorSummary, SparseFormFactors};

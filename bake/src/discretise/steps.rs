@@ -4,7 +4,7 @@ use super::{DiscretiseParams, Discretised, GivenRows, to_core_patch};
 use crate::BakeError;
 use crate::closure::{ClosureReport, closure_effect, escape_check};
 use crate::dark_patches::dark_patches;
-use crate::effects::{self, Effect, Effects};
+use crate::effect_plan::{self, Effect, Effects};
 use crate::exposure::{Exposure, expose};
 use crate::form_factor::matrix::Dense;
 use crate::form_factor::matrix::{Exchange, live_rows_dense};
@@ -68,10 +68,10 @@ pub(super) fn plan_effects(
     planned_bake: bool,
 ) -> Planned {
     let mut effects = Effects::new();
-    let colour = effects::plan_colour(patches);
+    let colour = effect_plan::plan_colour(patches);
     let channels = if colour.on { 3 } else { 1 };
     effects.insert("colour", colour);
-    let occlusion = effects::plan_occlusion(scene);
+    let occlusion = effect_plan::plan_occlusion(scene);
     let mut ffp = params.form_factors;
     if !occlusion.on {
         ffp.visibility = Visibility::Off;
@@ -84,7 +84,7 @@ pub(super) fn plan_effects(
         occlusion.on.then(|| scene.occluders())
     };
     effects.insert("occlusion", occlusion);
-    effects.insert("emission", effects::plan_emission(patches));
+    effects.insert("emission", effect_plan::plan_emission(patches));
     Planned {
         effects,
         channels,

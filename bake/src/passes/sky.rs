@@ -12,7 +12,7 @@
 
 use super::Pass;
 use crate::BakeError;
-use crate::effects::Effect;
+use crate::effect_plan::Effect;
 use crate::geometry::rng::sobol2;
 use crate::hooks::Hooks;
 use crate::report::{BakeReport, SkyReport};

@@ -10,8 +10,8 @@ use super::steps::{
 use super::{BakeOutput, BakeParams};
 use crate::BakeError;
 use crate::discretise::Discretised;
-use crate::effects::Effect;
-use crate::effects::Effects;
+use crate::effect_plan::Effect;
+use crate::effect_plan::Effects;
 use crate::encode::EncodeParams;
 use crate::encode::{ErrorWeights, SparseSelection, encode_dense_with};
 use crate::form_factor::SparseFormFactors;

@@ -2,7 +2,7 @@
 //! others, the lighting error, and the report assembled from a discretisation and a file.
 
 use super::Discretised;
-use crate::effects::Effects;
+use crate::effect_plan::Effects;
 use crate::order::{self, Candidate};
 use crate::report::{BakeReport, Bytes};
 use crate::scene::Scene;

@@ -5,7 +5,7 @@
 use super::{BakeOutput, BakeParams, FormatChoice, file_mesh};
 use crate::BakeError;
 use crate::discretise::Discretised;
-use crate::effects::{Effect, Effects};
+use crate::effect_plan::{Effect, Effects};
 use crate::encode::{
     EncodeError, EncodeParams, default_correction_fraction, default_sparse_fraction,
 };

@@ -6,7 +6,7 @@
 
 use crate::BakeError;
 use crate::closure::ClosureReport;
-use crate::effects::Effects;
+use crate::effect_plan::Effects;
 use crate::form_factor::FormFactorSummary;
 use radiosity_core::RadFile;
 use radiosity_runtime::SharedPatch;

@@ -302,11 +302,11 @@ fn a_finely_tessellated_sphere_is_a_convex_enclosure() {
         Placement::general(1.0),
     );
     assert_eq!(sphere.triangles.len(), 5120);
-    let plan = radiosity_bake::effects::plan_occlusion(&sphere);
+    let plan = radiosity_bake::effect_plan::plan_occlusion(&sphere);
     assert!(!plan.on, "{}", plan.why);
     assert!(plan.why.contains("5120 face planes"), "{}", plan.why);
     let nested = nested_spheres(dir.path(), 4, 2);
-    let plan = radiosity_bake::effects::plan_occlusion(&nested);
+    let plan = radiosity_bake::effect_plan::plan_occlusion(&nested);
     assert!(plan.on, "{}", plan.why);
     assert!(plan.why.contains("behind a face"), "{}", plan.why);
 }
