@@ -6,6 +6,7 @@
 //!     python3 scripts/city.py /tmp/city
 //!     cargo run --release -p radiosity-bake --example systems_probe -- /tmp/city/city.obj 8192 8 iterate [cast]
 use radiosity_bake::form_factor::{FormFactorParams, form_factors};
+use radiosity_bake::patch::Patches;
 use radiosity_bake::scene::Scene;
 use radiosity_bake::simplify::{VoxelParams, simplify};
 use std::time::Instant;
@@ -51,27 +52,61 @@ fn main() {
     let patches = simplify(&scene, &VoxelParams::with_patches(want)).unwrap();
     let n = patches.len();
     eprintln!("simplify: {n} patches, {:.1} s", t.elapsed().as_secs_f64());
+    let (f, nnz) = form_factor_matrix(&scene, &patches, &params);
+    let area: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
+    let sys = cut(&patches, &f, &area, systems, nnz);
+    if !iterate {
+        return;
+    }
+    let level = Level {
+        n,
+        f: &f,
+        area: &area,
+        sys: &sys,
+        rho: patches
+            .patches
+            .iter()
+            .map(|p| f64::from(p.reflectance.g))
+            .collect(),
+    };
+    level.sun_jump(&patches, systems);
+}
+
+/// The form factors of `patches` (row-major, `n × n`), timed, and their non-zeros.
+fn form_factor_matrix(
+    scene: &Scene,
+    patches: &Patches,
+    params: &FormFactorParams,
+) -> (Vec<f32>, usize) {
+    let n = patches.len();
     let occ = scene.occluders();
     let t = Instant::now();
-    let ff = form_factors(&patches, Some(&occ), &params, None);
+    let ff = form_factors(patches, Some(&occ), params, None);
     eprintln!(
         "form factors: {:.1} s, {} rays",
         t.elapsed().as_secs_f64(),
         ff.rays_cast
     );
-    let f = &ff.matrix;
+    let f = ff.matrix;
     let nnz = f.iter().filter(|&&v| v > 0.0).count();
     eprintln!(
         "nnz {nnz} ({:.2}% of n², {:.0} a row)",
         100.0 * nnz as f64 / (n * n) as f64,
         nnz as f64 / n as f64
     );
+    (f, nnz)
+}
+
+/// The k-d cut of `patches` into `systems` by their centres: each patch's system, after
+/// the exchange (`A_i F_ij`, `nnz` non-zeros in `f`) crossing the cut and what truncating
+/// it at a few thresholds drops.
+fn cut(patches: &Patches, f: &[f32], area: &[f64], systems: usize, nnz: usize) -> Vec<usize> {
+    let n = patches.len();
     let centres: Vec<[f64; 3]> = patches
         .patches
         .iter()
         .map(|p| p.centre.to_array())
         .collect();
-    let area: Vec<f64> = patches.patches.iter().map(|p| p.area).collect();
     let mut sys = vec![0usize; n];
     let mut idx: Vec<usize> = (0..n).collect();
     let mut next = 0;
@@ -110,24 +145,63 @@ fn main() {
             100.0 * (cross - kept) / total
         );
     }
-    if !iterate {
-        return;
+    sys
+}
+
+/// A level cut into systems, as the frames after a sun jump iterate it.
+struct Level<'a> {
+    n: usize,
+    /// Form factors, row-major.
+    f: &'a [f32],
+    area: &'a [f64],
+    /// Each patch's system.
+    sys: &'a [usize],
+    /// Each patch's reflectance (green).
+    rho: Vec<f64>,
+}
+
+impl Level<'_> {
+    /// Frames after a sun jump: steady state for sun A, then sun B; block Jacobi (one outer
+    /// iteration a frame, each system solved exactly by inner Gauss–Seidel sweeps), then block
+    /// Gauss–Seidel, each frame's error against the steady state for sun B.
+    fn sun_jump(&self, patches: &Patches, systems: usize) {
+        let (n, rho, sys) = (self.n, &self.rho, self.sys);
+        let members: Vec<Vec<usize>> = (0..systems)
+            .map(|s| (0..n).filter(|&i| sys[i] == s).collect())
+            .collect();
+        let sun_a = [0.3f64, -0.8, 0.52];
+        let sun_b = [-0.6f64, -0.5, -0.62];
+        let hda = direct(patches, sun_a);
+        let hdb = direct(patches, sun_b);
+        let xa: Vec<f64> = (0..n).map(|i| rho[i] * hda[i]).collect();
+        let xb: Vec<f64> = (0..n).map(|i| rho[i] * hdb[i]).collect();
+        let t = Instant::now();
+        let ya = self.solve_full(&xa);
+        let yb = self.solve_full(&xb);
+        eprintln!("full solves {:.1} s", t.elapsed().as_secs_f64());
+        let hb: Vec<f64> = (0..n).map(|i| hdb[i] + yb[i]).collect();
+        for gauss_seidel in [false, true] {
+            let mut y = ya.clone();
+            let mut line = String::new();
+            for _frame in 0..8 {
+                self.frame(&members, gauss_seidel, &xb, &mut y);
+                let h: Vec<f64> = (0..n).map(|i| hdb[i] + y[i]).collect();
+                line += &format!(" {:.3}%", 100.0 * self.err(&h, &hb));
+            }
+            eprintln!(
+                "{}: error after frames 1..8:{line}",
+                if gauss_seidel {
+                    "Gauss–Seidel"
+                } else {
+                    "Jacobi"
+                }
+            );
+        }
     }
-    // Frames after a sun jump: steady state for sun A, then sun B; block Jacobi (one outer
-    // iteration a frame, each system solved exactly by inner Gauss–Seidel sweeps).
-    let rho: Vec<f64> = patches
-        .patches
-        .iter()
-        .map(|p| f64::from(p.reflectance.g))
-        .collect();
-    let hd = |dir: [f64; 3]| -> Vec<f64> {
-        patches
-            .patches
-            .iter()
-            .map(|p| (-(p.normal.x * dir[0] + p.normal.y * dir[1] + p.normal.z * dir[2])).max(0.0))
-            .collect()
-    };
-    let solve_full = |x: &[f64]| -> Vec<f64> {
+
+    /// The indirect light of direct light `x` on the one matrix: 200 Gauss–Seidel sweeps.
+    fn solve_full(&self, x: &[f64]) -> Vec<f64> {
+        let (n, f, rho) = (self.n, self.f, &self.rho);
         let mut y = vec![0.0; n];
         for _ in 0..200 {
             for i in 0..n {
@@ -140,74 +214,61 @@ fn main() {
             }
         }
         y
-    };
-    let members: Vec<Vec<usize>> = (0..systems)
-        .map(|s| (0..n).filter(|&i| sys[i] == s).collect())
-        .collect();
-    let err = |h: &[f64], want: &[f64]| {
+    }
+
+    /// One frame's outer iteration over the systems (`members`) of the indirect light `y` of
+    /// direct light `xb`: each system solved exactly against the others' exitance from the
+    /// frame before (Jacobi), or as updated by the systems before it (`gauss_seidel`).
+    fn frame(&self, members: &[Vec<usize>], gauss_seidel: bool, xb: &[f64], y: &mut [f64]) {
+        let (n, f, rho, sys) = (self.n, self.f, &self.rho, self.sys);
+        let b_prev: Vec<f64> = (0..n).map(|i| xb[i] + rho[i] * y[i]).collect();
+        let mut b_now = b_prev.clone();
+        for (s, m) in members.iter().enumerate() {
+            let src = if gauss_seidel { &b_now } else { &b_prev };
+            // g_s from the other systems' exitance.
+            let g: Vec<f64> = m
+                .iter()
+                .map(|&i| {
+                    let row = &f[i * n..(i + 1) * n];
+                    (0..n)
+                        .filter(|&j| sys[j] != s)
+                        .map(|j| f64::from(row[j]) * src[j])
+                        .sum()
+                })
+                .collect();
+            // Inner: y_s = g_s + F_ss (x_s + C_s y_s), to convergence.
+            for _ in 0..60 {
+                for (k, &i) in m.iter().enumerate() {
+                    let row = &f[i * n..(i + 1) * n];
+                    let mut v = g[k];
+                    for &j in m {
+                        v += f64::from(row[j]) * (xb[j] + rho[j] * y[j]);
+                    }
+                    y[i] = v;
+                }
+            }
+            for &i in m {
+                b_now[i] = xb[i] + rho[i] * y[i];
+            }
+        }
+    }
+
+    /// The area-weighted relative error of `h` against `want`.
+    fn err(&self, h: &[f64], want: &[f64]) -> f64 {
         let (mut e, mut w) = (0.0, 0.0);
-        for i in 0..n {
-            e += area[i] * (h[i] - want[i]).abs();
-            w += area[i] * want[i];
+        for i in 0..self.n {
+            e += self.area[i] * (h[i] - want[i]).abs();
+            w += self.area[i] * want[i];
         }
         e / w
-    };
-    let sun_a = [0.3f64, -0.8, 0.52];
-    let sun_b = [-0.6f64, -0.5, -0.62];
-    let hda = hd(sun_a);
-    let hdb = hd(sun_b);
-    let xa: Vec<f64> = (0..n).map(|i| rho[i] * hda[i]).collect();
-    let xb: Vec<f64> = (0..n).map(|i| rho[i] * hdb[i]).collect();
-    let t = Instant::now();
-    let ya = solve_full(&xa);
-    let yb = solve_full(&xb);
-    eprintln!("full solves {:.1} s", t.elapsed().as_secs_f64());
-    let hb: Vec<f64> = (0..n).map(|i| hdb[i] + yb[i]).collect();
-    for gauss_seidel in [false, true] {
-        let mut y = ya.clone();
-        let mut line = String::new();
-        for _frame in 0..8 {
-            let b_prev: Vec<f64> = (0..n).map(|i| xb[i] + rho[i] * y[i]).collect();
-            let mut b_now = b_prev.clone();
-            for s in 0..systems {
-                let src = if gauss_seidel { &b_now } else { &b_prev };
-                let m = &members[s];
-                // g_s from the other systems' exitance.
-                let g: Vec<f64> = m
-                    .iter()
-                    .map(|&i| {
-                        let row = &f[i * n..(i + 1) * n];
-                        (0..n)
-                            .filter(|&j| sys[j] != s)
-                            .map(|j| f64::from(row[j]) * src[j])
-                            .sum()
-                    })
-                    .collect();
-                // Inner: y_s = g_s + F_ss (x_s + C_s y_s), to convergence.
-                for _ in 0..60 {
-                    for (k, &i) in m.iter().enumerate() {
-                        let row = &f[i * n..(i + 1) * n];
-                        let mut v = g[k];
-                        for &j in m {
-                            v += f64::from(row[j]) * (xb[j] + rho[j] * y[j]);
-                        }
-                        y[i] = v;
-                    }
-                }
-                for &i in m {
-                    b_now[i] = xb[i] + rho[i] * y[i];
-                }
-            }
-            let h: Vec<f64> = (0..n).map(|i| hdb[i] + y[i]).collect();
-            line += &format!(" {:.3}%", 100.0 * err(&h, &hb));
-        }
-        eprintln!(
-            "{}: error after frames 1..8:{line}",
-            if gauss_seidel {
-                "Gauss–Seidel"
-            } else {
-                "Jacobi"
-            }
-        );
     }
+}
+
+/// Each patch's direct light from a sun shining along `dir`: the cosine at its normal.
+fn direct(patches: &Patches, dir: [f64; 3]) -> Vec<f64> {
+    patches
+        .patches
+        .iter()
+        .map(|p| (-(p.normal.x * dir[0] + p.normal.y * dir[1] + p.normal.z * dir[2])).max(0.0))
+        .collect()
 }

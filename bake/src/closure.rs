@@ -72,18 +72,9 @@ pub(crate) fn closure_effect(
         closure.min_row_sum, closure.max_row_sum
     );
     if exposure.partly > 0 {
-        let buried: f64 = exposure.buried_area.iter().sum();
-        let (lo, hi) = (0..n)
-            .filter(|&i| partly(i))
-            .fold((f64::INFINITY, 0f64), |(lo, hi), i| {
-                (lo.min(sums[i]), hi.max(sums[i]))
-            });
+        let (hi, rows) = partly_buried_rows(exposure, &sums, areas, &partly);
         report.max_row_sum = report.max_row_sum.max(hi);
-        range += &format!(
-            " ({} patches partly buried under other objects, {:.4} of the area, by {BURIED_POINTS} points each: their rows, over the exposed part, in [{lo:.3}, {hi:.3}])",
-            exposure.partly,
-            buried / (areas.iter().sum::<f64>() + buried)
-        );
+        range += &rows;
     }
     // Rows within the tolerance can still hide an opening smaller than it: the geometry has
     // the last word (`escape_check`).
@@ -105,35 +96,94 @@ pub(crate) fn closure_effect(
             e.share() <= ESCAPE_LIMIT
         };
     if closed {
-        f.enforce_closure(areas);
-        // The largest relative change of a row sum, apart from and among the partly buried.
-        let (mut rest, mut buried) = (0f64, 0f64);
-        for (i, b) in sums.iter().enumerate().filter(|(_, b)| **b > 0.0) {
-            let change = (f.row_sum(i) - b).abs() / b;
-            let m = if partly(i) { &mut buried } else { &mut rest };
-            *m = m.max(change);
-        }
-        report.correction = rest;
-        let why = format!(
-            "{range}: closed; rebalanced to 1 keeping reciprocity (largest correction {rest:.2e}{})",
-            if exposure.partly > 0 {
-                format!(", {buried:.2e} on the partly buried")
-            } else {
-                String::new()
-            }
-        );
-        return (report, Effect::new(true, why));
+        let effect = rebalance(f, areas, &sums, &partly, exposure, &range, &mut report);
+        return (report, effect);
     }
-    // Open. Rows above 1 send out more light than the patch gives: beyond the tolerance that
-    // is coincident faces (both seen through the same solid angle), scaled down to 1 keeping
-    // reciprocity. Excesses within the tolerance are quadrature error and stay (capping the
-    // Cornell box's 1% near-field excess raised its BC1 lighting error from 3.8% to 5.1%),
-    // unless some row's reflected light would then reach 1: the transfer could not converge.
+    let effect = cap_open(
+        patches,
+        f,
+        areas,
+        tol,
+        &format!("{range}: light escapes{opening}"),
+        &mut report,
+    );
+    (report, effect)
+}
+
+/// The largest row sum of the partly buried patches (`partly`), and a clause on them for the
+/// closure's why: how many, their share of the area, the range of their rows.
+fn partly_buried_rows(
+    exposure: &Exposure,
+    sums: &[f64],
+    areas: &[f64],
+    partly: &dyn Fn(usize) -> bool,
+) -> (f64, String) {
+    let buried: f64 = exposure.buried_area.iter().sum();
+    let (lo, hi) = (0..sums.len())
+        .filter(|&i| partly(i))
+        .fold((f64::INFINITY, 0f64), |(lo, hi), i| {
+            (lo.min(sums[i]), hi.max(sums[i]))
+        });
+    let rows = format!(
+        " ({} patches partly buried under other objects, {:.4} of the area, by {BURIED_POINTS} points each: their rows, over the exposed part, in [{lo:.3}, {hi:.3}])",
+        exposure.partly,
+        buried / (areas.iter().sum::<f64>() + buried)
+    );
+    (hi, rows)
+}
+
+/// A closed scene: `f`'s rows rebalanced to sum to 1 keeping reciprocity, the largest
+/// relative change of a row sum (`sums` before it) apart from the partly buried (`partly`)
+/// in `report`, and the effect saying so after `range`.
+fn rebalance(
+    f: &mut Exchange,
+    areas: &[f64],
+    sums: &[f64],
+    partly: &dyn Fn(usize) -> bool,
+    exposure: &Exposure,
+    range: &str,
+    report: &mut ClosureReport,
+) -> Effect {
+    f.enforce_closure(areas);
+    // The largest relative change of a row sum, apart from and among the partly buried.
+    let (mut rest, mut buried) = (0f64, 0f64);
+    for (i, b) in sums.iter().enumerate().filter(|(_, b)| **b > 0.0) {
+        let change = (f.row_sum(i) - b).abs() / b;
+        let m = if partly(i) { &mut buried } else { &mut rest };
+        *m = m.max(change);
+    }
+    report.correction = rest;
+    let why = format!(
+        "{range}: closed; rebalanced to 1 keeping reciprocity (largest correction {rest:.2e}{})",
+        if exposure.partly > 0 {
+            format!(", {buried:.2e} on the partly buried")
+        } else {
+            String::new()
+        }
+    );
+    Effect::new(true, why)
+}
+
+/// An open scene. Rows above 1 send out more light than the patch gives: beyond the
+/// tolerance `tol` that is coincident faces (both seen through the same solid angle), scaled
+/// down to 1 keeping reciprocity. Excesses within the tolerance are quadrature error and stay
+/// (capping the Cornell box's 1% near-field excess raised its BC1 lighting error from 3.8% to
+/// 5.1%), unless some row's reflected light would then reach 1: the transfer could not
+/// converge. The correction goes in `report`, the effect says it after `open` (why light
+/// escapes).
+fn cap_open(
+    patches: &Patches,
+    f: &mut Exchange,
+    areas: &[f64],
+    tol: f64,
+    open: &str,
+    report: &mut ClosureReport,
+) -> Effect {
     if report.max_row_sum > 1.0 + tol || f.largest_gain(patches) >= 1.0 {
         report.correction = f.cap_row_sums(areas);
     }
     let why = format!(
-        "{range}: light escapes{opening}; {}",
+        "{open}; {}",
         if report.correction > 0.0 {
             format!(
                 "rows above 1 scaled down to 1 keeping reciprocity (largest correction {:.2e})",
@@ -143,7 +193,7 @@ pub(crate) fn closure_effect(
             "no closure correction".to_owned()
         }
     );
-    (report, Effect::new(false, why))
+    Effect::new(false, why)
 }
 
 /// Cosine-weighted hemisphere rays in all for [`escape_check`], spread over the patches in

@@ -52,18 +52,38 @@ pub(crate) fn expose(
         .map(|p| p.object as usize + 1)
         .max()
         .unwrap_or(0);
-    let mut exposure = Exposure {
-        buried_area: vec![0.0; objects],
-        buried_points: vec![Vec::new(); patches.len()],
-        shared: vec![Vec::new(); patches.len()],
-        ..Exposure::default()
-    };
     let buried: Vec<(f64, Vec<(u32, f64)>)> = match occ {
         Some(_) => (0..patches.len())
             .map(|i| buried_by_object(patches, i, burial.get(i).map_or(&[], Vec::as_slice)))
             .collect(),
         None => vec![(0.0, Vec::new()); patches.len()],
     };
+    let mut exposure = Exposure {
+        buried_area: vec![0.0; objects],
+        buried_points: vec![Vec::new(); patches.len()],
+        shared: exposed_shares(patches, &buried),
+        ..Exposure::default()
+    };
+    let Some(occ) = occ else {
+        return exposure;
+    };
+    exposure.share = buried.iter().map(|b| b.0).collect();
+    for (_, by) in &buried {
+        for &(o, b) in by {
+            exposure.buried_area[o as usize] += b;
+        }
+    }
+    take_out(patches, f, &mut exposure);
+    exposure.buried_points = buried_points(patches, occ, burial, points, &exposure.share);
+    bury_covered_objects(patches, points, &mut exposure);
+    exposure
+}
+
+/// Per patch of more than one object, the exposed area of each of its objects (its area in
+/// the patch less what `buried`, [`buried_by_object`] of every patch, says is buried),
+/// those left with none dropped; empty for a patch of one object.
+fn exposed_shares(patches: &Patches, buried: &[(f64, Vec<(u32, f64)>)]) -> Vec<Vec<(u32, f64)>> {
+    let mut shared = vec![Vec::new(); patches.len()];
     for (i, (_, by)) in buried.iter().enumerate() {
         let mut shares = crate::patch::object_shares(patches.pieces_of(i));
         if shares.len() < 2 {
@@ -75,17 +95,15 @@ pub(crate) fn expose(
             }
         }
         shares.retain(|s| s.1 > 0.0);
-        exposure.shared[i] = shares;
+        shared[i] = shares;
     }
-    let Some(occ) = occ else {
-        return exposure;
-    };
-    exposure.share = buried.iter().map(|b| b.0).collect();
-    for (_, by) in &buried {
-        for &(o, b) in by {
-            exposure.buried_area[o as usize] += b;
-        }
-    }
+    shared
+}
+
+/// Takes the buried shares (`exposure.share`) out of the patches' areas and rows of `f`: a
+/// partly buried patch's area times its exposed share, its row divided by it; a wholly
+/// buried patch's row and column zeroed. Counts both in `exposure`.
+fn take_out(patches: &mut Patches, f: &mut Exchange, exposure: &mut Exposure) {
     let mut gone = vec![false; patches.len()];
     for (i, &b) in exposure.share.iter().enumerate() {
         if b <= 0.0 {
@@ -105,11 +123,19 @@ pub(crate) fn expose(
     // Zeroing the buried rows and columns after the division is the same as before it: a
     // zero divided stays zero.
     f.bury(&gone);
-    // Which of the points the runtime samples direct light at (`runtime_mesh::runtime_mesh`)
-    // lie buried, in the partly buried patches: as the surveyed starts say (`by_survey`),
-    // asked where they cannot tell.
-    let share = &exposure.share;
-    exposure.buried_points = (0..patches.len())
+}
+
+/// Which of the points the runtime samples direct light at (`runtime_mesh::runtime_mesh`)
+/// lie buried, in the partly buried patches (buried share `share`): as the surveyed starts
+/// say ([`by_survey`]), asked of `occ` where they cannot tell. Empty for the other patches.
+fn buried_points(
+    patches: &Patches,
+    occ: &Occluders,
+    burial: &[Vec<u32>],
+    points: &[u32],
+    share: &[f64],
+) -> Vec<Vec<bool>> {
+    (0..patches.len())
         .into_par_iter()
         .map(|i| {
             if !(share[i] > 0.0 && share[i] < 1.0) {
@@ -122,12 +148,15 @@ pub(crate) fn expose(
                 .map(|d| verdict(d).unwrap_or_else(|| occ.buried(d.position, d.normal)))
                 .collect()
         })
-        .collect();
-    // An object all of whose direct-light points in a shared patch lie buried is buried
-    // there: its pieces in the patch were too small to hold a surveyed start (a bench's leg
-    // standing on a plinth, its foot alone in the plinth's patch), so the survey left them
-    // exposed, and `solve` would give them the patch's mean direct light (its sunlit
-    // plinth's). Its share goes to the patch's other objects, in proportion.
+        .collect()
+}
+
+/// An object all of whose direct-light points in a shared patch lie buried is buried
+/// there: its pieces in the patch were too small to hold a surveyed start (a bench's leg
+/// standing on a plinth, its foot alone in the plinth's patch), so the survey left them
+/// exposed, and `solve` would give them the patch's mean direct light (its sunlit
+/// plinth's). Its share goes to the patch's other objects, in proportion.
+fn bury_covered_objects(patches: &Patches, points: &[u32], exposure: &mut Exposure) {
     for i in 0..patches.len() {
         let marks = &exposure.buried_points[i];
         if marks.is_empty() || exposure.shared[i].len() < 2 {
@@ -160,7 +189,6 @@ pub(crate) fn expose(
             }
         }
     }
-    exposure
 }
 
 /// The buried share of patch `i`'s area and its buried area per object of its pieces

@@ -103,7 +103,6 @@ fn source_contributions(
         spans,
         ..
     } = scratch;
-    let rule = params.quadrature.rule;
     let sv = s.polygon.vertices();
     let (cs, rs) = centre_radius(s);
     live.clear();
@@ -112,27 +111,7 @@ fn source_contributions(
         if !facing(sv, s.normal, t.polygon.vertices(), t.normal, tol) {
             continue;
         }
-        let need_rays = match (params.visibility, occ) {
-            (Visibility::Off, _) | (_, None) => false,
-            (
-                Visibility::Rays {
-                    skip_unblockable, ..
-                },
-                Some(o),
-            ) => {
-                !skip_unblockable
-                    || match cache {
-                        Some(c) if s.triangle != SITE && t.triangle != SITE => {
-                            c.may_block(s.triangle, t.triangle)
-                        }
-                        // A pair sampled as a whole draws its rays over all its
-                        // contributions: one walk of the occluders per piece pair to
-                        // prove some of them unblocked would cost more than the rays.
-                        _ if whole => true,
-                        _ => o.may_block(sv, s.normal, t.polygon.vertices(), t.normal),
-                    }
-            }
-        };
+        let need_rays = needs_rays(s, t, occ, cache, params, whole);
         let (ct, rt) = targets[k];
         if (ct - cs).length_squared() > (params.far_pieces * (rs + rt)).powi(2) {
             far.push((k, need_rays));
@@ -148,32 +127,120 @@ fn source_contributions(
     // to the contributions (or EXACT_PAIR_RAYS for the whole patch pair). One ray per quadrature point left a pair that the adaptive
     // quadrature settles in two points all or nothing (the Cornell box at 256 patches: a
     // face of the tall box saw two back-wall patches through the short box, row 1.04).
-    let si = si as u32;
-    // Far targets: the rule's points of each source leaf (the whole fan triangle: at
-    // `far_pieces` ≥ 5 the distance rule would not split it) against the target's.
+    let mut tally = Tally {
+        si: si as u32,
+        samples,
+        total,
+    };
     if !far.is_empty() {
-        for tri in fan(sv) {
-            for (x, wx) in rule_points(tri, rule) {
-                for &(k, need_rays) in far.iter() {
-                    let (lo, hi) = spans[k];
-                    let nt = dst[k].normal;
-                    let g: f64 = points[lo as usize..hi as usize]
-                        .iter()
-                        .map(|&(y, wy)| wy * point_kernel(x, s.normal, y, nt))
-                        .sum();
-                    if g <= 0.0 {
-                        continue;
+        let rule = params.quadrature.rule;
+        far_contributions(s, dst, far, points, spans, rule, &mut tally);
+    }
+    near_contributions(s, dst, live, targets, params, &mut tally);
+}
+
+/// Whether the contribution of source piece `s` to target piece `t` needs shadow rays: where
+/// visibility is sampled and something occludes, unless `skip_unblockable` and the block
+/// cache (where neither piece is a site's) or the occluders prove the pair unblocked; a pair
+/// sampled as a whole (`whole`) asks only the cache.
+fn needs_rays(
+    s: &Piece,
+    t: &Piece,
+    occ: Option<&Occluders>,
+    cache: Option<&BlockCache>,
+    params: &FormFactorParams,
+    whole: bool,
+) -> bool {
+    match (params.visibility, occ) {
+        (Visibility::Off, _) | (_, None) => false,
+        (
+            Visibility::Rays {
+                skip_unblockable, ..
+            },
+            Some(o),
+        ) => {
+            !skip_unblockable
+                || match cache {
+                    Some(c) if s.triangle != SITE && t.triangle != SITE => {
+                        c.may_block(s.triangle, t.triangle)
                     }
-                    if need_rays {
-                        samples.push((si, k as u32, tri, wx * g));
-                    } else {
-                        *total += wx * g;
-                    }
+                    // A pair sampled as a whole draws its rays over all its
+                    // contributions: one walk of the occluders per piece pair to
+                    // prove some of them unblocked would cost more than the rays.
+                    _ if whole => true,
+                    _ => o.may_block(
+                        s.polygon.vertices(),
+                        s.normal,
+                        t.polygon.vertices(),
+                        t.normal,
+                    ),
                 }
+        }
+    }
+}
+
+/// Where a source piece's contributions go: kept in `samples` where they need rays, else
+/// added to `total`.
+struct Tally<'a> {
+    /// The source piece.
+    si: u32,
+    samples: &'a mut Vec<Contribution>,
+    total: &'a mut f64,
+}
+
+impl Tally<'_> {
+    /// The contribution `v` to target piece `k` from the source's quadrature leaf `leaf`.
+    fn add(&mut self, k: usize, leaf: [DVec3; 3], v: f64, need_rays: bool) {
+        if need_rays {
+            self.samples.push((self.si, k as u32, leaf, v));
+        } else {
+            *self.total += v;
+        }
+    }
+}
+
+/// The source piece `s`'s contributions to its far targets (`far`: target piece, whether it
+/// needs rays): the rule's points of each source leaf (the whole fan triangle: at
+/// `far_pieces` ≥ 5 the distance rule would not split it) against the target's (`points`,
+/// each target's span of them in `spans`, [`lay_out_targets`]).
+fn far_contributions(
+    s: &Piece,
+    dst: &[Piece],
+    far: &[(usize, bool)],
+    points: &[(DVec3, f64)],
+    spans: &[(u32, u32)],
+    rule: Rule,
+    tally: &mut Tally<'_>,
+) {
+    for tri in fan(s.polygon.vertices()) {
+        for (x, wx) in rule_points(tri, rule) {
+            for &(k, need_rays) in far.iter() {
+                let (lo, hi) = spans[k];
+                let nt = dst[k].normal;
+                let g: f64 = points[lo as usize..hi as usize]
+                    .iter()
+                    .map(|&(y, wy)| wy * point_kernel(x, s.normal, y, nt))
+                    .sum();
+                if g <= 0.0 {
+                    continue;
+                }
+                tally.add(k, tri, wx * g, need_rays);
             }
         }
     }
-    // Each near target refines the source against itself alone.
+}
+
+/// The source piece `s`'s contributions to its near targets (`live`: target piece, whether
+/// it needs rays): each refines the source against itself alone, by the adaptive quadrature
+/// bounded by the target's sphere (`targets`) and the exact polygon kernel.
+fn near_contributions(
+    s: &Piece,
+    dst: &[Piece],
+    live: &[(usize, bool)],
+    targets: &[(DVec3, f64)],
+    params: &FormFactorParams,
+    tally: &mut Tally<'_>,
+) {
     for &(k, need_rays) in live.iter() {
         let t = &dst[k];
         let dist = |x: DVec3| point_polygon_distance(x, t.polygon.vertices(), t.normal);
@@ -182,13 +249,11 @@ fn source_contributions(
             max_depth: pair_depth(params.quadrature.max_depth, s.normal, t.normal),
             ..params.quadrature
         };
-        for tri in fan(sv) {
+        for tri in fan(s.polygon.vertices()) {
             integrate_bounded(tri, &quadrature, &bound, &dist, &mut |q| {
                 let f = point_to_polygon(q.x, s.normal, &t.polygon, t.normal);
-                if f > 0.0 && need_rays {
-                    samples.push((si, k as u32, q.leaf, q.w * f));
-                } else if f > 0.0 {
-                    *total += q.w * f;
+                if f > 0.0 {
+                    tally.add(k, q.leaf, q.w * f, need_rays);
                 }
             });
         }

@@ -20,7 +20,7 @@ pub use crate::report::SystemsReport;
 pub use crate::report::{BakeReport, Bytes, store};
 pub use crate::systems::{AUTO_ONE_MATRIX, AUTO_SYSTEM_PATCHES, SystemsChoice};
 pub use level::SystemRecord;
-pub(crate) use level::{OldSystems, SystemsCut, systems_bake};
+pub(crate) use level::{OldSystems, SystemsBake, SystemsCut, systems_bake};
 pub use params::{BakeParams, FormatChoice};
 pub use radiosity_runtime::{ObjectShares, SharedPatch};
 

@@ -6,10 +6,11 @@ use super::reuse::RowStats;
 use super::rows::{Cache, Rows};
 use super::{Plan, scene_hash, shard_rows};
 use crate::BakeError;
-use crate::discretise::GivenRows;
+use crate::discretise::{Discretised, GivenRows};
+use crate::form_factor::cast::HitCounts;
 use crate::hooks::Hooks;
 use crate::pipeline::BakeOutput;
-use crate::pipeline::{OldSystems, SystemsCut, systems_bake};
+use crate::pipeline::{OldSystems, SystemRecord, SystemsBake, SystemsCut, systems_bake};
 use crate::scene::Scene;
 use radiosity_core::RadFile;
 use serde::Serialize;
@@ -118,14 +119,54 @@ pub fn assemble(
                 .into(),
         ));
     }
+    check_shards(plan, &rows, &plan_hash, &scene_at)?;
+    let pooled = pool(rows)?;
+    let (params, _) = plan.params()?;
+    let given = GivenRows {
+        burial: pooled.burial.clone(),
+        counts: pooled.counts.clone(),
+        rays: pooled.rays,
+    };
+    let mut d = crate::discretise::discretise(scene, &params.discretise(), hooks, Some(given))?;
+    let ff = d
+        .sparse
+        .take()
+        .ok_or_else(|| refuse("internal: a planned bake's form factors are sparse rows".into()))?;
+    let old = reuse.map(|r| old_systems(scene, &d, pooled.rays, r));
+    let cut = SystemsCut::Plan {
+        regions: &plan.regions,
+        plan_hash,
+        old: old.as_ref(),
+    };
+    let bake = systems_bake(scene, &d, Cow::Owned(ff), cut, &params, hooks)?;
+    let report = reuse_report(&bake);
+    let keys = std::mem::take(&mut d.keys);
+    let sources = bake.output.patch_source.clone();
+    let cache = level_cache(scene, plan_hash, pooled, keys, bake.records, sources);
+    Ok(Assembled {
+        output: bake.output,
+        cache,
+        reuse: report,
+    })
+}
+
+/// Refuses any of `rows` made under another plan or from another scene, and, unless they
+/// are one [`Rows`] of every patch, a shard given twice, one the plan does not have, or one
+/// of the plan's that is missing.
+fn check_shards(
+    plan: &Plan,
+    rows: &[Rows],
+    plan_hash: &[u8; 32],
+    scene_at: &[u8; 32],
+) -> Result<(), BakeError> {
     let whole = rows.len() == 1 && rows[0].shard == u32::MAX;
     let mut have = vec![false; plan.shards.len()];
-    for r in &rows {
+    for r in rows {
         let shard = format!("shard {} ({})", r.shard, r.name());
-        if r.plan_hash != plan_hash {
+        if r.plan_hash != *plan_hash {
             return Err(refuse(format!("{shard} belongs to another plan")));
         }
-        if r.scene_hash != scene_at {
+        if r.scene_hash != *scene_at {
             return Err(refuse(format!(
                 "{shard} was made from another scene (stale)"
             )));
@@ -143,9 +184,28 @@ pub fn assemble(
         return Err(refuse(format!(
             "shard {k} of {} is missing (its rows would be {})",
             plan.shards.len(),
-            Rows::file_name(&scene_at, &plan_hash, k as u32)
+            Rows::file_name(scene_at, plan_hash, k as u32)
         )));
     }
+    Ok(())
+}
+
+/// Every patch's rows, pooled from the shards in patch order ([`pool`]).
+struct Pooled {
+    /// Rays per patch.
+    rays: u32,
+    /// Each patch's burial survey.
+    burial: Vec<Vec<u32>>,
+    /// Whether each patch's survey asked about other points too.
+    recursed: Vec<bool>,
+    /// Each patch's hit counts.
+    counts: Vec<HitCounts>,
+}
+
+/// The shards' rows (checked by [`check_shards`]) pooled in patch order: a shard that
+/// disagrees with the others on the patches or rays, holds a row no shard makes, or leaves
+/// a patch without its row is refused.
+fn pool(rows: Vec<Rows>) -> Result<Pooled, BakeError> {
     let n = rows.first().map_or(0, |r| r.n_patches as usize);
     let rays = rows.first().map_or(0, |r| r.rays);
     let mut burial = vec![Vec::new(); n];
@@ -179,47 +239,41 @@ pub fn assemble(
             "no shard holds the row of patch {p}: the shards were made from another scene"
         )));
     }
-    let cache_rows = (burial.clone(), counts.clone());
-    let (params, _) = plan.params()?;
-    let given = GivenRows {
-        burial,
-        counts,
+    Ok(Pooled {
         rays,
-    };
-    let mut d = crate::discretise::discretise(scene, &params.discretise(), hooks, Some(given))?;
-    let ff = d
-        .sparse
-        .take()
-        .ok_or_else(|| refuse("internal: a planned bake's form factors are sparse rows".into()))?;
-    let old = match reuse {
-        None => None,
-        Some(r) => {
-            let occ = scene.occluders().robust();
-            let boxes = super::reuse::Diff::new(scene, &d.patches, &occ, rays, &d.keys, &r.cache)
-                .map(|diff| diff.boxes().to_vec());
-            Some(OldSystems {
-                level: r.level.clone(),
-                records: r.cache.systems.clone(),
-                file_keys: (r.cache.sources.iter())
-                    .map(|&i| r.cache.keys[i as usize])
-                    .collect(),
-                // Where every row was cast again (the bounds moved), nothing is carried: the
-                // whole scene is a box.
-                boxes: boxes.unwrap_or_else(|_| {
-                    vec![(
-                        glam::DVec3::splat(f64::NEG_INFINITY),
-                        glam::DVec3::splat(f64::INFINITY),
-                    )]
-                }),
-            })
-        }
-    };
-    let cut = SystemsCut::Plan {
-        regions: &plan.regions,
-        plan_hash,
-        old: old.as_ref(),
-    };
-    let bake = systems_bake(scene, &d, Cow::Owned(ff), cut, &params, hooks)?;
+        burial,
+        recursed,
+        counts,
+    })
+}
+
+/// The earlier bake `r` as the systems' bake takes it: its level, its systems' records, the
+/// identity of each of its file's patches, and the boxes of what changed since, `d` being
+/// this bake's discretisation at `rays` rays a patch.
+fn old_systems(scene: &Scene, d: &Discretised, rays: u32, r: &Reuse) -> OldSystems {
+    let occ = scene.occluders().robust();
+    let boxes = super::reuse::Diff::new(scene, &d.patches, &occ, rays, &d.keys, &r.cache)
+        .map(|diff| diff.boxes().to_vec());
+    OldSystems {
+        level: r.level.clone(),
+        records: r.cache.systems.clone(),
+        file_keys: (r.cache.sources.iter())
+            .map(|&i| r.cache.keys[i as usize])
+            .collect(),
+        // Where every row was cast again (the bounds moved), nothing is carried: the
+        // whole scene is a box.
+        boxes: boxes.unwrap_or_else(|_| {
+            vec![(
+                glam::DVec3::splat(f64::NEG_INFINITY),
+                glam::DVec3::splat(f64::INFINITY),
+            )]
+        }),
+    }
+}
+
+/// Which of `bake`'s systems were kept and why the others were baked again (the rows'
+/// statistics left at their default, for the caller to fill).
+fn reuse_report(bake: &SystemsBake) -> ReuseReport {
     let rebaked: Vec<RebakedSystem> = (bake.rebaked.iter().enumerate())
         .filter_map(|(s, why)| {
             why.as_ref().map(|why| RebakedSystem {
@@ -229,36 +283,44 @@ pub fn assemble(
             })
         })
         .collect();
-    let reuse_report = ReuseReport {
+    ReuseReport {
         systems: bake.records.len(),
         reused: bake.records.len() - rebaked.len(),
         rebaked,
         rows: RowStats::default(),
-    };
+    }
+}
+
+/// The cache a planned bake leaves beside its level: the pooled rows, every patch's
+/// identity (`keys`), the scene's objects, triangles, emitters and coverage, the level's
+/// systems and the patch of each file patch (`sources`).
+fn level_cache(
+    scene: &Scene,
+    plan_hash: [u8; 32],
+    rows: Pooled,
+    keys: Vec<[u8; 16]>,
+    systems: Vec<SystemRecord>,
+    sources: Vec<u32>,
+) -> Cache {
     let emits = (scene.triangles.iter())
         .map(|t| scene.materials[t.material as usize].emission.mean() > 0.0)
         .collect();
-    let cache = Cache {
+    Cache {
         plan_hash,
-        rays,
-        burial: cache_rows.0,
-        recursed,
+        rays: rows.rays,
+        burial: rows.burial,
+        recursed: rows.recursed,
         objects: scene.objects.clone(),
-        counts: cache_rows.1,
-        keys: std::mem::take(&mut d.keys),
+        counts: rows.counts,
+        keys,
         triangles: (0..scene.triangles.len())
             .map(|t| scene.corners(t))
             .collect(),
         emits,
         coverage: scene.coverage.clone(),
-        systems: bake.records,
-        sources: bake.output.patch_source.clone(),
-    };
-    Ok(Assembled {
-        output: bake.output,
-        cache,
-        reuse: reuse_report,
-    })
+        systems,
+        sources,
+    }
 }
 
 /// `scene`'s bake under `plan` in one process: every shard's rows, then [`assemble`]: the

@@ -225,39 +225,93 @@ fn fit_patch_count(
             "target patch count {n} must be in 1..=2^24"
         )));
     }
-    let target = n as f64;
-    let total_area: f64 = (0..scene.triangles.len())
-        .map(|t| scene.triangle_area(t))
-        .sum();
-    // Bisection on log(h): the count falls as h grows (about area/h² for flat surfaces).
-    // Where parts cross objects the count is what the matrix will hold: patches buried whole
-    // leave it (`grouping::matrix_count`); a yard of 4906 boxes standing on the ground, their
-    // bottoms buried, asked for 1024 got 1002 patches and 897 in the matrix. Elsewhere it is
-    // the patches before that, as the figures the documents give for the Cornell box were
-    // measured.
-    let count_of = |g: &Grouping| {
-        if loose.cross.get() {
-            grouping::matrix_count(loose, g)
+    let fit = Fit {
+        scene,
+        component,
+        loose,
+        target: n as f64,
+        tolerance: params.tolerance,
+        extent,
+        cos_max,
+        total_area: (0..scene.triangles.len())
+            .map(|t| scene.triangle_area(t))
+            .sum(),
+    };
+    // Parts of different objects share patches only where the target cannot be met without
+    // (`Loose::cross`): a scene of thousands of separate props, each its own object.
+    let mut best = fit.bisect();
+    if best.2 > params.tolerance {
+        loose.cross.set(true);
+        let crossed = fit.bisect();
+        if crossed.2 < best.2 {
+            best = crossed;
+        } else {
+            loose.cross.set(false);
+        }
+    }
+    let (h, g, miss) = best;
+    if miss > params.tolerance {
+        let count = fit.count_of(&g);
+        let why = fit.why_missed(h, count, n);
+        warnings.push(format!(
+            "asked for {n} patches, the nearest the grid gives is {count} (cell size {h:.6}){why}"
+        ));
+    }
+    Ok((h, g))
+}
+
+/// The search of [`fit_patch_count`] for a cell size giving `target` patches.
+struct Fit<'a> {
+    scene: &'a Scene,
+    /// Each triangle's connected surface ([`components`]).
+    component: &'a [u32],
+    loose: &'a Loose<'a>,
+    /// Patches asked for.
+    target: f64,
+    /// Accepted relative miss ([`VoxelParams::tolerance`]).
+    tolerance: f64,
+    /// The scene's largest extent.
+    extent: f64,
+    /// Cosine of [`VoxelParams::max_normal_angle_deg`].
+    cos_max: f64,
+    /// The scene's surface area.
+    total_area: f64,
+}
+
+impl Fit<'_> {
+    /// The patch count of grouping `g`. Where parts cross objects the count is what the
+    /// matrix will hold: patches buried whole leave it (`grouping::matrix_count`); a yard of
+    /// 4906 boxes standing on the ground, their bottoms buried, asked for 1024 got 1002
+    /// patches and 897 in the matrix. Elsewhere it is the patches before that, as the figures
+    /// the documents give for the Cornell box were measured.
+    fn count_of(&self, g: &Grouping) -> usize {
+        if self.loose.cross.get() {
+            grouping::matrix_count(self.loose, g)
         } else {
             g.groups.len()
         }
-    };
-    let bisect = || {
-        let mut h_small = (total_area / target).sqrt() / 8.0;
-        let mut h_large = extent * 2.0;
+    }
+
+    /// The nearest the grid comes to the target, as cell size, grouping and relative miss:
+    /// bisection on log(h), the count falling as h grows (about area/h² for flat surfaces).
+    fn bisect(&self) -> (f64, Grouping, f64) {
+        let (target, tolerance) = (self.target, self.tolerance);
+        let group_at = |h: f64| group(self.scene, self.component, self.loose, h, self.cos_max);
+        let mut h_small = (self.total_area / target).sqrt() / 8.0;
+        let mut h_large = self.extent * 2.0;
         let mut best: Option<(f64, Grouping, f64)> = None;
         // The coarsest grid first: where even it gives more patches than the target allows
         // (a scene of more objects and orientations than patches asked for), no finer grid
         // does better, and the search would only creep towards it.
-        let coarsest = group(scene, component, loose, h_large, cos_max);
-        let fewest = count_of(&coarsest) as f64;
-        if fewest > target * (1.0 + params.tolerance) {
+        let coarsest = group_at(h_large);
+        let fewest = self.count_of(&coarsest) as f64;
+        if fewest > target * (1.0 + tolerance) {
             best = Some((h_large, coarsest, (fewest - target) / target));
         }
-        let mut h = (total_area / target).sqrt();
+        let mut h = (self.total_area / target).sqrt();
         for _ in 0..if best.is_some() { 0 } else { 48 } {
-            let g = group(scene, component, loose, h, cos_max);
-            let count = count_of(&g) as f64;
+            let g = group_at(h);
+            let count = self.count_of(&g) as f64;
             let miss = (count - target).abs() / target;
             let better = best.as_ref().is_none_or(|b| miss < b.2);
             // Where parts cross objects the count moves in coarse steps (a cell more or less
@@ -265,10 +319,10 @@ fn fit_patch_count(
             // it gives margin (4906 boxes asked for 1024 stopped at 928, −9.4%, aiming at all
             // of it; 1057, +3.2%, aiming at half). One object a patch keeps the whole
             // tolerance, so the Cornell box bakes as its documented figures were measured.
-            let aim = if loose.cross.get() {
-                params.tolerance / 2.0
+            let aim = if self.loose.cross.get() {
+                tolerance / 2.0
             } else {
-                params.tolerance
+                tolerance
             };
             let done = miss <= aim;
             if count > target {
@@ -285,24 +339,14 @@ fn fit_patch_count(
             h = (h_small * h_large).sqrt();
         }
         best.expect("one evaluation at least")
-    };
-    // Parts of different objects share patches only where the target cannot be met without
-    // (`Loose::cross`): a scene of thousands of separate props, each its own object.
-    let mut best = bisect();
-    if best.2 > params.tolerance {
-        loose.cross.set(true);
-        let crossed = bisect();
-        if crossed.2 < best.2 {
-            best = crossed;
-        } else {
-            loose.cross.set(false);
-        }
     }
-    let (h, g, miss) = best;
-    if miss > params.tolerance {
-        // Too many patches even at the coarsest cells: say why when a count of things
-        // a patch never spans (emitting materials, large separate surfaces) is what holds
-        // the count up.
+
+    /// Why the nearest cell size `h` misses the target, as a clause to append to the warning:
+    /// where its `count` patches are too many (`n` asked for) and a count of things a patch
+    /// never spans (emitting materials, large separate surfaces) is what holds the count up,
+    /// that count; else empty.
+    fn why_missed(&self, h: f64, count: usize, n: usize) -> String {
+        let scene = self.scene;
         let mut kinds: Vec<u32> = scene
             .triangles
             .iter()
@@ -311,16 +355,15 @@ fn fit_patch_count(
             .collect();
         kinds.sort_unstable();
         kinds.dedup();
-        let mut roots = component.to_vec();
+        let mut roots = self.component.to_vec();
         roots.sort_unstable();
         roots.dedup();
         let large = roots
             .iter()
-            .filter(|&&r| loose.area[r as usize] >= grouping::LOOSE_PART * h * h)
+            .filter(|&&r| self.loose.area[r as usize] >= grouping::LOOSE_PART * h * h)
             .count();
-        let count = count_of(&g);
-        let held = |k: usize| count > n && k as f64 > 0.5 * target;
-        let why = if held(kinds.len()) {
+        let held = |k: usize| count > n && k as f64 > 0.5 * self.target;
+        if held(kinds.len()) {
             format!(
                 "; the scene has {} emitting materials, and a patch never spans two",
                 kinds.len()
@@ -337,12 +380,8 @@ fn fit_patch_count(
             )
         } else {
             String::new()
-        };
-        warnings.push(format!(
-            "asked for {n} patches, the nearest the grid gives is {count} (cell size {h:.6}){why}"
-        ));
+        }
     }
-    Ok((h, g))
 }
 
 /// The patches of `grouping` (area-weighted centre, normal and reflectance of their pieces)
@@ -391,23 +430,9 @@ fn build_patches(scene: &Scene, grouping: Grouping) -> (Vec<BakePatch>, Vec<Piec
 /// normals are within 60° of the vertex's mean normal, by area times a smooth fall-off over two
 /// cells; the nearest such patch when none is that close.
 fn vertex_weights(scene: &Scene, patches: &[BakePatch], pieces: &[Piece], h: f64) -> VertexWeights {
-    let nt = scene.triangles.len();
-    let mut tri_patches: Vec<Vec<u32>> = vec![Vec::new(); nt];
-    for (i, p) in patches.iter().enumerate() {
-        for piece in &pieces[p.pieces.clone()] {
-            let list = &mut tri_patches[piece.triangle as usize];
-            if list.last() != Some(&(i as u32)) {
-                list.push(i as u32);
-            }
-        }
-    }
+    let tri_patches = triangle_patches(scene, patches, pieces);
     let nv = scene.positions.len();
-    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); nv];
-    for (t, tri) in scene.triangles.iter().enumerate() {
-        for &v in &tri.vertices {
-            incident[v as usize].push(t as u32);
-        }
-    }
+    let incident = incident_triangles(scene);
     let radius = 2.0 * h;
     let mut offsets = Vec::with_capacity(nv + 1);
     let mut entries = Vec::new();
@@ -453,4 +478,29 @@ fn vertex_weights(scene: &Scene, patches: &[BakePatch], pieces: &[Piece], h: f64
         offsets.push(entries.len());
     }
     VertexWeights { offsets, entries }
+}
+
+/// The patches cut from each of the scene's triangles, increasing.
+fn triangle_patches(scene: &Scene, patches: &[BakePatch], pieces: &[Piece]) -> Vec<Vec<u32>> {
+    let mut tri_patches: Vec<Vec<u32>> = vec![Vec::new(); scene.triangles.len()];
+    for (i, p) in patches.iter().enumerate() {
+        for piece in &pieces[p.pieces.clone()] {
+            let list = &mut tri_patches[piece.triangle as usize];
+            if list.last() != Some(&(i as u32)) {
+                list.push(i as u32);
+            }
+        }
+    }
+    tri_patches
+}
+
+/// The triangles around each of the scene's vertices, increasing.
+fn incident_triangles(scene: &Scene) -> Vec<Vec<u32>> {
+    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); scene.positions.len()];
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        for &v in &tri.vertices {
+            incident[v as usize].push(t as u32);
+        }
+    }
+    incident
 }

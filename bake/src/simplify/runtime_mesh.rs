@@ -2,6 +2,7 @@
 //! full-detail triangles with their materials, per-corner interpolation weights over the matrix
 //! patches, and the points where direct light on each patch is sampled.
 
+use super::{incident_triangles, triangle_patches};
 use crate::patch::Patches;
 use crate::scene::Scene;
 use glam::DVec3;
@@ -25,9 +26,38 @@ pub(crate) fn runtime_mesh(
     buried_points: &[Vec<bool>],
     points: &[u32],
 ) -> (Mesh<'static>, Vec<u32>) {
-    let nt = scene.triangles.len();
+    let corners = Corners {
+        scene,
+        patches,
+        file_index,
+        tri_patches: triangle_patches(scene, &patches.patches, &patches.pieces),
+        incident: incident_triangles(scene),
+        radius: 2.0 * patches.cell_size,
+    };
+    let (corner_rows, corner_weights) = corners.weights();
+    let samples = direct_samples(patches, file_index, buried_points, points);
+    let mesh = Mesh {
+        positions: Cow::Owned(
+            scene
+                .positions
+                .iter()
+                .map(|p| p.as_vec3().to_array())
+                .collect(),
+        ),
+        triangles: Cow::Owned(mesh_triangles(scene)),
+        corner_rows: Cow::Owned(corner_rows),
+        corner_weights: Cow::Owned(corner_weights),
+        sample_rows: Cow::Owned(samples.rows),
+        samples: Cow::Owned(samples.samples),
+    };
+    (mesh, samples.objects)
+}
+
+/// The scene's triangles as the runtime stores them: vertices, object, the reflectance over
+/// the whole triangle and its material's emission.
+fn mesh_triangles(scene: &Scene) -> Vec<MeshTriangle> {
     let bary = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let triangles: Vec<MeshTriangle> = scene
+    scene
         .triangles
         .iter()
         .enumerate()
@@ -40,87 +70,115 @@ pub(crate) fn runtime_mesh(
                 emission: scene.materials[tri.material as usize].emission,
             }
         })
-        .collect();
+        .collect()
+}
 
-    // Patches cut from each triangle, and triangles around each vertex.
-    let mut tri_patches: Vec<Vec<u32>> = vec![Vec::new(); nt];
-    for (k, p) in patches.patches.iter().enumerate() {
-        for piece in &patches.pieces[p.pieces.clone()] {
-            let list = &mut tri_patches[piece.triangle as usize];
-            if list.last() != Some(&(k as u32)) {
-                list.push(k as u32);
+/// What weighing the triangles' corners over the matrix patches needs ([`Corners::weights`]).
+struct Corners<'a> {
+    scene: &'a Scene,
+    patches: &'a Patches,
+    file_index: &'a [Option<u32>],
+    /// Patches cut from each triangle ([`triangle_patches`]).
+    tri_patches: Vec<Vec<u32>>,
+    /// Triangles around each vertex ([`incident_triangles`]).
+    incident: Vec<Vec<u32>>,
+    /// Distance at which a patch's weight falls to zero: two cells.
+    radius: f64,
+}
+
+impl Corners<'_> {
+    /// Every triangle corner's interpolation weights over the matrix patches (file indices),
+    /// as rows: the row offsets (three a triangle) and the weights.
+    fn weights(&self) -> (Vec<u32>, Vec<CornerWeight>) {
+        let nt = self.scene.triangles.len();
+        let mut corner_rows = Vec::with_capacity(3 * nt + 1);
+        let mut corner_weights: Vec<CornerWeight> = Vec::new();
+        corner_rows.push(0u32);
+        let mut cands: Vec<u32> = Vec::new();
+        for (t, tri) in self.scene.triangles.iter().enumerate() {
+            let normal = self.scene.triangle_normal(t);
+            for &v in &tri.vertices {
+                cands.clear();
+                for &s in &self.incident[v as usize] {
+                    cands.extend_from_slice(&self.tri_patches[s as usize]);
+                }
+                cands.sort_unstable();
+                cands.dedup();
+                self.corner(t, normal, v, &cands, &mut corner_weights);
+                corner_rows.push(corner_weights.len() as u32);
+            }
+        }
+        (corner_rows, corner_weights)
+    }
+
+    /// Pushes onto `out` the weights of the corner of triangle `t` (of unit normal `normal`)
+    /// at vertex `v` over the candidate patches `cands` (those cut from the triangles around
+    /// the vertex): the live ones on the same surface by area times a smooth fall-off over
+    /// [`Self::radius`], normalised; else the nearest live patch cut from the triangle.
+    fn corner(&self, t: usize, normal: DVec3, v: u32, cands: &[u32], out: &mut Vec<CornerWeight>) {
+        let pos = self.scene.positions[v as usize];
+        let start = out.len();
+        let mut sum = 0.0;
+        for &k in cands {
+            let p = &self.patches.patches[k as usize];
+            let Some(file) = self.file_index[k as usize] else {
+                continue;
+            };
+            if p.normal.dot(normal) < SAME_SURFACE_COS {
+                continue;
+            }
+            let fall = (1.0 - (p.centre - pos).length() / self.radius).max(0.0);
+            let w = p.area * fall * fall;
+            if w > 0.0 {
+                out.push(CornerWeight {
+                    patch: file,
+                    weight: w as f32,
+                });
+                sum += w;
+            }
+        }
+        if sum > 0.0 {
+            for e in &mut out[start..] {
+                e.weight = ((f64::from(e.weight) / sum) as f32).min(1.0);
+            }
+        } else {
+            // Nothing close on the same surface: the nearest live patch cut from this
+            // triangle, else nothing (the corner gets no indirect light).
+            let nearest = self.tri_patches[t]
+                .iter()
+                .filter_map(|&k| self.file_index[k as usize].map(|f| (k, f)))
+                .min_by(|a, b| {
+                    let d = |k: u32| (self.patches.patches[k as usize].centre - pos).length();
+                    d(a.0).total_cmp(&d(b.0))
+                });
+            if let Some((_, f)) = nearest {
+                out.push(CornerWeight {
+                    patch: f,
+                    weight: 1.0,
+                });
             }
         }
     }
-    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); scene.positions.len()];
-    for (t, tri) in scene.triangles.iter().enumerate() {
-        for &v in &tri.vertices {
-            incident[v as usize].push(t as u32);
-        }
-    }
+}
 
-    let radius = 2.0 * patches.cell_size;
-    let mut corner_rows = Vec::with_capacity(3 * nt + 1);
-    let mut corner_weights: Vec<CornerWeight> = Vec::new();
-    corner_rows.push(0u32);
-    let mut cands: Vec<u32> = Vec::new();
-    for (t, tri) in scene.triangles.iter().enumerate() {
-        let normal = scene.triangle_normal(t);
-        for &v in &tri.vertices {
-            let pos = scene.positions[v as usize];
-            cands.clear();
-            for &s in &incident[v as usize] {
-                cands.extend_from_slice(&tri_patches[s as usize]);
-            }
-            cands.sort_unstable();
-            cands.dedup();
-            let start = corner_weights.len();
-            let mut sum = 0.0;
-            for &k in &cands {
-                let p = &patches.patches[k as usize];
-                let Some(file) = file_index[k as usize] else {
-                    continue;
-                };
-                if p.normal.dot(normal) < SAME_SURFACE_COS {
-                    continue;
-                }
-                let fall = (1.0 - (p.centre - pos).length() / radius).max(0.0);
-                let w = p.area * fall * fall;
-                if w > 0.0 {
-                    corner_weights.push(CornerWeight {
-                        patch: file,
-                        weight: w as f32,
-                    });
-                    sum += w;
-                }
-            }
-            if sum > 0.0 {
-                for e in &mut corner_weights[start..] {
-                    e.weight = ((f64::from(e.weight) / sum) as f32).min(1.0);
-                }
-            } else {
-                // Nothing close on the same surface: the nearest live patch cut from this
-                // triangle, else nothing (the corner gets no indirect light).
-                let nearest = tri_patches[t]
-                    .iter()
-                    .filter_map(|&k| file_index[k as usize].map(|f| (k, f)))
-                    .min_by(|a, b| {
-                        let d = |k: u32| (patches.patches[k as usize].centre - pos).length();
-                        d(a.0).total_cmp(&d(b.0))
-                    });
-                if let Some((_, f)) = nearest {
-                    corner_weights.push(CornerWeight {
-                        patch: f,
-                        weight: 1.0,
-                    });
-                }
-            }
-            corner_rows.push(corner_weights.len() as u32);
-        }
-    }
+/// The runtime's direct-light samples as rows in matrix order ([`direct_samples`]).
+struct Samples {
+    /// Row offsets, one row a matrix patch.
+    rows: Vec<u32>,
+    samples: Vec<PatchSample>,
+    /// The object of each sample.
+    objects: Vec<u32>,
+}
 
-    // Direct-light samples: every patch's [`direct_points`] not buried under another object,
-    // in matrix order.
+/// Direct-light samples: every patch's [`direct_points`] not buried under another object
+/// (`buried_points`), in matrix order; a patch all of whose points are buried keeps its
+/// centre.
+fn direct_samples(
+    patches: &Patches,
+    file_index: &[Option<u32>],
+    buried_points: &[Vec<bool>],
+    points: &[u32],
+) -> Samples {
     let n = file_index.iter().flatten().count();
     let mut by_file: Vec<Vec<(PatchSample, u32)>> = vec![Vec::new(); n];
     for (k, p) in patches.patches.iter().enumerate() {
@@ -138,33 +196,22 @@ pub(crate) fn runtime_mesh(
             by_file[f as usize].push((sample(p.centre, p.normal, p.area), p.object));
         }
     }
-    let mut sample_rows = Vec::with_capacity(n + 1);
-    sample_rows.push(0u32);
+    let mut rows = Vec::with_capacity(n + 1);
+    rows.push(0u32);
     let mut samples = Vec::new();
-    let mut sample_objects = Vec::new();
+    let mut objects = Vec::new();
     for s in by_file {
         for (sample, object) in s {
             samples.push(sample);
-            sample_objects.push(object);
+            objects.push(object);
         }
-        sample_rows.push(samples.len() as u32);
+        rows.push(samples.len() as u32);
     }
-
-    let mesh = Mesh {
-        positions: Cow::Owned(
-            scene
-                .positions
-                .iter()
-                .map(|p| p.as_vec3().to_array())
-                .collect(),
-        ),
-        triangles: Cow::Owned(triangles),
-        corner_rows: Cow::Owned(corner_rows),
-        corner_weights: Cow::Owned(corner_weights),
-        sample_rows: Cow::Owned(sample_rows),
-        samples: Cow::Owned(samples),
-    };
-    (mesh, sample_objects)
+    Samples {
+        rows,
+        samples,
+        objects,
+    }
 }
 
 /// Direct-light points a patch has at least, by default. A patch cut from a few large
