@@ -6,11 +6,12 @@
 
 use crate::adapter::{Adapter, choose_adapter};
 use crate::device::{self, SerialDevice};
-use crate::gather::{
-    HostGather, HostGatherBuffers, READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, entire,
-    in_error_scopes, layout_entry, pipeline, sized, storage, storage_binding_limit, workgroup_grid,
-};
+use crate::gather::{HostGather, HostGatherBuffers};
 use crate::shader::WORKGROUP;
+use crate::toolkit::{
+    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, entire, in_error_scopes, layout_entry,
+    pipeline, sized, storage, storage_binding_limit, workgroup_grid,
+};
 use crate::{GpuError, GpuOptions};
 use bytemuck::{Pod, Zeroable};
 use radiosity_core::{RadFile, Rgb};

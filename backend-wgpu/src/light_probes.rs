@@ -2,7 +2,7 @@
 //! device from a [`crate::HostGather`]'s `x` and `y`, into a buffer the host's shaders read.
 
 use crate::GpuError;
-use crate::gather::{
+use crate::toolkit::{
     READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, entire, in_error_scopes,
     layout_entry, pipeline, record_dispatch, sized, storage, storage_binding_limit, workgroup_grid,
 };
