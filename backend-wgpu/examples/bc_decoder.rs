@@ -39,7 +39,37 @@ fn main() {
         println!("no TEXTURE_COMPRESSION_BC: nothing to measure");
         return;
     }
-    // BC4: every (r0, r1), indices 0..7 twice over the 16 texels.
+    let bc4 = every_bc4_pair();
+    // BC1: random endpoints, each row of texels using indices 0..3.
+    let bc1 = random_bc1_blocks(65536);
+
+    let t4 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc4RUnorm, &bc4)
+        .expect("texture unit texels");
+    bc4_stats(&bc4, &t4).print("bc4");
+    if let Some(dir) = &dump {
+        // Texels 0–7 of each block hold indices 0–7.
+        write_dump(&dir.join("bc4.bin"), &bc4, |k| {
+            (0..8).map(|i| t4[texel(k, i)][0]).collect()
+        });
+    }
+
+    let t1 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc1RgbaUnorm, &bc1)
+        .expect("texture unit texels");
+    bc1_stats(&bc1, &t1).print("bc1");
+    println!(
+        "the gather's own check (what `auto` decides by): {:?}",
+        texture_decode_model(&adapter)
+    );
+    if let Some(dir) = &dump {
+        // Texels 0–3 of each block hold indices 0–3.
+        write_dump(&dir.join("bc1.bin"), &bc1, |k| {
+            (0..4).flat_map(|i| t1[texel(k, i)][..3].to_vec()).collect()
+        });
+    }
+}
+
+/// BC4 blocks of every endpoint pair (r0, r1), indices 0..7 twice over the 16 texels.
+fn every_bc4_pair() -> Vec<u8> {
     let mut bc4 = Vec::with_capacity(65536 * 8);
     for r0 in 0..=255u8 {
         for r1 in 0..=255u8 {
@@ -54,11 +84,11 @@ fn main() {
             bc4.extend_from_slice(&b);
         }
     }
-    // BC1: random endpoints, each row of texels using indices 0..3.
-    let bc1 = random_bc1_blocks(65536);
+    bc4
+}
 
-    let t4 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc4RUnorm, &bc4)
-        .expect("texture unit texels");
+/// The texels `t4` the texture unit returned for the BC4 blocks `bc4`, against each model.
+fn bc4_stats(bc4: &[u8], t4: &[[f32; 4]]) -> Stats {
     let mut s4 = Stats::default();
     for (k, block) in bc4.chunks_exact(8).enumerate() {
         let b = Bc4Block(block.try_into().unwrap());
@@ -79,16 +109,12 @@ fn main() {
             s4.add(got, f64::from(d3d[p]), f64::from(mesa[p]), exact);
         }
     }
-    s4.print("bc4");
-    if let Some(dir) = &dump {
-        // Texels 0–7 of each block hold indices 0–7.
-        write_dump(&dir.join("bc4.bin"), &bc4, |k| {
-            (0..8).map(|i| t4[texel(k, i)][0]).collect()
-        });
-    }
+    s4
+}
 
-    let t1 = read_bc_texels(&adapter, wgpu::TextureFormat::Bc1RgbaUnorm, &bc1)
-        .expect("texture unit texels");
+/// The texels `t1` the texture unit returned for the BC1 blocks `bc1`, against each model
+/// (every channel of every opaque texel).
+fn bc1_stats(bc1: &[u8], t1: &[[f32; 4]]) -> Stats {
     let mut s1 = Stats::default();
     for (k, block) in bc1.chunks_exact(8).enumerate() {
         let b = Bc1Block(block.try_into().unwrap());
@@ -114,17 +140,7 @@ fn main() {
             }
         }
     }
-    s1.print("bc1");
-    println!(
-        "the gather's own check (what `auto` decides by): {:?}",
-        texture_decode_model(&adapter)
-    );
-    if let Some(dir) = &dump {
-        // Texels 0–3 of each block hold indices 0–3.
-        write_dump(&dir.join("bc1.bin"), &bc1, |k| {
-            (0..4).flat_map(|i| t1[texel(k, i)][..3].to_vec()).collect()
-        });
-    }
+    s1
 }
 
 /// Each block's bytes followed by `palette(k)` as little-endian f32.

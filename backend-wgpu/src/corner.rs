@@ -2,11 +2,11 @@
 //! gather's `y`, on the GPU, into a vertex-attribute buffer the host draws with.
 
 use crate::GpuError;
-use crate::gather::{
+use crate::shader::WORKGROUP;
+use crate::toolkit::{
     READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, entire, in_error_scopes,
     layout_entry, pipeline, record_dispatch, sized, storage, storage_binding_limit, workgroup_grid,
 };
-use crate::shader::WORKGROUP;
 use bytemuck::{Pod, Zeroable};
 use radiosity_core::Mesh;
 use wgpu::util::DeviceExt;

@@ -2,11 +2,11 @@
 //! ([`radiosity_core::ReflectanceEdit`]) on the host's device: two [`HostGather`] passes of
 //! the baked matrix and, between them, the `k × k` correction as one small dispatch.
 
-use crate::gather::{
+use crate::shader::WORKGROUP;
+use crate::toolkit::{
     READ, UNIFORM, WRITE, buffer_ty, check_pass_limits, entire, in_error_scopes, layout_entry,
     pipeline, record_dispatch, sized, storage, storage_binding_limit, workgroup_grid,
 };
-use crate::shader::WORKGROUP;
 use crate::{GpuError, GpuOptions, HostGather, HostGatherBuffers};
 use bytemuck::{Pod, Zeroable};
 use radiosity_core::{ReflectanceEdit, TransferMatrix};

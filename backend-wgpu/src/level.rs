@@ -6,14 +6,18 @@
 
 use crate::adapter::{Adapter, choose_adapter};
 use crate::device::{self, SerialDevice};
-use crate::gather::{
-    HostGather, HostGatherBuffers, READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, entire,
-    in_error_scopes, layout_entry, pipeline, sized, storage, storage_binding_limit, workgroup_grid,
-};
+use crate::gather::{HostGather, HostGatherBuffers};
 use crate::shader::WORKGROUP;
+use crate::toolkit::{
+    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, entire, in_error_scopes, layout_entry,
+    pipeline, sized, storage, storage_binding_limit, workgroup_grid,
+};
 use crate::{GpuError, GpuOptions};
 use bytemuck::{Pod, Zeroable};
+use radiosity_core::container::LevelSystems;
+use radiosity_core::systems::Coupling;
 use radiosity_core::{RadFile, Rgb};
+use std::ops::Range;
 use wgpu::util::DeviceExt;
 
 const LEVEL: &str = include_str!("shaders/level.wgsl");
@@ -53,6 +57,228 @@ struct System {
     count: usize,
 }
 
+/// The systems of `file`, or why it is no level the GPU can light: not a level file, or
+/// its systems not loaded.
+fn loaded_systems<'f, 'a>(file: &'f RadFile<'a>) -> Result<&'f LevelSystems<'a>, GpuError> {
+    let sys = file
+        .systems
+        .as_ref()
+        .ok_or_else(|| GpuError::Unsupported("not a level file (no systems)".into()))?;
+    if !sys.is_loaded() {
+        return Err(GpuError::Unsupported(
+            "the level's systems are not loaded".into(),
+        ));
+    }
+    Ok(sys)
+}
+
+/// Checks the host's `buffers` (`bytes` each, with `STORAGE`) and that the coupling's
+/// columns and the per-patch light each fit one storage binding of `device`.
+fn check_level_buffers(
+    device: &wgpu::Device,
+    sys: &LevelSystems<'_>,
+    buffers: HostLevelBuffers<'_>,
+    bytes: u64,
+) -> Result<(), GpuError> {
+    for (what, buffer) in [("first", buffers.first), ("gathered", buffers.gathered)] {
+        check_host_buffer(
+            "the level",
+            what,
+            buffer,
+            bytes,
+            wgpu::BufferUsages::STORAGE,
+        )?;
+    }
+    let most = storage_binding_limit(&device.limits());
+    for (what, b) in [
+        ("coupling columns", 4 * sys.coupling.cols.len() as u64),
+        ("per-patch light", bytes),
+    ] {
+        if b > most {
+            return Err(GpuError::Unsupported(format!(
+                "the level's {what} take {b} bytes, more than one storage binding ({most} bytes)"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Each system's dispatch grid for the coupling and update kernels: a workgroup per
+/// [`WORKGROUP`] patches, within the device's per-dimension limit.
+fn system_grids(
+    device: &wgpu::Device,
+    sys: &LevelSystems<'_>,
+) -> Result<Vec<(u32, u32)>, GpuError> {
+    let dl = device.limits();
+    (0..sys.count())
+        .map(|s| {
+            let count = sys.range(s).len();
+            workgroup_grid(&dl, count.div_ceil(WORKGROUP as usize), || {
+                format!("system {s}'s {count} patches")
+            })
+        })
+        .collect()
+}
+
+/// One system's gather and the buffers of its own `x` and `y` it runs between.
+struct SystemGather {
+    gather: HostGather,
+    x: wgpu::Buffer,
+    y: wgpu::Buffer,
+}
+
+/// Every system's gather, with the bytes they and their `x` and `y` hold on the device. A
+/// matrix the device cannot take is an `Err` naming the system.
+fn system_gathers(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    file: &RadFile<'_>,
+    sys: &LevelSystems<'_>,
+    options: &GpuOptions,
+) -> Result<(Vec<SystemGather>, u64), GpuError> {
+    let mut gathers = Vec::with_capacity(sys.count());
+    let mut device_bytes = 0;
+    for s in 0..sys.count() {
+        let one = sys
+            .system(file, s)
+            .map_err(|e| GpuError::Unsupported(format!("system {s}: {e}")))?;
+        let m = 12 * sys.range(s).len() as u64;
+        let make = |label: &str, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: m.max(4),
+                usage: wgpu::BufferUsages::STORAGE | usage,
+                mapped_at_creation: false,
+            })
+        };
+        let x = make("system x", wgpu::BufferUsages::COPY_SRC);
+        let y = make("system y", wgpu::BufferUsages::empty());
+        let gather = HostGather::new(
+            device,
+            queue,
+            &one.matrix,
+            options,
+            HostGatherBuffers { x: &x, y: &y },
+        )
+        .map_err(|e| match e {
+            GpuError::Unsupported(why) => GpuError::Unsupported(format!("system {s}: {why}")),
+            other => other,
+        })?;
+        device_bytes += gather.device_bytes() + 2 * m;
+        gathers.push(SystemGather { gather, x, y });
+    }
+    Ok((gathers, device_bytes))
+}
+
+/// What every system's bind group shares: the layout of the coupling and update kernels,
+/// the coupling, the reflectances and the level's exitance.
+struct SharedBindings {
+    layout: wgpu::BindGroupLayout,
+    row_ptr: wgpu::Buffer,
+    cols: wgpu::Buffer,
+    vals: wgpu::Buffer,
+    rho: wgpu::Buffer,
+    exitance: wgpu::Buffer,
+}
+
+impl SharedBindings {
+    /// Uploads the coupling `c` and the reflectances `rho`, and makes the level's exitance
+    /// (`bytes`, zero) and the kernels' bind group layout.
+    fn new(device: &wgpu::Device, c: &Coupling<'_>, rho: &[Rgb], bytes: u64) -> Self {
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("level"),
+            entries: &[
+                layout_entry(0, buffer_ty(UNIFORM)),
+                layout_entry(1, buffer_ty(READ)),
+                layout_entry(2, buffer_ty(READ)),
+                layout_entry(3, buffer_ty(READ)),
+                layout_entry(4, buffer_ty(READ)),
+                layout_entry(5, buffer_ty(READ)),
+                layout_entry(6, buffer_ty(WRITE)),
+                layout_entry(7, buffer_ty(WRITE)),
+                layout_entry(8, buffer_ty(WRITE)),
+                layout_entry(9, buffer_ty(READ)),
+            ],
+        });
+        let none = wgpu::BufferUsages::empty();
+        SharedBindings {
+            layout,
+            row_ptr: storage(
+                device,
+                "coupling rows",
+                bytemuck::cast_slice(&c.row_ptr),
+                none,
+            ),
+            cols: storage(
+                device,
+                "coupling columns",
+                bytemuck::cast_slice(&c.cols),
+                none,
+            ),
+            vals: storage(
+                device,
+                "coupling values",
+                bytemuck::cast_slice(&c.values),
+                none,
+            ),
+            rho: storage(device, "reflectance", bytemuck::cast_slice(rho), none),
+            exitance: storage(
+                device,
+                "level exitance",
+                &vec![0u8; bytes as usize],
+                wgpu::BufferUsages::COPY_DST,
+            ),
+        }
+    }
+
+    /// The system of patches `r` running `one`, its kernels bound to the shared buffers, the
+    /// host's `buffers` (`bytes` each) and its own `x` and `y`, dispatched over `grid`.
+    fn system(
+        &self,
+        device: &wgpu::Device,
+        one: SystemGather,
+        r: Range<usize>,
+        grid: (u32, u32),
+        buffers: HostLevelBuffers<'_>,
+        bytes: u64,
+    ) -> System {
+        let m = 12 * r.len() as u64;
+        let uniform = SystemUniform {
+            start: r.start as u32,
+            count: r.len() as u32,
+            row: grid.0 * WORKGROUP,
+            _pad: 0,
+        };
+        let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("level system"),
+            contents: bytemuck::bytes_of(&uniform),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("level system"),
+            layout: &self.layout,
+            entries: &[
+                entire(0, &ubuf),
+                entire(1, &self.row_ptr),
+                entire(2, &self.cols),
+                entire(3, &self.vals),
+                sized(4, buffers.first, bytes),
+                entire(5, &self.rho),
+                entire(6, &self.exitance),
+                sized(7, buffers.gathered, bytes),
+                sized(8, &one.x, m),
+                sized(9, &one.y, m),
+            ],
+        });
+        System {
+            gather: one.gather,
+            bind_group,
+            grid,
+            count: r.len(),
+        }
+    }
+}
+
 /// A level's frame on the host's device: every system updated once, in order (block
 /// Gauss–Seidel, as [`radiosity_core::systems::Systems::frame`]): the light the other systems
 /// send it through the coupling from their latest exitance, its own transfer, its new
@@ -80,169 +306,29 @@ impl HostLevel {
         options: &GpuOptions,
         buffers: HostLevelBuffers<'_>,
     ) -> Result<Self, GpuError> {
-        let unsupported = |s: String| GpuError::Unsupported(s);
-        let sys = file
-            .systems
-            .as_ref()
-            .ok_or_else(|| unsupported("not a level file (no systems)".into()))?;
-        if !sys.is_loaded() {
-            return Err(unsupported("the level's systems are not loaded".into()));
-        }
+        let sys = loaded_systems(file)?;
         let n = file.n();
         let bytes = 12 * n as u64;
-        for (what, buffer) in [("first", buffers.first), ("gathered", buffers.gathered)] {
-            check_host_buffer(
-                "the level",
-                what,
-                buffer,
-                bytes,
-                wgpu::BufferUsages::STORAGE,
-            )?;
-        }
+        check_level_buffers(device, sys, buffers, bytes)?;
+        let grids = system_grids(device, sys)?;
+        let (gathers, gather_bytes) = system_gathers(device, queue, file, sys, options)?;
         let c = &sys.coupling;
-        let most = storage_binding_limit(&device.limits());
-        for (what, b) in [
-            ("coupling columns", 4 * c.cols.len() as u64),
-            ("per-patch light", bytes),
-        ] {
-            if b > most {
-                return Err(unsupported(format!(
-                    "the level's {what} take {b} bytes, more than one storage binding ({most} bytes)"
-                )));
-            }
-        }
-        let dl = device.limits();
-        let mut grids = Vec::with_capacity(sys.count());
-        for s in 0..sys.count() {
-            let count = sys.range(s).len();
-            grids.push(workgroup_grid(
-                &dl,
-                count.div_ceil(WORKGROUP as usize),
-                || format!("system {s}'s {count} patches"),
-            )?);
-        }
-        let mut gathers = Vec::with_capacity(sys.count());
-        let mut own = Vec::with_capacity(sys.count());
-        let mut device_bytes = 4 * (c.row_ptr.len() + 2 * c.cols.len()) as u64 + 2 * bytes;
-        for s in 0..sys.count() {
-            let one = sys
-                .system(file, s)
-                .map_err(|e| unsupported(format!("system {s}: {e}")))?;
-            let m = 12 * sys.range(s).len() as u64;
-            let make = |label: &str, usage| {
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: m.max(4),
-                    usage: wgpu::BufferUsages::STORAGE | usage,
-                    mapped_at_creation: false,
-                })
-            };
-            let xs = make("system x", wgpu::BufferUsages::COPY_SRC);
-            let ys = make("system y", wgpu::BufferUsages::empty());
-            let gather = HostGather::new(
-                device,
-                queue,
-                &one.matrix,
-                options,
-                HostGatherBuffers { x: &xs, y: &ys },
-            )
-            .map_err(|e| match e {
-                GpuError::Unsupported(why) => unsupported(format!("system {s}: {why}")),
-                other => other,
-            })?;
-            device_bytes += gather.device_bytes() + 2 * m;
-            gathers.push(gather);
-            own.push((xs, ys));
-        }
+        let device_bytes =
+            4 * (c.row_ptr.len() + 2 * c.cols.len()) as u64 + 2 * bytes + gather_bytes;
         let rho: Vec<Rgb> = file.patches.iter().map(|p| p.reflectance).collect();
         let built = in_error_scopes(device, || {
-            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("level"),
-                entries: &[
-                    layout_entry(0, buffer_ty(UNIFORM)),
-                    layout_entry(1, buffer_ty(READ)),
-                    layout_entry(2, buffer_ty(READ)),
-                    layout_entry(3, buffer_ty(READ)),
-                    layout_entry(4, buffer_ty(READ)),
-                    layout_entry(5, buffer_ty(READ)),
-                    layout_entry(6, buffer_ty(WRITE)),
-                    layout_entry(7, buffer_ty(WRITE)),
-                    layout_entry(8, buffer_ty(WRITE)),
-                    layout_entry(9, buffer_ty(READ)),
-                ],
-            });
-            let couple = pipeline(device, "level couple", LEVEL, "couple", &layout);
-            let update = pipeline(device, "level update", LEVEL, "update", &layout);
-            let none = wgpu::BufferUsages::empty();
-            let row_ptr = storage(
-                device,
-                "coupling rows",
-                bytemuck::cast_slice(&c.row_ptr),
-                none,
-            );
-            let cols = storage(
-                device,
-                "coupling columns",
-                bytemuck::cast_slice(&c.cols),
-                none,
-            );
-            let vals = storage(
-                device,
-                "coupling values",
-                bytemuck::cast_slice(&c.values),
-                none,
-            );
-            let rho = storage(device, "reflectance", bytemuck::cast_slice(&rho), none);
-            let exitance = storage(
-                device,
-                "level exitance",
-                &vec![0u8; bytes as usize],
-                wgpu::BufferUsages::COPY_DST,
-            );
+            let shared = SharedBindings::new(device, c, &rho, bytes);
+            let couple = pipeline(device, "level couple", LEVEL, "couple", &shared.layout);
+            let update = pipeline(device, "level update", LEVEL, "update", &shared.layout);
             let systems: Vec<System> = gathers
                 .into_iter()
-                .zip(&own)
                 .zip(&grids)
                 .enumerate()
-                .map(|(s, ((gather, (xs, ys)), &grid))| {
-                    let r = sys.range(s);
-                    let m = 12 * r.len() as u64;
-                    let uniform = SystemUniform {
-                        start: r.start as u32,
-                        count: r.len() as u32,
-                        row: grid.0 * WORKGROUP,
-                        _pad: 0,
-                    };
-                    let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("level system"),
-                        contents: bytemuck::bytes_of(&uniform),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
-                    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("level system"),
-                        layout: &layout,
-                        entries: &[
-                            entire(0, &ubuf),
-                            entire(1, &row_ptr),
-                            entire(2, &cols),
-                            entire(3, &vals),
-                            sized(4, buffers.first, bytes),
-                            entire(5, &rho),
-                            entire(6, &exitance),
-                            sized(7, buffers.gathered, bytes),
-                            sized(8, xs, m),
-                            sized(9, ys, m),
-                        ],
-                    });
-                    System {
-                        gather,
-                        bind_group,
-                        grid,
-                        count: r.len(),
-                    }
+                .map(|(s, (gather, &grid))| {
+                    shared.system(device, gather, sys.range(s), grid, buffers, bytes)
                 })
                 .collect();
-            (couple, update, systems, exitance)
+            (couple, update, systems, shared.exitance)
         })?;
         let (couple, update, systems, exitance) = built;
         Ok(HostLevel {

@@ -127,6 +127,7 @@ mod light_probes;
 mod plan;
 mod shader;
 pub mod texture_unit;
+mod toolkit;
 
 pub use adapter::{Adapter, AdapterChoice, AdapterInfo, DeviceKind, adapters, choose_adapter};
 pub use auto::{auto_gather, auto_level};

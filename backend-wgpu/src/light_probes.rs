@@ -2,7 +2,7 @@
 //! device from a [`crate::HostGather`]'s `x` and `y`, into a buffer the host's shaders read.
 
 use crate::GpuError;
-use crate::gather::{
+use crate::toolkit::{
     READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, entire, in_error_scopes,
     layout_entry, pipeline, record_dispatch, sized, storage, storage_binding_limit, workgroup_grid,
 };
@@ -90,6 +90,91 @@ fn table_of(emission: impl Iterator<Item = Rgb>, reflectance: &[Rgb]) -> Vec<f32
         .zip(reflectance)
         .flat_map(|(e, r)| [e.r, e.g, e.b, r.r, r.g, r.b])
         .collect()
+}
+
+/// The pass's bind group layout: the uniform, five read-only buffers (rows or basis, weights
+/// or coefficients, `x`, `y`, the patch table), the output and, for factored probes, the modes.
+fn bind_group_layout(device: &wgpu::Device, factored: bool) -> wgpu::BindGroupLayout {
+    let mut entries = vec![layout_entry(0, buffer_ty(UNIFORM))];
+    entries.extend((1..=5).map(|b| layout_entry(b, buffer_ty(READ))));
+    entries.push(layout_entry(6, buffer_ty(WRITE)));
+    if factored {
+        entries.push(layout_entry(7, buffer_ty(WRITE)));
+    }
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("probes"),
+        entries: &entries,
+    })
+}
+
+/// The kernels of the pass and what only they read: the plain kernel with the probes' rows
+/// and weights, or the factored kernels with the basis and coefficients and the modes'
+/// buffer.
+struct Kernels {
+    pipeline: wgpu::ComputePipeline,
+    /// For factored probes, the `modes` kernel, its grid and the modes it writes.
+    modes: Option<(wgpu::ComputePipeline, (u32, u32), wgpu::Buffer)>,
+    /// The bytes of the kernel's uniform.
+    uniform: Vec<u8>,
+    /// Binding 1: the probes' rows, or the factors' basis.
+    rows: wgpu::Buffer,
+    /// Binding 2: the probes' weights, or the factors' coefficients.
+    weights: wgpu::Buffer,
+}
+
+impl Kernels {
+    /// The kernels for `probes` over `patches`, bound through `layout`, dispatched over
+    /// `grid` (and the modes over `mode_grid`, given for factored probes).
+    fn new(
+        device: &wgpu::Device,
+        probes: &Probes<'_>,
+        patches: &[Patch],
+        layout: &wgpu::BindGroupLayout,
+        (grid, mode_grid): ((u32, u32), Option<(u32, u32)>),
+    ) -> Self {
+        let read_only =
+            |label: &str, bytes: &[u8]| storage(device, label, bytes, wgpu::BufferUsages::empty());
+        let Some(f) = probes.factors.as_ref() else {
+            return Kernels {
+                pipeline: pipeline(device, "probes", PROBES, "probes", layout),
+                modes: None,
+                uniform: bytemuck::bytes_of(&ProbeUniform {
+                    count: probes.len() as u32,
+                    row: grid.0,
+                    _pad: [0; 2],
+                })
+                .to_vec(),
+                rows: read_only("probe rows", bytemuck::cast_slice(&probes.rows)),
+                weights: read_only("probe weights", bytemuck::cast_slice(&probes.weights)),
+            };
+        };
+        let mode_grid = mode_grid.expect("a grid for the modes of factored probes");
+        let modes_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("probe modes"),
+            size: 12 * u64::from(f.rank),
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        Kernels {
+            pipeline: pipeline(device, "probe factors", FACTORS, "probes", layout),
+            modes: Some((
+                pipeline(device, "probe modes", FACTORS, "modes", layout),
+                mode_grid,
+                modes_buffer,
+            )),
+            uniform: bytemuck::bytes_of(&FactorUniform {
+                count: probes.len() as u32,
+                row: grid.0,
+                rank: f.rank,
+                patches: patches.len() as u32,
+                mode_row: mode_grid.0,
+                _pad: [0; 3],
+            })
+            .to_vec(),
+            rows: read_only("probe basis", &halves_as_words(&f.basis)),
+            weights: read_only("probe coefficients", &halves_as_words(&f.coefficients)),
+        }
+    }
 }
 
 impl ProbePass {
@@ -190,61 +275,14 @@ impl ProbePass {
         patch_bytes: u64,
         out_bytes: u64,
     ) -> Self {
-        let factors = probes.factors.as_ref();
-        let mut entries = vec![layout_entry(0, buffer_ty(UNIFORM))];
-        entries.extend((1..=5).map(|b| layout_entry(b, buffer_ty(READ))));
-        entries.push(layout_entry(6, buffer_ty(WRITE)));
-        if factors.is_some() {
-            entries.push(layout_entry(7, buffer_ty(WRITE)));
-        }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("probes"),
-            entries: &entries,
-        });
-        let read_only =
-            |label: &str, bytes: &[u8]| storage(device, label, bytes, wgpu::BufferUsages::empty());
-        let (pipeline, modes, uniform, rows, weights) = match factors {
-            None => (
-                pipeline(device, "probes", PROBES, "probes", &layout),
-                None,
-                bytemuck::bytes_of(&ProbeUniform {
-                    count: probes.len() as u32,
-                    row: grid.0,
-                    _pad: [0; 2],
-                })
-                .to_vec(),
-                read_only("probe rows", bytemuck::cast_slice(&probes.rows)),
-                read_only("probe weights", bytemuck::cast_slice(&probes.weights)),
-            ),
-            Some(f) => {
-                let mode_grid = mode_grid.expect("a grid for the modes of factored probes");
-                let modes_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("probe modes"),
-                    size: 12 * u64::from(f.rank),
-                    usage: wgpu::BufferUsages::STORAGE,
-                    mapped_at_creation: false,
-                });
-                (
-                    pipeline(device, "probe factors", FACTORS, "probes", &layout),
-                    Some((
-                        pipeline(device, "probe modes", FACTORS, "modes", &layout),
-                        mode_grid,
-                        modes_buffer,
-                    )),
-                    bytemuck::bytes_of(&FactorUniform {
-                        count: probes.len() as u32,
-                        row: grid.0,
-                        rank: f.rank,
-                        patches: patches.len() as u32,
-                        mode_row: mode_grid.0,
-                        _pad: [0; 3],
-                    })
-                    .to_vec(),
-                    read_only("probe basis", &halves_as_words(&f.basis)),
-                    read_only("probe coefficients", &halves_as_words(&f.coefficients)),
-                )
-            }
-        };
+        let layout = bind_group_layout(device, probes.factors.is_some());
+        let Kernels {
+            pipeline,
+            modes,
+            uniform,
+            rows,
+            weights,
+        } = Kernels::new(device, probes, patches, &layout, (grid, mode_grid));
         let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("probes"),
             contents: &uniform,

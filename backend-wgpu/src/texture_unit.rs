@@ -11,7 +11,7 @@
 use crate::GpuError;
 use crate::adapter::Adapter;
 use crate::device;
-use crate::gather::upload_texture;
+use crate::toolkit::upload_texture;
 use radiosity_core::{Bc1Block, Bc4Block, DecodeMode};
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};

@@ -162,10 +162,103 @@ enum Indirect {
 }
 
 impl Indirect {
+    /// The pass for `file` between the engine's `x` and `y`: its level's frames when it has
+    /// systems, its matrix's gather otherwise.
+    fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        file: &RadFile<'_>,
+        x_buf: &wgpu::Buffer,
+        y_buf: &wgpu::Buffer,
+    ) -> Result<Self> {
+        Ok(if file.systems.is_some() {
+            Indirect::Level(HostLevel::new(
+                device,
+                queue,
+                file,
+                &GpuOptions::default(),
+                HostLevelBuffers {
+                    first: x_buf,
+                    gathered: y_buf,
+                },
+            )?)
+        } else {
+            Indirect::One(HostGather::new(
+                device,
+                queue,
+                &file.matrix,
+                &GpuOptions::default(),
+                HostGatherBuffers { x: x_buf, y: y_buf },
+            )?)
+        })
+    }
+
     fn record(&self, encoder: &mut wgpu::CommandEncoder) {
         match self {
             Indirect::One(g) => g.record(encoder),
             Indirect::Level(l) => (0..LEVEL_FRAMES_PER_DRAW).for_each(|_| l.record(encoder)),
+        }
+    }
+}
+
+/// The scene's uniforms and the bind groups that hold them: one per cube face for the
+/// shadow pass, the camera's with the shadow cube and its sampler for the main pass.
+struct SceneBindings {
+    face_uniforms: Vec<wgpu::Buffer>,
+    main_uniform: wgpu::Buffer,
+    face_groups: Vec<wgpu::BindGroup>,
+    main_group: wgpu::BindGroup,
+}
+
+impl SceneBindings {
+    fn new(device: &wgpu::Device, pipelines: &Pipelines, targets: &Targets) -> Self {
+        let uniform = |label| {
+            buffer(
+                device,
+                label,
+                size_of::<SceneUniform>() as u64,
+                U::UNIFORM | U::COPY_DST,
+            )
+        };
+        let face_uniforms: Vec<wgpu::Buffer> = (0..6).map(|_| uniform("face")).collect();
+        let main_uniform = uniform("camera");
+        let face_groups = face_uniforms
+            .iter()
+            .map(|u| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("face"),
+                    layout: &pipelines.shadow_layout,
+                    entries: &[wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: u.as_entire_binding(),
+                    }],
+                })
+            })
+            .collect();
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor::default());
+        let main_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("main"),
+            layout: &pipelines.main_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: main_uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&targets.cube_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Sampler(&sampler),
+                },
+            ],
+        });
+        SceneBindings {
+            face_uniforms,
+            main_uniform,
+            face_groups,
+            main_group,
         }
     }
 }
@@ -213,29 +306,7 @@ impl Renderer {
             12 * corners as u64,
             U::STORAGE | U::VERTEX,
         );
-        let gather = if file.systems.is_some() {
-            Indirect::Level(HostLevel::new(
-                device,
-                queue,
-                file,
-                &GpuOptions::default(),
-                HostLevelBuffers {
-                    first: &x_buf,
-                    gathered: &y_buf,
-                },
-            )?)
-        } else {
-            Indirect::One(HostGather::new(
-                device,
-                queue,
-                &file.matrix,
-                &GpuOptions::default(),
-                HostGatherBuffers {
-                    x: &x_buf,
-                    y: &y_buf,
-                },
-            )?)
-        };
+        let gather = Indirect::new(device, queue, file, &x_buf, &y_buf)?;
         let corner_pass = CornerPass::new(
             device,
             mesh,
@@ -247,48 +318,12 @@ impl Renderer {
         let (vertex_buf, vertex_count) = mesh_vertices(device, mesh);
         let pipelines = Pipelines::new(device);
         let targets = Targets::new(device, size);
-        let uniform = |label| {
-            buffer(
-                device,
-                label,
-                size_of::<SceneUniform>() as u64,
-                U::UNIFORM | U::COPY_DST,
-            )
-        };
-        let face_uniforms: Vec<wgpu::Buffer> = (0..6).map(|_| uniform("face")).collect();
-        let main_uniform = uniform("camera");
-        let face_groups = face_uniforms
-            .iter()
-            .map(|u| {
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("face"),
-                    layout: &pipelines.shadow_layout,
-                    entries: &[wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: u.as_entire_binding(),
-                    }],
-                })
-            })
-            .collect();
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor::default());
-        let main_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("main"),
-            layout: &pipelines.main_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: main_uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&targets.cube_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Sampler(&sampler),
-                },
-            ],
-        });
+        let SceneBindings {
+            face_uniforms,
+            main_uniform,
+            face_groups,
+            main_group,
+        } = SceneBindings::new(device, &pipelines, &targets);
         Ok(Renderer {
             x_buf,
             _y_buf: y_buf,

@@ -270,117 +270,141 @@ pub fn value_histograms(path: &Path, title: &str, sets: &[(&str, &[f32])]) -> an
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(pe)?;
         let (left, right) = root.split_horizontally(600);
-        // Log-scale histogram.
-        let bins_log: Vec<Vec<(f64, f64)>> = sets
-            .iter()
-            .map(|(_, v)| {
-                let mut h = std::collections::BTreeMap::<i64, f64>::new();
-                for x in v.iter().filter(|x| **x > 0.0) {
-                    *h.entry((f64::from(*x).log10() * 10.0).floor() as i64)
-                        .or_default() += 1.0;
-                }
-                h.into_iter().map(|(b, c)| (b as f64 / 10.0, c)).collect()
-            })
-            .collect();
-        let l = left
-            .titled(
-                &format!("{title}: log10(value), non-zero entries"),
-                (FAMILY, 18),
-            )
-            .map_err(pe)?;
-        let xs = bins_log.iter().flatten().map(|p| p.0);
-        let (x0, x1) = (
-            xs.clone().fold(f64::INFINITY, f64::min) - 0.2,
-            xs.fold(f64::NEG_INFINITY, f64::max) + 0.3,
-        );
-        let (x0, x1) = if x0.is_finite() {
-            (x0, x1)
-        } else {
-            (-1.0, 1.0)
-        };
-        let ymax = bins_log.iter().flatten().map(|p| p.1).fold(1.0, f64::max) * 1.5;
-        let mut cc = ChartBuilder::on(&l)
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, (0.5..ymax).log_scale())
-            .map_err(pe)?;
-        cc.configure_mesh()
-            .x_desc("log10(value)")
-            .y_desc("entries")
-            .label_style((FAMILY, 13))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(pe)?;
-        for (k, (bins, (name, _))) in bins_log.iter().zip(sets).enumerate() {
-            let colour = COLOURS[k % COLOURS.len()];
-            cc.draw_series(bins.iter().map(|(x, c)| {
-                Rectangle::new([(*x, 0.5), (*x + 0.1, *c)], colour.mix(0.5).filled())
-            }))
-            .map_err(pe)?
-            .label(*name)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
-        }
-        cc.configure_series_labels()
-            .label_font((FAMILY, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(pe)?;
-        // Linear histogram: most entries fall in the first bin (the paper's point).
-        let r = right
-            .titled(&format!("{title}: value, linear bins"), (FAMILY, 18))
-            .map_err(pe)?;
-        let vmax = sets
-            .iter()
-            .flat_map(|(_, v)| v.iter())
-            .fold(0f32, |a, b| a.max(*b))
-            .max(1e-30);
-        let bins_lin: Vec<Vec<f64>> = sets
-            .iter()
-            .map(|(_, v)| {
-                let mut h = vec![0f64; 40];
-                for x in v.iter() {
-                    let b = ((x / vmax) * 40.0) as usize;
-                    h[b.min(39)] += 1.0;
-                }
-                h
-            })
-            .collect();
-        let ymax = bins_lin.iter().flatten().fold(1.0f64, |a, b| a.max(*b)) * 1.5;
-        let w = f64::from(vmax) / 40.0;
-        let mut cc = ChartBuilder::on(&r)
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..f64::from(vmax), (0.5..ymax).log_scale())
-            .map_err(pe)?;
-        cc.configure_mesh()
-            .x_desc("value")
-            .y_desc("entries")
-            .label_style((FAMILY, 13))
-            .x_label_formatter(&|v| format!("{v:.1e}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(pe)?;
-        for (k, bins) in bins_lin.iter().enumerate() {
-            let colour = COLOURS[k % COLOURS.len()];
-            cc.draw_series(
-                bins.iter()
-                    .enumerate()
-                    .filter(|(_, c)| **c > 0.0)
-                    .map(|(b, c)| {
-                        Rectangle::new(
-                            [(b as f64 * w, 0.5), ((b as f64 + 1.0) * w, *c)],
-                            colour.mix(0.5).filled(),
-                        )
-                    }),
-            )
-            .map_err(pe)?;
-        }
+        log_histogram(&left, title, sets)?;
+        linear_histogram(&right, title, sets)?;
         root.present().map_err(pe)?;
     }
     save(path, w, h, buf)
+}
+
+/// One half of [`value_histograms`]'s image.
+type Half<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// Per set, the counts of `log10(value)` of its positive entries in bins of 0.1 decade:
+/// `(bin start, count)` in increasing order.
+fn log_bins(sets: &[(&str, &[f32])]) -> Vec<Vec<(f64, f64)>> {
+    sets.iter()
+        .map(|(_, v)| {
+            let mut h = std::collections::BTreeMap::<i64, f64>::new();
+            for x in v.iter().filter(|x| **x > 0.0) {
+                *h.entry((f64::from(*x).log10() * 10.0).floor() as i64)
+                    .or_default() += 1.0;
+            }
+            h.into_iter().map(|(b, c)| (b as f64 / 10.0, c)).collect()
+        })
+        .collect()
+}
+
+/// The log-scale histogram of the non-zero entries, with a legend of the sets.
+fn log_histogram(area: &Half<'_>, title: &str, sets: &[(&str, &[f32])]) -> anyhow::Result<()> {
+    let bins_log = log_bins(sets);
+    let l = area
+        .titled(
+            &format!("{title}: log10(value), non-zero entries"),
+            (FAMILY, 18),
+        )
+        .map_err(pe)?;
+    let xs = bins_log.iter().flatten().map(|p| p.0);
+    let (x0, x1) = (
+        xs.clone().fold(f64::INFINITY, f64::min) - 0.2,
+        xs.fold(f64::NEG_INFINITY, f64::max) + 0.3,
+    );
+    let (x0, x1) = if x0.is_finite() {
+        (x0, x1)
+    } else {
+        (-1.0, 1.0)
+    };
+    let ymax = bins_log.iter().flatten().map(|p| p.1).fold(1.0, f64::max) * 1.5;
+    let mut cc = ChartBuilder::on(&l)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, (0.5..ymax).log_scale())
+        .map_err(pe)?;
+    cc.configure_mesh()
+        .x_desc("log10(value)")
+        .y_desc("entries")
+        .label_style((FAMILY, 13))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(pe)?;
+    for (k, (bins, (name, _))) in bins_log.iter().zip(sets).enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        cc.draw_series(
+            bins.iter().map(|(x, c)| {
+                Rectangle::new([(*x, 0.5), (*x + 0.1, *c)], colour.mix(0.5).filled())
+            }),
+        )
+        .map_err(pe)?
+        .label(*name)
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], colour.filled()));
+    }
+    cc.configure_series_labels()
+        .label_font((FAMILY, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(pe)?;
+    Ok(())
+}
+
+/// Per set, the counts of its entries in 40 equal bins from 0 to `vmax`.
+fn linear_bins(sets: &[(&str, &[f32])], vmax: f32) -> Vec<Vec<f64>> {
+    sets.iter()
+        .map(|(_, v)| {
+            let mut h = vec![0f64; 40];
+            for x in v.iter() {
+                let b = ((x / vmax) * 40.0) as usize;
+                h[b.min(39)] += 1.0;
+            }
+            h
+        })
+        .collect()
+}
+
+/// The linear histogram of every entry: most fall in the first bin (the paper's point).
+fn linear_histogram(area: &Half<'_>, title: &str, sets: &[(&str, &[f32])]) -> anyhow::Result<()> {
+    let r = area
+        .titled(&format!("{title}: value, linear bins"), (FAMILY, 18))
+        .map_err(pe)?;
+    let vmax = sets
+        .iter()
+        .flat_map(|(_, v)| v.iter())
+        .fold(0f32, |a, b| a.max(*b))
+        .max(1e-30);
+    let bins_lin = linear_bins(sets, vmax);
+    let ymax = bins_lin.iter().flatten().fold(1.0f64, |a, b| a.max(*b)) * 1.5;
+    let w = f64::from(vmax) / 40.0;
+    let mut cc = ChartBuilder::on(&r)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..f64::from(vmax), (0.5..ymax).log_scale())
+        .map_err(pe)?;
+    cc.configure_mesh()
+        .x_desc("value")
+        .y_desc("entries")
+        .label_style((FAMILY, 13))
+        .x_label_formatter(&|v| format!("{v:.1e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(pe)?;
+    for (k, bins) in bins_lin.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        cc.draw_series(
+            bins.iter()
+                .enumerate()
+                .filter(|(_, c)| **c > 0.0)
+                .map(|(b, c)| {
+                    Rectangle::new(
+                        [(b as f64 * w, 0.5), ((b as f64 + 1.0) * w, *c)],
+                        colour.mix(0.5).filled(),
+                    )
+                }),
+        )
+        .map_err(pe)?;
+    }
+    Ok(())
 }
 
 /// A colour ramp for `t` in [0, 1]: black → blue → orange → white (perceptually ordered).
@@ -456,4 +480,38 @@ pub fn side_by_side(images: &[&image::RgbImage], gap: u32) -> image::RgbImage {
         x += i64::from(i.width() + gap);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both halves of the histogram image draw the set's bars: pixels of its colour (blue,
+    /// half mixed into white) on the left (log bins) and on the right (linear bins).
+    #[test]
+    fn value_histograms_draw_both_halves() {
+        let values: Vec<f32> = (1..=2000).map(|i| 1e-4 * (i as f32).powi(2)).collect();
+        let dir = std::env::temp_dir().join(format!("radiosity-plots-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("histograms.png");
+        value_histograms(&path, "test", &[("squares", &values)]).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(img.dimensions(), (1200, 520));
+        let bluish = |x0: u32, x1: u32| {
+            (x0..x1)
+                .flat_map(|x| (0..520).map(move |y| (x, y)))
+                .filter(|&(x, y)| {
+                    let [r, g, b] = img.get_pixel(x, y).0;
+                    i32::from(b) > i32::from(r) + 20 && i32::from(b) > i32::from(g)
+                })
+                .count()
+        };
+        let (left, right) = (bluish(0, 600), bluish(600, 1200));
+        assert!(left > 1000, "log bins: {left} pixels of the set's colour");
+        assert!(
+            right > 1000,
+            "linear bins: {right} pixels of the set's colour"
+        );
+    }
 }

@@ -89,6 +89,7 @@ mod math;
 pub mod mesh;
 pub mod parts;
 mod patch;
+mod pod_bytes;
 pub mod probes;
 mod quantise;
 pub mod sky;

@@ -15,6 +15,7 @@
 //! | 4·(n+1) | patch sample row starts, one row per matrix patch |
 //! | 28·s | [`PatchSample`]s |
 
+use crate::pod_bytes::cast;
 use crate::{RadError, Rgb, SectionKind};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
@@ -285,12 +286,12 @@ impl<'a> Mesh<'a> {
             s
         };
         Ok(Mesh {
-            positions: crate::container::cast(next(sizes[0])),
-            triangles: crate::container::cast(next(sizes[1])),
-            corner_rows: crate::container::cast(next(sizes[2])),
-            corner_weights: crate::container::cast(next(sizes[3])),
-            sample_rows: crate::container::cast(next(sizes[4])),
-            samples: crate::container::cast(next(sizes[5])),
+            positions: cast(next(sizes[0])),
+            triangles: cast(next(sizes[1])),
+            corner_rows: cast(next(sizes[2])),
+            corner_weights: cast(next(sizes[3])),
+            sample_rows: cast(next(sizes[4])),
+            samples: cast(next(sizes[5])),
         })
     }
 

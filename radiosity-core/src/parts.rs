@@ -26,6 +26,7 @@
 //! | 4·E | `u32` mesh sample of each entry, increasing within a part |
 //! | 2·E | `u16` count of each entry: its weight is `count · scale` of its part |
 
+use crate::pod_bytes::{cast, u32_at};
 use crate::{RadError, SectionKind};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
@@ -130,8 +131,7 @@ impl<'a> PartRows<'a> {
         if bytes.len() < 16 {
             return Err(short(16));
         }
-        let word =
-            |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+        let word = |at: usize| u32_at(bytes, at);
         if word(12) != 0 {
             return Err(RadError::Invalid {
                 section: SectionKind::Parts,
@@ -155,10 +155,10 @@ impl<'a> PartRows<'a> {
         let b = a + 4 * SKY * s as usize;
         let c = b + 4 * e as usize;
         Ok(PartRows {
-            parts: crate::container::cast(&bytes[16..a]),
-            sky: crate::container::cast(&bytes[a..b]),
-            samples: crate::container::cast(&bytes[b..c]),
-            counts: crate::container::cast(&bytes[c..]),
+            parts: cast(&bytes[16..a]),
+            sky: cast(&bytes[a..b]),
+            samples: cast(&bytes[b..c]),
+            counts: cast(&bytes[c..]),
         })
     }
 

@@ -21,6 +21,7 @@
 //! coefficient is zero. A file without the section was baked without sky visibility, and a
 //! runtime refuses a sky for it rather than light it wrongly.
 
+use crate::pod_bytes::cast;
 use crate::probes::{SH_COEFFICIENTS, sh_basis};
 use crate::{LightError, RadError, Rgb, SectionKind, math};
 use alloc::borrow::Cow;
@@ -314,7 +315,7 @@ impl<'a> SkyVisibility<'a> {
             });
         }
         Ok(SkyVisibility {
-            values: crate::container::cast(bytes),
+            values: cast(bytes),
         })
     }
 

@@ -1,8 +1,9 @@
 //! The last step of building a [`super::WgpuGather`]: each dispatch's uniform, its share of
 //! the matrix on the device (a band's blocks, a sparse band's rows) and its bind group.
 
-use super::setup::{Buffers, FramePlan, storage, u32_of, upload_texture};
+use super::setup::{Buffers, FramePlan, u32_of};
 use crate::shader::{self, Source};
+use crate::toolkit::{storage, upload_texture};
 use crate::{GpuError, conv};
 use bytemuck::{Pod, Zeroable};
 use radiosity_core::{SparseRows, TransferMatrix};

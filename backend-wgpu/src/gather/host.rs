@@ -2,7 +2,7 @@
 //! the host's command encoder between the host's buffers.
 
 use super::Frame;
-use super::setup::{check_host_buffer, in_error_scopes, storage_binding_limit};
+use crate::toolkit::{check_host_buffer, in_error_scopes, storage_binding_limit};
 use crate::{DecodePath, GpuError, GpuOptions};
 use radiosity_core::{DecodeMode, TransferMatrix};
 

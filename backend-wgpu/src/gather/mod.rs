@@ -15,11 +15,6 @@ pub use host::{HostGather, HostGatherBuffers};
 
 #[cfg(test)]
 pub(crate) use setup::workgroup_bytes;
-pub(crate) use setup::{
-    READ, UNIFORM, WRITE, buffer_ty, check_host_buffer, check_pass_limits, entire, in_error_scopes,
-    layout_entry, pipeline, record_dispatch, sized, storage, storage_binding_limit, upload_texture,
-    workgroup_grid,
-};
 
 use crate::adapter::{Adapter, AdapterInfo, choose_adapter};
 use crate::device::{self, SerialDevice};

@@ -4,10 +4,12 @@
 //! ([`Pipelines::new`]). The bind groups of each dispatch are made in `bind.rs`.
 
 use crate::plan::{self, Band, PlanLimits};
-use crate::shader::{self, Source, WORKGROUP};
+use crate::shader::{self, Source};
+use crate::toolkit::{
+    READ, UNIFORM, WRITE, buffer_ty, layout_entry, pipeline, storage, storage_binding_limit,
+};
 use crate::{DecodePath, GpuError, GpuOptions};
 use radiosity_core::{DecodeMode, MatrixLayout, SparseRows, TransferMatrix};
-use wgpu::util::DeviceExt;
 
 /// Workgroups one gather dispatch should have, when the matrix has columns enough: a large
 /// GPU keeps tens of workgroups of 64 invocations resident on each of its 100–150
@@ -33,156 +35,6 @@ fn column_splits(row_workgroups: usize, cols: usize, max: u32) -> usize {
 /// `v` as a `u32` for a uniform, or why the matrix is too large for one.
 pub(super) fn u32_of(v: usize, what: &str) -> Result<u32, GpuError> {
     u32::try_from(v).map_err(|_| GpuError::Unsupported(format!("{what} {v} does not fit 32 bits")))
-}
-
-/// Checks one of the host's buffers before `pass` (named in the message) binds it: at least
-/// `bytes` long, with `usage`.
-pub(crate) fn check_host_buffer(
-    pass: &str,
-    what: &str,
-    buffer: &wgpu::Buffer,
-    bytes: u64,
-    usage: wgpu::BufferUsages,
-) -> Result<(), GpuError> {
-    if buffer.size() < bytes {
-        return Err(GpuError::Unsupported(format!(
-            "the host's {what} buffer has {} bytes, {pass} needs {bytes}",
-            buffer.size()
-        )));
-    }
-    if !buffer.usage().contains(usage) {
-        return Err(GpuError::Unsupported(format!(
-            "the host's {what} buffer lacks usage {usage:?} (it has {:?})",
-            buffer.usage()
-        )));
-    }
-    Ok(())
-}
-
-/// Refuses a device short of what a host-device pass of one 64-wide workgroup, `storage`
-/// storage buffers and one uniform needs, naming the limit.
-pub(crate) fn check_pass_limits(
-    device: &wgpu::Device,
-    pass: &str,
-    storage: u32,
-) -> Result<(), GpuError> {
-    let dl = device.limits();
-    let needs = [
-        (
-            "max_compute_workgroup_size_x",
-            dl.max_compute_workgroup_size_x,
-            WORKGROUP,
-        ),
-        (
-            "max_compute_invocations_per_workgroup",
-            dl.max_compute_invocations_per_workgroup,
-            WORKGROUP,
-        ),
-        (
-            "max_storage_buffers_per_shader_stage",
-            dl.max_storage_buffers_per_shader_stage,
-            storage,
-        ),
-        (
-            "max_uniform_buffers_per_shader_stage",
-            dl.max_uniform_buffers_per_shader_stage,
-            1,
-        ),
-    ];
-    for (name, has, need) in needs {
-        if has < need {
-            return Err(GpuError::Unsupported(format!(
-                "the device's {name} is {has}, {pass} needs {need}"
-            )));
-        }
-    }
-    Ok(())
-}
-
-/// Runs `build` inside validation and out-of-memory error scopes, so a failed build is an
-/// `Err` and never reaches the device's error handler.
-pub(crate) fn in_error_scopes<T>(
-    device: &wgpu::Device,
-    build: impl FnOnce() -> T,
-) -> Result<T, GpuError> {
-    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let built = build();
-    let oom = pollster::block_on(oom.pop());
-    let validation = pollster::block_on(validation.pop());
-    match oom.or(validation) {
-        Some(e) => Err(GpuError::Device(e.to_string())),
-        None => Ok(built),
-    }
-}
-
-/// The first `bytes` of `buffer` as bind group entry `binding` (at least 4 bytes: an empty
-/// binding is invalid; a pass with nothing to do then dispatches nothing).
-pub(crate) fn sized(binding: u32, buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-            buffer,
-            offset: 0,
-            size: wgpu::BufferSize::new(bytes.max(4).min(buffer.size())),
-        }),
-    }
-}
-
-/// A dispatch grid `(x, y)` of at least `workgroups` workgroups within the device's
-/// per-dimension limit, or an `Err` naming `what` needs them.
-pub(crate) fn workgroup_grid(
-    dl: &wgpu::Limits,
-    workgroups: usize,
-    what: impl FnOnce() -> String,
-) -> Result<(u32, u32), GpuError> {
-    let per_dim = dl.max_compute_workgroups_per_dimension.max(1);
-    let too_many = |what: String| {
-        GpuError::Unsupported(format!(
-            "{what} need {workgroups} workgroups, more than {per_dim}²"
-        ))
-    };
-    let Ok(count) = u32::try_from(workgroups) else {
-        return Err(too_many(what()));
-    };
-    let gx = count.clamp(1, per_dim);
-    let gy = count.div_ceil(gx).max(1);
-    if gy > per_dim {
-        return Err(too_many(what()));
-    }
-    Ok((gx, gy))
-}
-
-/// The whole of `buffer` as bind group entry `binding`.
-pub(crate) fn entire(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
-
-/// Records one compute pass of one dispatch of `pipeline` over `grid` workgroups, between
-/// `timestamps` if given: the whole frame of a host-device pass (corners, probes).
-pub(crate) fn record_dispatch(
-    encoder: &mut wgpu::CommandEncoder,
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    bind_group: &wgpu::BindGroup,
-    grid: (u32, u32),
-    timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
-) {
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(label),
-        timestamp_writes: timestamps,
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bind_group, &[]);
-    pass.dispatch_workgroups(grid.0, grid.1, 1);
-}
-
-/// Bytes one storage binding may have on a device of limits `dl`.
-pub(crate) fn storage_binding_limit(dl: &wgpu::Limits) -> u64 {
-    dl.max_storage_buffer_binding_size.min(dl.max_buffer_size)
 }
 
 /// The limits a plan respects: the device's, lowered by the caps of `options`.
@@ -512,12 +364,6 @@ pub(super) struct Pipelines {
     pub(super) finish_layout: wgpu::BindGroupLayout,
 }
 
-pub(crate) const UNIFORM: wgpu::BufferBindingType = wgpu::BufferBindingType::Uniform;
-pub(crate) const READ: wgpu::BufferBindingType =
-    wgpu::BufferBindingType::Storage { read_only: true };
-pub(crate) const WRITE: wgpu::BufferBindingType =
-    wgpu::BufferBindingType::Storage { read_only: false };
-
 impl Pipelines {
     /// The kernels for a matrix of layout `l` reading blocks from `source`; `software_mode`
     /// is the palette rounding of the buffer source.
@@ -592,109 +438,4 @@ impl Pipelines {
             finish_layout,
         }
     }
-}
-
-/// A storage buffer of at least 4 bytes (an empty binding is invalid) with `data` in it.
-pub(crate) fn storage(
-    device: &wgpu::Device,
-    label: &str,
-    data: &[u8],
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    let padded;
-    let contents = if data.len() < 4 {
-        padded = [0u8; 4];
-        &padded[..]
-    } else {
-        data
-    };
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage: wgpu::BufferUsages::STORAGE | usage,
-    })
-}
-
-pub(crate) fn layout_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty,
-        count: None,
-    }
-}
-
-pub(crate) fn buffer_ty(ty: wgpu::BufferBindingType) -> wgpu::BindingType {
-    wgpu::BindingType::Buffer {
-        ty,
-        has_dynamic_offset: false,
-        min_binding_size: None,
-    }
-}
-
-pub(crate) fn pipeline(
-    device: &wgpu::Device,
-    label: &str,
-    source: &str,
-    entry: &str,
-    layout: &wgpu::BindGroupLayout,
-) -> wgpu::ComputePipeline {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(label),
-        bind_group_layouts: &[Some(layout)],
-        immediate_size: 0,
-    });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: Some(&pl),
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    })
-}
-
-/// A `cols·4 × rows·4` BC texture holding `data` (`rows` rows of `cols` blocks), and its view.
-pub(crate) fn upload_texture(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    format: wgpu::TextureFormat,
-    (cols, rows): (usize, usize),
-    data: &[u8],
-) -> wgpu::TextureView {
-    let size = wgpu::Extent3d {
-        width: (cols * 4) as u32,
-        height: (rows * 4) as u32,
-        depth_or_array_layers: 1,
-    };
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("blocks"),
-        size,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
-    queue.write_texture(
-        wgpu::TexelCopyTextureInfo {
-            texture: &texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        data,
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some((cols * 8) as u32),
-            rows_per_image: Some(rows as u32),
-        },
-        size,
-    );
-    texture.create_view(&wgpu::TextureViewDescriptor::default())
 }

@@ -27,7 +27,6 @@ mod read;
 mod systems;
 mod write;
 
-pub(crate) use read::cast;
 pub use read::{head_len, section_ranges};
 pub use systems::{LevelSystems, SystemEntry};
 pub use write::reseal;
@@ -241,6 +240,15 @@ fn f32_to_opt(v: f32) -> Option<f32> {
     (v >= 0.0).then_some(v)
 }
 
+/// [`RadError::Invalid`] for entry `index` of `section`.
+fn invalid(section: SectionKind, index: usize, reason: &'static str) -> RadError {
+    RadError::Invalid {
+        section,
+        index: index as u64,
+        reason,
+    }
+}
+
 impl<'a> RadFile<'a> {
     /// Patches.
     pub fn n(&self) -> usize {
@@ -253,11 +261,16 @@ impl<'a> RadFile<'a> {
     /// Checks everything [`RadFile::parse`] checks beyond the byte structure.
     pub fn validate(&self) -> Result<(), RadError> {
         let n = self.n();
-        let bad = |section, index: usize, reason| RadError::Invalid {
-            section,
-            index: index as u64,
-            reason,
-        };
+        self.validate_patches(n)?;
+        self.validate_order(n)?;
+        self.validate_meta()?;
+        self.validate_optional(n)?;
+        self.validate_transfer(n)
+    }
+
+    /// One patch and one order entry each of the `n`, every patch finite, of positive area,
+    /// unit normal, reflectance in [0, 1), emission not negative, its object in range.
+    fn validate_patches(&self, n: usize) -> Result<(), RadError> {
         if self.patches.len() != n {
             return Err(RadError::Count {
                 section: SectionKind::Patches,
@@ -272,63 +285,64 @@ impl<'a> RadFile<'a> {
                 found: self.order.len() as u64,
             });
         }
+        let bad = |i: usize, reason| invalid(SectionKind::Patches, i, reason);
         for (i, p) in self.patches.iter().enumerate() {
             let finite = p.centre.iter().chain(&p.normal).all(|v| v.is_finite())
                 && p.area.is_finite()
                 && p.reflectance.is_finite()
                 && p.emission.is_finite();
             if !finite {
-                return Err(bad(
-                    SectionKind::Patches,
-                    i,
-                    "patch has a NaN or infinite field",
-                ));
+                return Err(bad(i, "patch has a NaN or infinite field"));
             }
             if !(p.area > 0.0) {
-                return Err(bad(SectionKind::Patches, i, "patch area is not positive"));
+                return Err(bad(i, "patch area is not positive"));
             }
             let len2: f32 = p.normal.iter().map(|v| v * v).sum();
             if (len2 - 1.0).abs() > 1e-3 {
-                return Err(bad(
-                    SectionKind::Patches,
-                    i,
-                    "patch normal is not unit length",
-                ));
+                return Err(bad(i, "patch normal is not unit length"));
             }
             if p.reflectance.min_channel() < 0.0 || p.reflectance.max_channel() >= 1.0 {
-                return Err(bad(SectionKind::Patches, i, "reflectance outside [0, 1)"));
+                return Err(bad(i, "reflectance outside [0, 1)"));
             }
             if p.emission.min_channel() < 0.0 {
-                return Err(bad(SectionKind::Patches, i, "emission is negative"));
+                return Err(bad(i, "emission is negative"));
             }
             if p.object as usize >= self.objects.len() {
-                return Err(bad(SectionKind::Patches, i, "object index out of range"));
+                return Err(bad(i, "object index out of range"));
             }
         }
+        Ok(())
+    }
+
+    /// The order is a permutation of the `n` patches.
+    fn validate_order(&self, n: usize) -> Result<(), RadError> {
+        let bad = |i: usize, reason| invalid(SectionKind::Order, i, reason);
         let mut seen = alloc::vec![0u64; n.div_ceil(64)];
         for (i, &o) in self.order.iter().enumerate() {
             let o = o as usize;
             if o >= n {
-                return Err(bad(SectionKind::Order, i, "patch index out of range"));
+                return Err(bad(i, "patch index out of range"));
             }
             if seen[o / 64] & (1 << (o % 64)) != 0 {
-                return Err(bad(
-                    SectionKind::Order,
-                    i,
-                    "patch index repeated: not a permutation",
-                ));
+                return Err(bad(i, "patch index repeated: not a permutation"));
             }
             seen[o / 64] |= 1 << (o % 64);
         }
+        Ok(())
+    }
+
+    /// What META carries: the object count within a `u32`, error estimates finite and not
+    /// negative, at least one bounce.
+    fn validate_meta(&self) -> Result<(), RadError> {
         if self.objects.len() > u32::MAX as usize {
-            return Err(bad(SectionKind::Objects, 0, "too many objects"));
+            return Err(invalid(SectionKind::Objects, 0, "too many objects"));
         }
         for v in [self.compression_rmse, self.lighting_error]
             .into_iter()
             .flatten()
         {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(
+                return Err(invalid(
                     SectionKind::Meta,
                     0,
                     "error estimate not finite and non-negative",
@@ -336,8 +350,15 @@ impl<'a> RadFile<'a> {
             }
         }
         if let Bounces::Finite(0) = self.bounces {
-            return Err(bad(SectionKind::Meta, 0, "bounces must be at least 1"));
+            return Err(invalid(SectionKind::Meta, 0, "bounces must be at least 1"));
         }
+        Ok(())
+    }
+
+    /// The optional sections against the `n` patches and each other: probes, mesh, sky
+    /// (one entry per patch and probe), parts (against the mesh's samples) and coverage (one
+    /// value in (0, 1] per mesh triangle).
+    fn validate_optional(&self, n: usize) -> Result<(), RadError> {
         if let Some(probes) = &self.probes {
             probes.validate(n)?;
         }
@@ -361,17 +382,23 @@ impl<'a> RadFile<'a> {
                 });
             }
             if let Some(i) = coverage.iter().position(|c| !(*c > 0.0 && *c <= 1.0)) {
-                return Err(bad(SectionKind::Coverage, i, "coverage not in (0, 1]"));
+                return Err(invalid(SectionKind::Coverage, i, "coverage not in (0, 1]"));
             }
         }
+        Ok(())
+    }
+
+    /// Where the transfer lives: the file's own matrix, or (a level file) its systems over
+    /// the `n` patches, each loaded system checked, and then no matrix of its own.
+    fn validate_transfer(&self, n: usize) -> Result<(), RadError> {
         match &self.systems {
-            None if self.matrix.layout.is_none() => Err(bad(
+            None if self.matrix.layout.is_none() => Err(invalid(
                 SectionKind::Meta,
                 0,
                 "a file without systems has no matrix",
             )),
             None => self.matrix.validate(),
-            Some(_) if !self.matrix.layout.is_none() => Err(bad(
+            Some(_) if !self.matrix.layout.is_none() => Err(invalid(
                 SectionKind::Systems,
                 0,
                 "a level file with its own matrix",

@@ -10,12 +10,12 @@ use crate::checksum::crc32;
 use crate::layout::{Format, MatrixLayout};
 use crate::mesh::Mesh;
 use crate::parts::PartRows;
+use crate::pod_bytes::{cast, u32_at};
 use crate::probes::Probes;
 use crate::sky::SkyVisibility;
 use crate::{BlockCorrections, Patch, RadError, SectionKind, SparseRows, TransferMatrix};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
-use bytemuck::Pod;
 
 impl<'a> RadFile<'a> {
     /// Parses and fully validates a `.rad` file. Never panics and never reads out of bounds,
@@ -34,10 +34,123 @@ impl<'a> RadFile<'a> {
     }
 
     fn parse_structure(s: Structure<'a>) -> Result<Self, RadError> {
-        let sec = |k: SectionKind| s.sections[k as usize - 1];
-        let meta_bytes = sec(SectionKind::Meta).ok_or(RadError::MissingSection {
-            kind: SectionKind::Meta,
+        let meta = s.meta()?;
+        let format = Format::from_u32(meta.format).ok_or(RadError::Invalid {
+            section: SectionKind::Meta,
+            index: 0,
+            reason: "unknown matrix format code",
         })?;
+        let level = s.level(&meta)?;
+        let layout = if level.is_some() {
+            MatrixLayout::none(meta.channels, format, meta.max_tile)?
+        } else {
+            MatrixLayout::new(meta.n, meta.channels, format, meta.max_tile)?
+        };
+        let (bounces, patch_order) = meta_codes(&meta)?;
+        let corrections = read_corrections(&s, &meta, &layout)?;
+        let n = u64::from(meta.n);
+        let patches = s.required(SectionKind::Patches)?;
+        expect_len(
+            SectionKind::Patches,
+            patches,
+            n * core::mem::size_of::<Patch>() as u64,
+        )?;
+        let order = s.required(SectionKind::Order)?;
+        expect_len(SectionKind::Order, order, 4 * n)?;
+        let matrix = s.matrix(&meta, layout, corrections)?;
+        let objects = decode_objects(s.required(SectionKind::Objects)?, meta.object_count)?;
+        let report = s.report()?;
+        let file = RadFile {
+            patches: cast(patches),
+            order: cast(order),
+            matrix,
+            objects,
+            bounces,
+            patch_order,
+            compression_rmse: f32_to_opt(meta.compression_rmse),
+            lighting_error: f32_to_opt(meta.lighting_error),
+            report,
+            mesh: s
+                .section(SectionKind::Mesh)
+                .map(|m| Mesh::from_bytes(m, n as usize))
+                .transpose()?,
+            probes: s
+                .section(SectionKind::Probes)
+                .map(Probes::from_bytes)
+                .transpose()?,
+            sky: s
+                .section(SectionKind::Sky)
+                .map(SkyVisibility::from_bytes)
+                .transpose()?,
+            parts: s
+                .section(SectionKind::Parts)
+                .map(PartRows::from_bytes)
+                .transpose()?,
+            coverage: s
+                .section(SectionKind::Coverage)
+                .map(coverage_of)
+                .transpose()?,
+            systems: level.map(|l| s.with_data(l)),
+        };
+        file.validate()?;
+        Ok(file)
+    }
+}
+
+/// META's bounce count and patch order, once its error estimates are known to be finite
+/// (negative means "not measured"; NaN and infinity mean corruption).
+fn meta_codes(meta: &Meta) -> Result<(Bounces, PatchOrder), RadError> {
+    let bad = |reason| RadError::Invalid {
+        section: SectionKind::Meta,
+        index: 0,
+        reason,
+    };
+    let bounces = Bounces::from_u32(meta.bounces).ok_or(bad("bounces must be at least 1"))?;
+    let patch_order = PatchOrder::from_u32(meta.order).ok_or(bad("unknown patch order code"))?;
+    if [meta.compression_rmse, meta.lighting_error]
+        .iter()
+        .any(|v| !v.is_finite())
+    {
+        return Err(bad("error estimate is not finite"));
+    }
+    Ok((bounces, patch_order))
+}
+
+/// The COVERAGE section as f32s (whole ones; [`RadFile::validate`] checks their values).
+fn coverage_of(b: &[u8]) -> Result<Cow<'_, [f32]>, RadError> {
+    if b.len().is_multiple_of(4) {
+        Ok(cast::<f32>(b))
+    } else {
+        Err(RadError::SectionLength {
+            kind: SectionKind::Coverage,
+            expected: (b.len() as u64).next_multiple_of(4),
+            found: b.len() as u64,
+        })
+    }
+}
+
+/// The byte-level structure of a file: the header and each known section's bytes.
+struct Structure<'a> {
+    version: u32,
+    sections: [Option<&'a [u8]>; SectionKind::ALL.len()],
+    /// SYSTEM_DATA's offset, its bytes (empty when only the head was read) and its length.
+    data: Option<(u64, (&'a [u8], u64))>,
+}
+
+impl<'a> Structure<'a> {
+    /// The bytes of section `kind`, if the file has it.
+    fn section(&self, kind: SectionKind) -> Option<&'a [u8]> {
+        self.sections[kind as usize - 1]
+    }
+
+    /// The bytes of section `kind`, or [`RadError::MissingSection`].
+    fn required(&self, kind: SectionKind) -> Result<&'a [u8], RadError> {
+        self.section(kind).ok_or(RadError::MissingSection { kind })
+    }
+
+    /// META, of its exact length, with its reserved fields zero.
+    fn meta(&self) -> Result<Meta, RadError> {
+        let meta_bytes = self.required(SectionKind::Meta)?;
         expect_len(
             SectionKind::Meta,
             meta_bytes,
@@ -51,26 +164,27 @@ impl<'a> RadFile<'a> {
                 reason: "reserved field is not zero",
             });
         }
-        let format = Format::from_u32(meta.format).ok_or(RadError::Invalid {
-            section: SectionKind::Meta,
-            index: 0,
-            reason: "unknown matrix format code",
-        })?;
-        let level = match (sec(SectionKind::Systems), sec(SectionKind::Coupling)) {
-            (None, None) if s.data.is_none() => None,
-            (Some(table), Some(coupling)) if s.data.is_some() => {
-                if s.version < 3 {
+        Ok(meta)
+    }
+
+    /// The level's systems from SYSTEMS and COUPLING (a version-3 file with SYSTEM_DATA),
+    /// or `None` in a file with none of the three; a file with only some of them is missing
+    /// the first of the others.
+    fn level(&self, meta: &Meta) -> Result<Option<LevelSystems<'a>>, RadError> {
+        match (
+            self.section(SectionKind::Systems),
+            self.section(SectionKind::Coupling),
+        ) {
+            (None, None) if self.data.is_none() => Ok(None),
+            (Some(table), Some(coupling)) if self.data.is_some() => {
+                if self.version < 3 {
                     return Err(RadError::Invalid {
                         section: SectionKind::Systems,
                         index: 0,
                         reason: "systems in a file before version 3",
                     });
                 }
-                Some(LevelSystems::from_sections(
-                    table,
-                    coupling,
-                    meta.n as usize,
-                )?)
+                LevelSystems::from_sections(table, coupling, meta.n as usize).map(Some)
             }
             _ => {
                 let kind = [
@@ -79,135 +193,73 @@ impl<'a> RadFile<'a> {
                     SectionKind::SystemData,
                 ]
                 .into_iter()
-                .find(|k| sec(*k).is_none() && (*k != SectionKind::SystemData || s.data.is_none()))
+                .find(|k| {
+                    self.section(*k).is_none()
+                        && (*k != SectionKind::SystemData || self.data.is_none())
+                })
                 .unwrap_or(SectionKind::Systems);
-                return Err(RadError::MissingSection { kind });
-            }
-        };
-        let layout = if level.is_some() {
-            MatrixLayout::none(meta.channels, format, meta.max_tile)?
-        } else {
-            MatrixLayout::new(meta.n, meta.channels, format, meta.max_tile)?
-        };
-        let bounces = Bounces::from_u32(meta.bounces).ok_or(RadError::Invalid {
-            section: SectionKind::Meta,
-            index: 0,
-            reason: "bounces must be at least 1",
-        })?;
-        let patch_order = PatchOrder::from_u32(meta.order).ok_or(RadError::Invalid {
-            section: SectionKind::Meta,
-            index: 0,
-            reason: "unknown patch order code",
-        })?;
-        for v in [meta.compression_rmse, meta.lighting_error] {
-            // Negative means "not measured"; NaN and infinity mean corruption.
-            if !v.is_finite() {
-                return Err(RadError::Invalid {
-                    section: SectionKind::Meta,
-                    index: 0,
-                    reason: "error estimate is not finite",
-                });
+                Err(RadError::MissingSection { kind })
             }
         }
-        // The level's patches; the matrix's rows (none in a level file).
-        let (n, rows_n) = (meta.n as u64, layout.n() as u64);
-        let (ch, nnz) = (meta.channels as u64, meta.sparse_nnz as u64);
-        let corrections = read_corrections(&s, &meta, &layout)?;
-        let required = |k: SectionKind| sec(k).ok_or(RadError::MissingSection { kind: k });
-        let patches = required(SectionKind::Patches)?;
-        expect_len(
-            SectionKind::Patches,
-            patches,
-            n * core::mem::size_of::<Patch>() as u64,
-        )?;
-        let order = required(SectionKind::Order)?;
-        expect_len(SectionKind::Order, order, 4 * n)?;
-        let scales = required(SectionKind::Scales)?;
-        expect_len(SectionKind::Scales, scales, 8 * layout.scale_count() as u64)?;
-        let blocks = required(SectionKind::Blocks)?;
-        expect_len(SectionKind::Blocks, blocks, layout.block_bytes())?;
-        let rows = required(SectionKind::SparseRows)?;
-        expect_len(SectionKind::SparseRows, rows, 4 * (rows_n + 1))?;
-        let cols = required(SectionKind::SparseCols)?;
-        expect_len(SectionKind::SparseCols, cols, 4 * nnz)?;
-        let values = required(SectionKind::SparseValues)?;
-        expect_len(SectionKind::SparseValues, values, 4 * nnz * ch)?;
-        let objects = decode_objects(required(SectionKind::Objects)?, meta.object_count)?;
-        let report = match sec(SectionKind::Report) {
-            None => None,
-            Some(r) => Some(Cow::Borrowed(core::str::from_utf8(r).map_err(|e| {
-                RadError::Invalid {
-                    section: SectionKind::Report,
-                    index: e.valid_up_to() as u64,
-                    reason: "report is not valid UTF-8",
-                }
-            })?)),
-        };
-        let file = RadFile {
-            patches: cast(patches),
-            order: cast(order),
-            matrix: TransferMatrix {
-                layout,
-                scales: cast(scales),
-                blocks: Cow::Borrowed(blocks),
-                sparse: SparseRows {
-                    row_ptr: cast(rows),
-                    cols: cast(cols),
-                    values: cast(values),
-                },
-                corrections,
-            },
-            objects,
-            bounces,
-            patch_order,
-            compression_rmse: f32_to_opt(meta.compression_rmse),
-            lighting_error: f32_to_opt(meta.lighting_error),
-            report,
-            mesh: sec(SectionKind::Mesh)
-                .map(|m| Mesh::from_bytes(m, n as usize))
-                .transpose()?,
-            probes: sec(SectionKind::Probes)
-                .map(Probes::from_bytes)
-                .transpose()?,
-            sky: sec(SectionKind::Sky)
-                .map(SkyVisibility::from_bytes)
-                .transpose()?,
-            parts: sec(SectionKind::Parts)
-                .map(PartRows::from_bytes)
-                .transpose()?,
-            coverage: sec(SectionKind::Coverage)
-                .map(|b| {
-                    if b.len() % 4 == 0 {
-                        Ok(cast::<f32>(b))
-                    } else {
-                        Err(RadError::SectionLength {
-                            kind: SectionKind::Coverage,
-                            expected: (b.len() as u64).next_multiple_of(4),
-                            found: b.len() as u64,
-                        })
-                    }
-                })
-                .transpose()?,
-            systems: level.map(|mut l| {
-                if let Some((offset, data)) = s.data {
-                    l.data_offset = offset;
-                    l.data_len = data.1;
-                    l.data = Cow::Borrowed(data.0);
-                }
-                l
-            }),
-        };
-        file.validate()?;
-        Ok(file)
     }
-}
 
-/// The byte-level structure of a file: the header and each known section's bytes.
-struct Structure<'a> {
-    version: u32,
-    sections: [Option<&'a [u8]>; SectionKind::ALL.len()],
-    /// SYSTEM_DATA's offset, its bytes (empty when only the head was read) and its length.
-    data: Option<(u64, (&'a [u8], u64))>,
+    /// The transfer matrix of `layout` (no rows in a level file): its scales, blocks and
+    /// sparse part, each of the length META and the layout give, and `corrections`.
+    fn matrix(
+        &self,
+        meta: &Meta,
+        layout: MatrixLayout,
+        corrections: BlockCorrections<'a>,
+    ) -> Result<TransferMatrix<'a>, RadError> {
+        let rows_n = layout.n() as u64;
+        let (ch, nnz) = (u64::from(meta.channels), u64::from(meta.sparse_nnz));
+        let scales = self.required(SectionKind::Scales)?;
+        expect_len(SectionKind::Scales, scales, 8 * layout.scale_count() as u64)?;
+        let blocks = self.required(SectionKind::Blocks)?;
+        expect_len(SectionKind::Blocks, blocks, layout.block_bytes())?;
+        let rows = self.required(SectionKind::SparseRows)?;
+        expect_len(SectionKind::SparseRows, rows, 4 * (rows_n + 1))?;
+        let cols = self.required(SectionKind::SparseCols)?;
+        expect_len(SectionKind::SparseCols, cols, 4 * nnz)?;
+        let values = self.required(SectionKind::SparseValues)?;
+        expect_len(SectionKind::SparseValues, values, 4 * nnz * ch)?;
+        Ok(TransferMatrix {
+            layout,
+            scales: cast(scales),
+            blocks: Cow::Borrowed(blocks),
+            sparse: SparseRows {
+                row_ptr: cast(rows),
+                cols: cast(cols),
+                values: cast(values),
+            },
+            corrections,
+        })
+    }
+
+    /// The REPORT section's text, if any.
+    fn report(&self) -> Result<Option<Cow<'a, str>>, RadError> {
+        self.section(SectionKind::Report)
+            .map(|r| {
+                core::str::from_utf8(r)
+                    .map(Cow::Borrowed)
+                    .map_err(|e| RadError::Invalid {
+                        section: SectionKind::Report,
+                        index: e.valid_up_to() as u64,
+                        reason: "report is not valid UTF-8",
+                    })
+            })
+            .transpose()
+    }
+
+    /// `level` with SYSTEM_DATA's place, length and (when read) bytes.
+    fn with_data(&self, mut level: LevelSystems<'a>) -> LevelSystems<'a> {
+        if let Some((offset, data)) = self.data {
+            level.data_offset = offset;
+            level.data_len = data.1;
+            level.data = Cow::Borrowed(data.0);
+        }
+        level
+    }
 }
 
 /// The block corrections META announces: all four sections with their exact lengths when
@@ -223,7 +275,7 @@ fn read_corrections<'a>(
         SectionKind::CorrectionExponents,
         SectionKind::CorrectionCodes,
     ];
-    let sec = |k: SectionKind| s.sections[k as usize - 1];
+    let sec = |k: SectionKind| s.section(k);
     let count = u64::from(meta.correction_count);
     if count == 0 {
         if let Some(&kind) = KINDS.iter().find(|k| sec(**k).is_some()) {
@@ -336,94 +388,29 @@ fn read_structure(bytes: &[u8], head: bool) -> Result<Structure<'_>, RadError> {
             .iter()
             .any(|e| e.kind == SectionKind::SystemData as u32);
     let actual = bytes.len() as u64;
-    if !head && actual < header.file_len {
-        return Err(RadError::Truncated {
-            needed: header.file_len,
-            actual,
-        });
-    }
-    if !head && actual > header.file_len {
-        return Err(RadError::TrailingBytes {
-            expected: header.file_len,
-            actual,
-        });
+    if !head {
+        check_file_len(&header, actual)?;
     }
     let mut sections = [None; SectionKind::ALL.len()];
     let mut data = None;
     let mut pos = 32 + 32 * u64::from(header.section_count);
     let mut last_kind = 0u32;
     for (i, e) in entries.iter().enumerate() {
-        let entry_offset = 32 + 32 * i as u64;
-        let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection {
-            index: i as u32,
-            kind: e.kind,
-        })?;
-        if e.kind <= last_kind {
-            return Err(RadError::SectionOrder {
-                index: i as u32,
-                kind,
-            });
-        }
+        let kind = check_entry(i, e, last_kind, pos)?;
         last_kind = e.kind;
-        if e.reserved != 0 {
-            return Err(RadError::NonZeroReserved {
-                offset: entry_offset + 4,
-            });
-        }
-        if e.reserved2 != 0 {
-            return Err(RadError::NonZeroReserved {
-                offset: entry_offset + 28,
-            });
-        }
-        let expected = align(pos);
-        if e.offset != expected {
-            return Err(RadError::SectionPlacement {
-                kind,
-                offset: e.offset,
-                expected,
-            });
-        }
         if head && kind == SectionKind::SystemData {
             // The last section (the highest code): only its place, and the padding before it.
-            if actual < e.offset {
-                return Err(RadError::Truncated {
-                    needed: e.offset,
-                    actual,
-                });
-            }
-            check_padding(bytes, pos, e.offset)?;
-            pos = e.offset.checked_add(e.len).ok_or(RadError::Truncated {
-                needed: u64::MAX,
-                actual,
-            })?;
+            pos = place_unread(bytes, pos, e)?;
             data = Some((e.offset, (&bytes[..0], e.len)));
             continue;
         }
-        check_padding(bytes, pos, e.offset)?;
-        let end = e
-            .offset
-            .checked_add(e.len)
-            .filter(|end| *end <= actual)
-            .ok_or(RadError::Truncated {
-                needed: e.offset.saturating_add(e.len),
-                actual,
-            })?;
-        let bytes_of = &bytes[e.offset as usize..end as usize];
-        let computed = crc32(bytes_of);
-        if computed != e.checksum {
-            return Err(RadError::SectionChecksum {
-                kind,
-                offset: e.offset,
-                stored: e.checksum,
-                computed,
-            });
-        }
+        let section = read_section(bytes, pos, e, kind)?;
         if kind == SectionKind::SystemData {
-            data = Some((e.offset, (bytes_of, e.len)));
+            data = Some((e.offset, (section, e.len)));
         } else {
-            sections[kind as usize - 1] = Some(bytes_of);
+            sections[kind as usize - 1] = Some(section);
         }
-        pos = end;
+        pos = e.offset + section.len() as u64;
     }
     if align(pos) != header.file_len {
         // The declared length must end exactly at the last section's padding.
@@ -444,6 +431,112 @@ fn read_structure(bytes: &[u8], head: bool) -> Result<Structure<'_>, RadError> {
         version: header.version,
         sections,
         data,
+    })
+}
+
+/// A whole file is exactly as long as its header says.
+fn check_file_len(header: &Header, actual: u64) -> Result<(), RadError> {
+    if actual < header.file_len {
+        return Err(RadError::Truncated {
+            needed: header.file_len,
+            actual,
+        });
+    }
+    if actual > header.file_len {
+        return Err(RadError::TrailingBytes {
+            expected: header.file_len,
+            actual,
+        });
+    }
+    Ok(())
+}
+
+/// Section table entry `i`, `e`, before its bytes are looked at: a known kind, above the
+/// previous entry's `last_kind`, reserved fields zero, placed at the first multiple of
+/// [`super::SECTION_ALIGN`] from `pos` (the end of what comes before it). Returns its kind.
+fn check_entry(
+    i: usize,
+    e: &SectionEntry,
+    last_kind: u32,
+    pos: u64,
+) -> Result<SectionKind, RadError> {
+    let entry_offset = 32 + 32 * i as u64;
+    let kind = SectionKind::from_u32(e.kind).ok_or(RadError::UnknownSection {
+        index: i as u32,
+        kind: e.kind,
+    })?;
+    if e.kind <= last_kind {
+        return Err(RadError::SectionOrder {
+            index: i as u32,
+            kind,
+        });
+    }
+    if e.reserved != 0 {
+        return Err(RadError::NonZeroReserved {
+            offset: entry_offset + 4,
+        });
+    }
+    if e.reserved2 != 0 {
+        return Err(RadError::NonZeroReserved {
+            offset: entry_offset + 28,
+        });
+    }
+    let expected = align(pos);
+    if e.offset != expected {
+        return Err(RadError::SectionPlacement {
+            kind,
+            offset: e.offset,
+            expected,
+        });
+    }
+    Ok(kind)
+}
+
+/// The bytes of section `e` of `kind`, which starts after zero padding from `pos`: within
+/// `bytes`, matching its checksum.
+fn read_section<'b>(
+    bytes: &'b [u8],
+    pos: u64,
+    e: &SectionEntry,
+    kind: SectionKind,
+) -> Result<&'b [u8], RadError> {
+    let actual = bytes.len() as u64;
+    check_padding(bytes, pos, e.offset)?;
+    let end = e
+        .offset
+        .checked_add(e.len)
+        .filter(|end| *end <= actual)
+        .ok_or(RadError::Truncated {
+            needed: e.offset.saturating_add(e.len),
+            actual,
+        })?;
+    let section = &bytes[e.offset as usize..end as usize];
+    let computed = crc32(section);
+    if computed != e.checksum {
+        return Err(RadError::SectionChecksum {
+            kind,
+            offset: e.offset,
+            stored: e.checksum,
+            computed,
+        });
+    }
+    Ok(section)
+}
+
+/// Checks the place of section `e`, whose bytes are not read (a level file's SYSTEM_DATA in
+/// its head): `bytes` reach its start after zero padding from `pos`. Returns its end.
+fn place_unread(bytes: &[u8], pos: u64, e: &SectionEntry) -> Result<u64, RadError> {
+    let actual = bytes.len() as u64;
+    if actual < e.offset {
+        return Err(RadError::Truncated {
+            needed: e.offset,
+            actual,
+        });
+    }
+    check_padding(bytes, pos, e.offset)?;
+    e.offset.checked_add(e.len).ok_or(RadError::Truncated {
+        needed: u64::MAX,
+        actual,
     })
 }
 
@@ -474,19 +567,6 @@ fn expect_len(kind: SectionKind, bytes: &[u8], expected: u64) -> Result<(), RadE
     Ok(())
 }
 
-/// Borrows `bytes` as `[T]` when aligned, copies otherwise. The caller has checked that the
-/// length is a multiple of `size_of::<T>()`.
-pub(crate) fn cast<T: Pod>(bytes: &[u8]) -> Cow<'_, [T]> {
-    match bytemuck::try_cast_slice(bytes) {
-        Ok(s) => Cow::Borrowed(s),
-        Err(_) => {
-            let mut v = alloc::vec![T::zeroed(); bytes.len() / core::mem::size_of::<T>()];
-            bytemuck::cast_slice_mut::<T, u8>(&mut v).copy_from_slice(bytes);
-            Cow::Owned(v)
-        }
-    }
-}
-
 fn decode_objects(bytes: &[u8], count: u32) -> Result<Vec<Cow<'_, str>>, RadError> {
     let head = 4 * (u64::from(count) + 1);
     if (bytes.len() as u64) < head {
@@ -504,10 +584,7 @@ fn decode_objects(bytes: &[u8], count: u32) -> Result<Vec<Cow<'_, str>>, RadErro
     };
     let text = core::str::from_utf8(text)
         .map_err(|e| bad(e.valid_up_to(), "object names are not valid UTF-8"))?;
-    let offsets: Vec<u32> = offsets
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
+    let offsets: Vec<u32> = offsets.chunks_exact(4).map(|c| u32_at(c, 0)).collect();
     if offsets[0] != 0 {
         return Err(bad(0, "first name offset is not 0"));
     }

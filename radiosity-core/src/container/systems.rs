@@ -11,6 +11,7 @@
 //! ([`head_len`], [`RadFile::parse_head`]) and then one system's bytes at a time
 //! ([`LevelSystems::file_range`], [`LevelSystems::accept`]).
 
+use crate::pod_bytes::cast;
 use crate::systems::Coupling;
 use crate::{Patch, RadError, RadFile, SectionKind};
 use alloc::borrow::Cow;
@@ -296,11 +297,11 @@ impl<'a> LevelSystems<'a> {
         }
         let (cols, values) = rest.split_at(4 * nnz as usize);
         Ok(Self {
-            entries: super::cast(table),
+            entries: cast(table),
             coupling: Coupling {
-                row_ptr: super::cast(rows),
-                cols: super::cast(cols),
-                values: super::cast(values),
+                row_ptr: cast(rows),
+                cols: cast(cols),
+                values: cast(values),
             },
             data: Cow::Borrowed(&[]),
             data_offset: 0,

@@ -6,6 +6,7 @@ use super::{
 };
 use crate::checksum::crc32;
 use crate::mesh::Mesh;
+use crate::parts::PartRows;
 use crate::probes::Probes;
 use crate::{RadError, SectionKind};
 use alloc::borrow::Cow;
@@ -23,8 +24,19 @@ impl RadFile<'_> {
                 actual: s.data_offset + s.data.len() as u64,
             });
         }
+        let encoded = Encoded::of(self);
+        let version = if self.systems.is_some() {
+            VERSION
+        } else {
+            PLAIN_VERSION
+        };
+        Ok(assemble(&self.sections(&encoded), version))
+    }
+
+    /// The META section of the file.
+    fn meta(&self) -> Meta {
         let l = &self.matrix.layout;
-        let meta = Meta {
+        Meta {
             n: self.n() as u32,
             channels: l.channels() as u32,
             format: l.format() as u32,
@@ -38,39 +50,40 @@ impl RadFile<'_> {
             correction_count: self.matrix.corrections.count() as u32,
             correction_base: self.matrix.corrections.base,
             reserved: [0; 2],
-        };
-        let objects = encode_objects(&self.objects);
+        }
+    }
+
+    /// Every section the file has, in ascending code order: the file's own slices, and the
+    /// sections `encoded` holds.
+    fn sections<'s>(&'s self, encoded: &'s Encoded) -> Vec<(SectionKind, &'s [u8])> {
+        let m = &self.matrix;
         let mut sections: Vec<(SectionKind, &[u8])> = alloc::vec![
-            (SectionKind::Meta, bytemuck::bytes_of(&meta)),
+            (SectionKind::Meta, bytemuck::bytes_of(&encoded.meta)),
             (SectionKind::Patches, bytemuck::cast_slice(&self.patches)),
             (SectionKind::Order, bytemuck::cast_slice(&self.order)),
-            (
-                SectionKind::Scales,
-                bytemuck::cast_slice(&self.matrix.scales)
-            ),
-            (SectionKind::Blocks, &self.matrix.blocks),
+            (SectionKind::Scales, bytemuck::cast_slice(&m.scales)),
+            (SectionKind::Blocks, &m.blocks),
             (
                 SectionKind::SparseRows,
-                bytemuck::cast_slice(&self.matrix.sparse.row_ptr)
+                bytemuck::cast_slice(&m.sparse.row_ptr)
             ),
             (
                 SectionKind::SparseCols,
-                bytemuck::cast_slice(&self.matrix.sparse.cols)
+                bytemuck::cast_slice(&m.sparse.cols)
             ),
             (
                 SectionKind::SparseValues,
-                bytemuck::cast_slice(&self.matrix.sparse.values)
+                bytemuck::cast_slice(&m.sparse.values)
             ),
-            (SectionKind::Objects, &objects),
+            (SectionKind::Objects, &encoded.objects),
         ];
         if let Some(r) = &self.report {
             sections.push((SectionKind::Report, r.as_bytes()));
         }
-        let mesh = self.mesh.as_ref().map(Mesh::to_bytes);
-        if let Some(m) = &mesh {
+        if let Some(m) = &encoded.mesh {
             sections.push((SectionKind::Mesh, m));
         }
-        let c = &self.matrix.corrections;
+        let c = &m.corrections;
         if !c.is_empty() {
             sections.extend([
                 (
@@ -82,65 +95,87 @@ impl RadFile<'_> {
                 (SectionKind::CorrectionCodes, bytemuck::cast_slice(&c.codes)),
             ]);
         }
-        let probes = self.probes.as_ref().map(Probes::to_bytes);
-        if let Some(p) = &probes {
+        if let Some(p) = &encoded.probes {
             sections.push((SectionKind::Probes, p));
         }
         if let Some(sky) = &self.sky {
             sections.push((SectionKind::Sky, sky.to_bytes()));
         }
-        let parts = self.parts.as_ref().map(crate::parts::PartRows::to_bytes);
-        if let Some(p) = &parts {
+        if let Some(p) = &encoded.parts {
             sections.push((SectionKind::Parts, p));
         }
         if let Some(c) = &self.coverage {
             sections.push((SectionKind::Coverage, bytemuck::cast_slice(c)));
         }
-        let coupling = self.systems.as_ref().map(|s| s.coupling_bytes());
-        if let (Some(s), Some(c)) = (&self.systems, &coupling) {
+        if let (Some(s), Some(c)) = (&self.systems, &encoded.coupling) {
             sections.extend([
                 (SectionKind::Systems, bytemuck::cast_slice(&s.entries)),
                 (SectionKind::Coupling, &c[..]),
                 (SectionKind::SystemData, &s.data[..]),
             ]);
         }
-        let table_end = 32 + 32 * sections.len() as u64;
-        let mut entries = Vec::with_capacity(sections.len());
-        let mut pos = table_end;
-        for (kind, bytes) in &sections {
-            let offset = align(pos);
-            entries.push(SectionEntry {
-                kind: *kind as u32,
-                reserved: 0,
-                offset,
-                len: bytes.len() as u64,
-                checksum: crc32(bytes),
-                reserved2: 0,
-            });
-            pos = offset + bytes.len() as u64;
-        }
-        let file_len = align(pos);
-        let mut out = alloc::vec![0u8; file_len as usize];
-        let mut header = Header {
-            magic: MAGIC,
-            version: if self.systems.is_some() {
-                VERSION
-            } else {
-                PLAIN_VERSION
-            },
-            section_count: sections.len() as u32,
-            file_len,
-            checksum: 0,
-            reserved: 0,
-        };
-        out[32..table_end as usize].copy_from_slice(bytemuck::cast_slice(&entries));
-        header.checksum = header_checksum(&header, &out[32..table_end as usize]);
-        out[..32].copy_from_slice(bytemuck::bytes_of(&header));
-        for ((_, bytes), e) in sections.iter().zip(&entries) {
-            out[e.offset as usize..e.offset as usize + bytes.len()].copy_from_slice(bytes);
-        }
-        Ok(out)
+        sections
     }
+}
+
+/// The sections that are not slices of a [`RadFile`] as it stands but encoded from it.
+struct Encoded {
+    meta: Meta,
+    objects: Vec<u8>,
+    mesh: Option<Vec<u8>>,
+    probes: Option<Vec<u8>>,
+    parts: Option<Vec<u8>>,
+    coupling: Option<Vec<u8>>,
+}
+
+impl Encoded {
+    fn of(file: &RadFile<'_>) -> Self {
+        Encoded {
+            meta: file.meta(),
+            objects: encode_objects(&file.objects),
+            mesh: file.mesh.as_ref().map(Mesh::to_bytes),
+            probes: file.probes.as_ref().map(Probes::to_bytes),
+            parts: file.parts.as_ref().map(PartRows::to_bytes),
+            coupling: file.systems.as_ref().map(|s| s.coupling_bytes()),
+        }
+    }
+}
+
+/// The file of `sections` (in ascending code order): header of `version`, section table,
+/// each section at the next multiple of [`super::SECTION_ALIGN`], zero padding, checksums.
+fn assemble(sections: &[(SectionKind, &[u8])], version: u32) -> Vec<u8> {
+    let table_end = 32 + 32 * sections.len() as u64;
+    let mut entries = Vec::with_capacity(sections.len());
+    let mut pos = table_end;
+    for (kind, bytes) in sections {
+        let offset = align(pos);
+        entries.push(SectionEntry {
+            kind: *kind as u32,
+            reserved: 0,
+            offset,
+            len: bytes.len() as u64,
+            checksum: crc32(bytes),
+            reserved2: 0,
+        });
+        pos = offset + bytes.len() as u64;
+    }
+    let file_len = align(pos);
+    let mut out = alloc::vec![0u8; file_len as usize];
+    let mut header = Header {
+        magic: MAGIC,
+        version,
+        section_count: sections.len() as u32,
+        file_len,
+        checksum: 0,
+        reserved: 0,
+    };
+    out[32..table_end as usize].copy_from_slice(bytemuck::cast_slice(&entries));
+    header.checksum = header_checksum(&header, &out[32..table_end as usize]);
+    out[..32].copy_from_slice(bytemuck::bytes_of(&header));
+    for ((_, bytes), e) in sections.iter().zip(&entries) {
+        out[e.offset as usize..e.offset as usize + bytes.len()].copy_from_slice(bytes);
+    }
+    out
 }
 
 fn encode_objects(names: &[Cow<'_, str>]) -> Vec<u8> {

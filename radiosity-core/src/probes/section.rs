@@ -2,6 +2,7 @@
 
 use super::{ProbeFactors, Probes, SH_COEFFICIENTS};
 use crate::half::f16_is_finite;
+use crate::pod_bytes::{cast, u32_at};
 use crate::{RadError, SectionKind};
 use alloc::vec::Vec;
 
@@ -129,7 +130,7 @@ impl<'a> Probes<'a> {
         if bytes.len() < 12 {
             return Err(short(12));
         }
-        let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap());
+        let word = |at: usize| u32_at(bytes, at);
         let (m, w) = (u64::from(word(0)), u64::from(word(4)));
         let spacing = f32::from_bits(word(8));
         let sizes = [12 * m, 4 * (m + 1), 24 * w];
@@ -157,9 +158,9 @@ impl<'a> Probes<'a> {
             at += len as usize;
             s
         };
-        let positions = crate::container::cast(next(sizes[0]));
-        let rows = crate::container::cast(next(sizes[1]));
-        let weights = crate::container::cast(next(sizes[2]));
+        let positions = cast(next(sizes[0]));
+        let rows = cast(next(sizes[1]));
+        let weights = cast(next(sizes[2]));
         let factors = factor_sizes.map(|(rank, basis, coefficients)| {
             next(8);
             let b = next(2 * basis);
@@ -167,8 +168,8 @@ impl<'a> Probes<'a> {
             let c = next(2 * coefficients);
             ProbeFactors {
                 rank,
-                basis: crate::container::cast(b),
-                coefficients: crate::container::cast(c),
+                basis: cast(b),
+                coefficients: cast(c),
             }
         });
         Ok(Probes {
