@@ -2,8 +2,9 @@
 //!
 //! The stages in pipeline order (the user-facing contract is `docs/contract.md`):
 //!
-//! 1. [`scene`]: OBJ + MTL and glTF 2.0 loading ([`scene::Scene::load_with`], by extension):
-//!    objects, reflectance, emission, textures, errors that name the file and line or item.
+//! 1. [`scene`] (the `radiosity-scene` crate): OBJ + MTL and glTF 2.0 loading
+//!    ([`scene::Scene::load_with`], by extension): objects, reflectance, emission, textures,
+//!    errors that name the file and line or item.
 //! 2. [`simplify`]: the paper's voxel simplification into patches ([`simplify::simplify`]),
 //!    with per-vertex interpolation weights and the runtime mesh.
 //! 3. [`geometry`] (the `radiosity-geometry` crate): the occlusion BVH over the full-detail triangles, polygons, the exact
@@ -33,7 +34,9 @@
 #![deny(missing_docs)]
 
 // The stages in pipeline order, one a group so that rustfmt keeps the order.
-pub mod scene;
+// The scene and its readers live in `radiosity-scene`, which the path tracer shares without
+// the bake; the bake's stages name it as before.
+pub use radiosity_scene as scene;
 
 pub mod simplify;
 

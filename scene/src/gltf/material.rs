@@ -3,14 +3,14 @@
 
 use super::Loader;
 use super::accessor::read_uri;
-use crate::error::BakeError;
-use crate::scene::{DEFAULT_REFLECTANCE, Material, Texture};
+use crate::SceneError;
+use crate::{DEFAULT_REFLECTANCE, Material, Texture};
 use radiosity_core::Rgb;
 
 impl Loader<'_> {
     /// The decoded texture of glTF image `image` (cached; `None` if it failed without
     /// `validate_materials`).
-    fn texture(&mut self, image: &::gltf::Image<'_>) -> Result<Option<u32>, BakeError> {
+    fn texture(&mut self, image: &::gltf::Image<'_>) -> Result<Option<u32>, SceneError> {
         if let Some(&t) = self.images.get(&image.index()) {
             return Ok(t);
         }
@@ -40,7 +40,7 @@ impl Loader<'_> {
                     };
                     Texture::decode(&bytes, &shown, &what)
                 }
-                Err((Some(file), m)) => Err(BakeError::Texture {
+                Err((Some(file), m)) => Err(SceneError::Texture {
                     path: file,
                     message: m,
                 }),
@@ -66,7 +66,7 @@ impl Loader<'_> {
     }
 
     /// The scene material of a glTF material (made on first use).
-    pub(super) fn material(&mut self, m: &::gltf::Material<'_>) -> Result<u32, BakeError> {
+    pub(super) fn material(&mut self, m: &::gltf::Material<'_>) -> Result<u32, SceneError> {
         let Some(index) = m.index() else {
             // glTF's default material is white metal: not a diffuse reflectance. The OBJ
             // fallback (grey 0.5) is used, as for a face without material.
@@ -88,7 +88,7 @@ impl Loader<'_> {
             .filter(|n| !n.is_empty())
             .map(str::to_owned)
             .unwrap_or_else(|| format!("material{index}"));
-        let bad = |message: String| BakeError::Material {
+        let bad = |message: String| SceneError::Material {
             path: self.path.into(),
             line: None,
             material: name.clone(),
@@ -99,7 +99,7 @@ impl Loader<'_> {
         let kd = [f[0], f[1], f[2]].map(f64::from);
         // At or above 1 (× the texture) is lowered where the triangle shows it
         // (`Scene::limit_reflectance`).
-        let kd = crate::scene::checked_reflectance(
+        let kd = crate::checks::checked_reflectance(
             "baseColorFactor",
             kd,
             self.options,
