@@ -37,7 +37,9 @@ pub use radiosity_geometry as geometry;
 
 pub use radiosity_geometry::rng;
 
-pub mod scene;
+/// The scene and its readers: the `radiosity-scene` crate, which the path tracer shares
+/// without the bake.
+pub use radiosity_scene as scene;
 
 pub mod patch;
 

@@ -42,12 +42,12 @@
 mod tests;
 
 use glam::{DVec3, Vec3};
-use radiosity_bake::scene::Scene;
 use radiosity_core::Light;
 use radiosity_geometry::Occluders;
 use radiosity_geometry::rng::SplitMix64;
 use radiosity_runtime::camera::Camera;
 use radiosity_runtime::image::LinearImage;
+use radiosity_scene::Scene;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 

@@ -5,6 +5,7 @@ use crate::error::{Failure, status};
 use crate::{RAD_ERR_CANCELLED, RAD_ERR_IO, RAD_ERR_VALUE};
 use radiosity_bake::BakeError;
 use radiosity_bake::host::{BakeFlags, bake_file};
+use radiosity_bake::scene::SceneError;
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::path::PathBuf;
 
@@ -33,7 +34,7 @@ unsafe fn path_arg(p: *const c_char, what: &str) -> Result<PathBuf, Failure> {
 fn bake_failure(e: BakeError) -> Failure {
     let code = match &e {
         BakeError::Cancelled => RAD_ERR_CANCELLED,
-        BakeError::Io { .. } => RAD_ERR_IO,
+        BakeError::Scene(SceneError::Io { .. }) => RAD_ERR_IO,
         _ => RAD_ERR_VALUE,
     };
     Failure::new(code, e.to_string())

@@ -4,8 +4,7 @@
 
 use base64::Engine as _;
 use glam::{DMat4, DQuat, DVec3};
-use radiosity_bake::BakeError;
-use radiosity_bake::scene::{LoadOptions, Scene};
+use radiosity_bake::scene::{LoadOptions, Scene, SceneError};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -709,7 +708,7 @@ fn unsupported_required_extensions_are_named() {
         v["extensionsUsed"] = json!([ext]);
         v["extensionsRequired"] = json!([ext]);
         let e = Scene::load(&write(dir.path(), "ext.gltf", &v.to_string())).unwrap_err();
-        assert!(matches!(e, BakeError::UnsupportedExtension { .. }), "{e}");
+        assert!(matches!(e, SceneError::UnsupportedExtension { .. }), "{e}");
         assert!(e.to_string().contains(&format!("`{ext}`")), "{e}");
     }
     // The one that is read may be required.

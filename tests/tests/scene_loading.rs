@@ -1,8 +1,7 @@
 //! OBJ + MTL loading: the real scene files with their quirks, and bad input that must be a
 //! clear error naming the file and line.
 
-use radiosity_bake::BakeError;
-use radiosity_bake::scene::{DEFAULT_REFLECTANCE, LoadOptions, Scene};
+use radiosity_bake::scene::{DEFAULT_REFLECTANCE, LoadOptions, Scene, SceneError};
 use std::path::{Path, PathBuf};
 
 fn scenes() -> PathBuf {
@@ -127,12 +126,12 @@ fn bad_input_is_a_clear_error() {
             msg.contains(want),
             "{name}: message `{msg}` should name `{want}`"
         );
-        assert!(matches!(e, BakeError::Parse { .. }), "{name}: {e:?}");
+        assert!(matches!(e, SceneError::Parse { .. }), "{name}: {e:?}");
     }
     // Missing file.
     let e = Scene::load_obj(&d.join("nope.obj")).unwrap_err();
     assert!(
-        matches!(e, BakeError::Io { .. }) && e.to_string().contains("nope.obj"),
+        matches!(e, SceneError::Io { .. }) && e.to_string().contains("nope.obj"),
         "{e}"
     );
     // Reflectance below 0 names the MTL file and the `newmtl` line.
@@ -161,7 +160,7 @@ fn bad_input_is_a_clear_error() {
     let p = write(d, "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
     assert!(matches!(
         Scene::load_obj(&p).unwrap_err(),
-        BakeError::EmptyScene { .. }
+        SceneError::EmptyScene { .. }
     ));
 }
 

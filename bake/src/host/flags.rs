@@ -6,6 +6,7 @@ use crate::form_factor::FormFactorParams;
 use crate::order::OrderKind;
 use crate::passes::probes::{ProbeRank, ProbeSpec};
 use crate::pipeline::{BakeParams, FormatChoice, SystemsChoice};
+use crate::scene::format::FormatKind;
 use crate::scene::{LoadOptions, Scene};
 use crate::simplify::VoxelParams;
 use crate::transfer::BounceSpec;
@@ -301,11 +302,11 @@ fn parse_bounces(s: &str) -> Result<BounceSpec, BakeError> {
     })
 }
 
-/// Loads a scene (`Scene::load_with`: glTF for `.gltf` and `.glb`, else OBJ), refusing first
-/// an OBJ that is not text (a PNG renamed `.obj` is "not an OBJ file", not a scene without
-/// triangles).
+/// Loads a scene (`Scene::load_with`, by the format table: glTF for `.gltf` and `.glb`, else
+/// OBJ), refusing first an OBJ that is not text (a PNG renamed `.obj` is "not an OBJ file", not
+/// a scene without triangles).
 pub fn load_scene(path: &Path, load: &LoadOptions) -> Result<Scene, BakeError> {
-    if !crate::scene::is_gltf_path(path)
+    if crate::scene::format::of(path).kind == FormatKind::Obj
         && let Some(why) = binary_data(path)
     {
         return Err(BakeError::NotText {
@@ -313,7 +314,7 @@ pub fn load_scene(path: &Path, load: &LoadOptions) -> Result<Scene, BakeError> {
             message: why,
         });
     }
-    Scene::load_with(path, load)
+    Ok(Scene::load_with(path, load)?)
 }
 
 /// Whether the first 64 KiB of `path` are binary data (`not an OBJ file: …`): a NUL byte, or

@@ -137,10 +137,10 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         )));
     }
     if scene.triangles.is_empty() {
-        return Err(BakeError::EmptyScene {
+        return Err(BakeError::Scene(crate::scene::SceneError::EmptyScene {
             path: scene.path.clone(),
             why: String::new(),
-        });
+        }));
     }
     let cos_max = params.max_normal_angle_deg.to_radians().cos();
     let component = components(scene);

@@ -1,19 +1,50 @@
-//! Scenes: OBJ + MTL or glTF 2.0 loaded into full-detail triangles with materials and objects.
+//! `radiosity-scene`: scenes loaded into full-detail triangles with objects, materials and
+//! textures, for the bake and the path tracer.
+//!
+//! The model is here: [`Scene`] (positions, [`Triangle`]s, object names, [`Material`]s,
+//! [`Texture`]s, vertex colours, alpha coverage, the [`LoadReport`]) with its geometric
+//! queries and [`Scene::occluders`]. The readers are one module per format, chosen by
+//! extension from the one table in [`format`]: `obj/` (OBJ statements by its own reader, MTL
+//! through tobj) and `gltf/` (glTF 2.0, `.gltf` and `.glb`); `texture` decodes their albedo
+//! images. `checks` holds what every reader checks the same way (reflectance, emission,
+//! degenerate and duplicate triangles). Every failure is a [`SceneError`] whose one-line
+//! message names the file, and the line or item where one is known; nothing panics on input.
 //!
 //! Conventions (`docs/contract.md`): `Kd` is the diffuse reflectance ρ (each channel in `[0, 1)`),
 //! multiplied by the mean of `map_Kd` where one is given; `Ke` is emitted radiance L and the
 //! stored emission is the exitance π·L. Triangles are one-sided, front = counter-clockwise.
 //! glTF (`gltf/`) maps `baseColorFactor` × `baseColorTexture` and `emissiveFactor` ×
 //! `emissiveStrength` onto the same conventions.
+//!
+//! # Adding a scene format
+//!
+//! 1. A module `src/<format>/` with `pub(crate) fn load(path: &Path, options: &LoadOptions)
+//!    -> Result<Scene, SceneError>`: positions in scene units, counter-clockwise fronts,
+//!    material 0 the grey fallback (`Material::default_grey`), reflectance through
+//!    `checks::checked_reflectance`, emission through `checks::checked_emission`, triangles
+//!    through `checks::TriangleFilter`, then `LoadReport::warn_skipped` and
+//!    `Scene::limit_reflectance`; no triangle left is [`SceneError::EmptyScene`].
+//! 2. A row in [`format::FORMATS`] with its extensions (lower case) and that reader, and a
+//!    [`format::FormatKind`] variant; the extension tests in `format` name the new ones.
+//! 3. Errors: the existing [`SceneError`] variants where they fit (an unreadable file is
+//!    `Io`, a bad material `Material`, a bad image `Texture`); a new variant for a failure of
+//!    the format's own, with a message that names the file and the item.
+//! 4. Tests: unit tests beside the reader for its own parsing; a loading test in the
+//!    workspace's `tests/tests/` (as `scene_loading.rs`, `gltf_loading.rs`) that loads a small
+//!    file, checks its triangles, materials and objects against the same scene in OBJ, and
+//!    checks that each malformed input gives its one-line error.
+#![deny(missing_docs)]
 
-use crate::error::BakeError;
+pub use error::SceneError;
 use glam::DVec3;
 use radiosity_core::Rgb;
 use radiosity_geometry::Occluders;
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 pub use texture::Texture;
 
+mod checks;
+mod error;
+pub mod format;
 mod gltf;
 mod obj;
 mod texture;
@@ -94,37 +125,6 @@ pub struct LoadOptions {
 /// bright white paint (0.8–0.9 measured; 0.95 keeps a white exporter's intent and a closed
 /// room's bounces finite, docs/decisions/max-reflectance.md).
 pub const DEFAULT_MAX_REFLECTANCE: f64 = 0.95;
-
-/// A material's reflectance factor (`what`: `Kd`, `baseColorFactor`), each channel finite and
-/// not negative: refused with `bad`'s error, or under geometry-only loading repaired (clamped
-/// to [0, 0.999], non-finite to grey) with that error as a warning. At or above 1 is left to
-/// [`Scene::limit_reflectance`], which sees it times the texture.
-pub(crate) fn checked_reflectance(
-    what: &str,
-    kd: [f64; 3],
-    options: &LoadOptions,
-    report: &mut LoadReport,
-    bad: impl Fn(String) -> BakeError,
-) -> Result<[f64; 3], BakeError> {
-    if kd.iter().all(|c| c.is_finite() && *c >= 0.0) {
-        return Ok(kd);
-    }
-    let e = bad(format!(
-        "{what} {} {} {} is not a reflectance (each channel finite and not negative)",
-        kd[0], kd[1], kd[2]
-    ));
-    if options.validate_materials {
-        return Err(e);
-    }
-    report.warnings.push(format!("{e}; clamped to [0, 0.999]"));
-    Ok(kd.map(|c| {
-        if c.is_finite() {
-            c.clamp(0.0, 0.999)
-        } else {
-            f64::from(DEFAULT_REFLECTANCE)
-        }
-    }))
-}
 
 impl LoadOptions {
     /// `(threshold, cap)`: channels at or above `threshold` are lowered to `cap`.
@@ -209,326 +209,19 @@ impl LoadReport {
     }
 }
 
-/// Skips degenerate triangles and exact duplicates (same corners in the same cyclic order, so
-/// a reversed copy is not a duplicate), counting both in the [`LoadReport`].
-#[derive(Default)]
-pub(crate) struct TriangleFilter {
-    seen: HashSet<[u64; 9]>,
-}
-
-impl TriangleFilter {
-    /// Whether the triangle with corners `p` (finite) is kept.
-    pub(crate) fn admit(&mut self, p: [DVec3; 3], report: &mut LoadReport) -> bool {
-        if is_degenerate(p) {
-            report.degenerate_triangles += 1;
-            return false;
-        }
-        // Same corners in the same cyclic order: an exact duplicate.
-        let start = (0..3)
-            .min_by(|&a, &b| {
-                p[a].to_array()
-                    .partial_cmp(&p[b].to_array())
-                    .expect("finite")
-            })
-            .expect("three corners");
-        let mut key = [0u64; 9];
-        for j in 0..3 {
-            let q = p[(start + j) % 3];
-            key[3 * j] = q.x.to_bits();
-            key[3 * j + 1] = q.y.to_bits();
-            key[3 * j + 2] = q.z.to_bits();
-        }
-        if !self.seen.insert(key) {
-            report.duplicate_triangles += 1;
-            return false;
-        }
-        true
-    }
-}
-
-/// Whether a triangle has (numerically) no area: twice its area below 1e-12 of its longest
-/// edge squared, i.e. its smallest angle is below about 1e-12 rad.
-fn is_degenerate(p: [DVec3; 3]) -> bool {
-    let a2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
-    let e2 = (p[1] - p[0])
-        .length_squared()
-        .max((p[2] - p[1]).length_squared())
-        .max((p[0] - p[2]).length_squared());
-    !(a2 > 1e-12 * e2)
-}
-
-/// The line of `newmtl NAME` in an MTL text, for messages.
-fn newmtl_line(text: &str, name: &str) -> Option<usize> {
-    text.lines()
-        .position(|l| {
-            let mut t = l.split_whitespace();
-            t.next() == Some("newmtl") && t.collect::<Vec<_>>().join(" ") == name
-        })
-        .map(|i| i + 1)
-}
-
-/// Whether `path` names a glTF file (`.gltf` or `.glb`, any case); anything else is read as
-/// OBJ.
-pub(crate) fn is_gltf_path(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
-}
-
 impl Scene {
-    /// Loads a scene file, by its extension: glTF 2.0 for `.gltf` and `.glb`
-    /// ([`Self::load_gltf_with`]), OBJ + MTL for anything else ([`Self::load_obj_with`]).
-    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
-        if is_gltf_path(path) {
-            Self::load_gltf_with(path, options)
-        } else {
-            Self::load_obj_with(path, options)
-        }
+    /// Loads a scene file with the reader its extension names in [`format::FORMATS`]: glTF
+    /// 2.0 for `.gltf` and `.glb`, OBJ + MTL ([`Self::load_obj_with`]) for anything else.
+    ///
+    /// Errors (never panics) for a missing or unreadable file, a malformed file, an invalid
+    /// material or texture, or a scene without any usable triangle (see [`SceneError`]).
+    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Self, SceneError> {
+        format::of(path).read(path, options)
     }
 
     /// [`Self::load_with`] with the default options.
-    pub fn load(path: &Path) -> Result<Self, BakeError> {
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
         Self::load_with(path, &LoadOptions::default())
-    }
-
-    /// Loads a glTF 2.0 file (`.gltf` with its buffers and images, or `.glb`): the default
-    /// scene (else the first) with its node hierarchy; see `docs/contract.md` for what is read
-    /// and what is ignored.
-    ///
-    /// Errors (never panics) for malformed JSON or GLB, a missing or short buffer, an accessor
-    /// or index out of range, NaN or infinite positions (also after the node transforms), a
-    /// cycle in the node graph, an unsupported required extension, an invalid material, or a
-    /// scene without any usable triangle.
-    pub(crate) fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
-        gltf::load(path, options)
-    }
-
-    /// Loads an OBJ file and the MTL files it names.
-    ///
-    /// Errors (never panics) for a missing or unreadable file, a malformed statement, NaN or
-    /// infinite coordinates, out-of-range indices, reflectance outside `[0, 1)`, negative or
-    /// non-finite emission, an undecodable texture, or a scene without any usable triangle.
-    /// A missing MTL file or unknown material falls back to grey 0.5 with a warning.
-    pub fn load_obj(path: &Path) -> Result<Self, BakeError> {
-        Self::load_obj_with(path, &LoadOptions::default())
-    }
-
-    /// [`Self::load_obj`] with options.
-    pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<Self, BakeError> {
-        let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
-            path: path.into(),
-            source,
-        })?;
-        Self::from_obj_str_with(path, &String::from_utf8_lossy(&bytes), options)
-    }
-
-    /// Loads OBJ text; `path` names it in messages, and MTL files are looked up beside it.
-    pub fn from_obj_str(path: &Path, text: &str) -> Result<Self, BakeError> {
-        Self::from_obj_str_with(path, text, &LoadOptions::default())
-    }
-
-    /// [`Self::from_obj_str`] with options.
-    pub(crate) fn from_obj_str_with(
-        path: &Path,
-        text: &str,
-        options: &LoadOptions,
-    ) -> Result<Self, BakeError> {
-        let raw = obj::parse(path, text)?;
-        let dir = path.parent().unwrap_or(Path::new("."));
-        let mut scene = Scene {
-            path: path.into(),
-            positions: raw
-                .positions
-                .iter()
-                .map(|&p| DVec3::from_array(p))
-                .collect(),
-            texcoords: raw.texcoords.clone(),
-            objects: Vec::new(),
-            materials: vec![Material::default_grey()],
-            ..Default::default()
-        };
-        scene.report.short_faces = raw.short_faces;
-        if raw.short_faces > 0 {
-            scene.report.warnings.push(format!(
-                "{}: skipped {} face(s) with fewer than three corners",
-                path.display(),
-                raw.short_faces
-            ));
-        }
-
-        // Materials: every MTL library, later definitions of a name replacing earlier ones.
-        let mut by_name: Vec<(String, u32)> = Vec::new();
-        for (lib, line) in &raw.mtllibs {
-            let mut lib_path = dir.join(lib);
-            if !lib_path.exists() {
-                // `mtllib a.mtl b.mtl`: several files on one line.
-                let parts: Vec<&str> = lib.split_whitespace().collect();
-                if parts.len() > 1 {
-                    for p in parts {
-                        scene.load_mtl(&dir.join(p), path, *line, options, &mut by_name)?;
-                    }
-                    continue;
-                }
-                lib_path = dir.join(lib);
-            }
-            scene.load_mtl(&lib_path, path, *line, options, &mut by_name)?;
-        }
-        let mut mat_of_name = Vec::with_capacity(raw.material_names.len());
-        for name in &raw.material_names {
-            match by_name.iter().find(|(n, _)| n == name) {
-                Some(&(_, i)) => mat_of_name.push(i),
-                None => {
-                    scene.report.warnings.push(format!(
-                        "{}: material `{name}` is not defined; using grey {DEFAULT_REFLECTANCE}",
-                        path.display()
-                    ));
-                    mat_of_name.push(0);
-                }
-            }
-        }
-
-        // Triangles: fan-triangulate, skip degenerate and duplicate ones.
-        let mut filter = TriangleFilter::default();
-        let mut object_remap: Vec<Option<u32>> = vec![None; raw.objects.len()];
-        for face in &raw.faces {
-            for k in 1..face.v.len() - 1 {
-                let vi = [face.v[0], face.v[k], face.v[k + 1]];
-                let p = vi.map(|i| scene.positions[i as usize]);
-                if !filter.admit(p, &mut scene.report) {
-                    continue;
-                }
-                let object = *object_remap[face.object as usize].get_or_insert_with(|| {
-                    scene
-                        .objects
-                        .push(raw.objects[face.object as usize].clone());
-                    (scene.objects.len() - 1) as u32
-                });
-                let material = face.material.map_or(0, |m| mat_of_name[m as usize]);
-                scene.triangles.push(Triangle {
-                    vertices: vi,
-                    texcoords: face.vt.as_ref().map(|t| [t[0], t[k], t[k + 1]]),
-                    object,
-                    material,
-                    line: face.line,
-                });
-            }
-        }
-        scene.report.warn_skipped(path);
-        if raw.faces.iter().any(|f| f.material.is_none()) && !scene.triangles.is_empty() {
-            let n = scene.triangles.iter().filter(|t| t.material == 0).count();
-            if n > 0 && raw.mtllibs.is_empty() {
-                scene.report.warnings.push(format!(
-                    "{}: no material library; {n} triangle(s) use grey {DEFAULT_REFLECTANCE}",
-                    path.display()
-                ));
-            }
-        }
-        if scene.triangles.is_empty() {
-            return Err(BakeError::EmptyScene {
-                path: path.into(),
-                why: String::new(),
-            });
-        }
-        scene.limit_reflectance(options);
-        Ok(scene)
-    }
-
-    /// Reads one MTL file into `self.materials`; a missing file is a warning, a bad value an
-    /// error.
-    fn load_mtl(
-        &mut self,
-        mtl_path: &Path,
-        obj_path: &Path,
-        obj_line: usize,
-        options: &LoadOptions,
-        by_name: &mut Vec<(String, u32)>,
-    ) -> Result<(), BakeError> {
-        let text = match std::fs::read(mtl_path) {
-            Ok(b) => String::from_utf8_lossy(&b).into_owned(),
-            Err(e) => {
-                self.report.warnings.push(format!(
-                    "{}:{obj_line}: cannot read material library {}: {e}; its materials are grey {DEFAULT_REFLECTANCE}",
-                    obj_path.display(),
-                    mtl_path.display()
-                ));
-                return Ok(());
-            }
-        };
-        let (mats, _) =
-            tobj::load_mtl_buf(&mut text.as_bytes()).map_err(|e| BakeError::Material {
-                path: mtl_path.into(),
-                line: None,
-                material: String::new(),
-                message: e.to_string(),
-            })?;
-        let dir = mtl_path.parent().unwrap_or(Path::new("."));
-        for m in mats {
-            let bad = |message: String| BakeError::Material {
-                path: mtl_path.into(),
-                line: newmtl_line(&text, &m.name),
-                material: m.name.clone(),
-                message,
-            };
-            let kd = m
-                .diffuse
-                .map(|d| d.map(f64::from))
-                .unwrap_or([DEFAULT_REFLECTANCE as f64; 3]);
-            // At or above 1 is lowered where the triangle shows it (`limit_reflectance`).
-            let kd = checked_reflectance("Kd", kd, options, &mut self.report, bad)?;
-            let mut ke = m.emissive.map(|d| d.map(f64::from)).unwrap_or([0.0; 3]);
-            // The stored exitance π·Ke is f32: a radiance whose exitance overflows it would
-            // reach the file as infinity.
-            let exitance_fits = |c: f64| ((std::f64::consts::PI * c) as f32).is_finite();
-            if ke
-                .iter()
-                .any(|c| !c.is_finite() || *c < 0.0 || !exitance_fits(*c))
-            {
-                let e = bad(format!(
-                    "Ke {} {} {} must be finite and non-negative, with an exitance π·Ke below 3.4e38",
-                    ke[0], ke[1], ke[2]
-                ));
-                if options.validate_materials {
-                    return Err(e);
-                }
-                self.report.warnings.push(format!("{e}; emission dropped"));
-                ke = [0.0; 3];
-            }
-            let texture = match &m.diffuse_texture {
-                Some(spec) => {
-                    // Options (`-bm 1 …`) come before the file name.
-                    let file = spec.split_whitespace().last().unwrap_or(spec);
-                    match Texture::load(&dir.join(file)) {
-                        Ok(t) => {
-                            self.textures.push(t);
-                            Some((self.textures.len() - 1) as u32)
-                        }
-                        Err(e) if !options.validate_materials => {
-                            self.report.warnings.push(format!("{e}; texture ignored"));
-                            None
-                        }
-                        Err(e) => return Err(e),
-                    }
-                }
-                None => None,
-            };
-            let pi = std::f64::consts::PI;
-            self.materials.push(Material {
-                name: m.name.clone(),
-                reflectance: Rgb::new(kd[0] as f32, kd[1] as f32, kd[2] as f32),
-                emission: Rgb::new(
-                    (pi * ke[0]) as f32,
-                    (pi * ke[1]) as f32,
-                    (pi * ke[2]) as f32,
-                ),
-                texture,
-            });
-            let idx = (self.materials.len() - 1) as u32;
-            match by_name.iter_mut().find(|(n, _)| *n == m.name) {
-                Some(entry) => entry.1 = idx,
-                None => by_name.push((m.name.clone(), idx)),
-            }
-        }
-        Ok(())
     }
 
     /// A scene built in code: triangles as corner positions, each with an object index into
@@ -544,7 +237,7 @@ impl Scene {
                 (*object as usize) < s.objects.len(),
                 "object index out of range"
             );
-            if is_degenerate(*p) {
+            if checks::is_degenerate(*p) {
                 s.report.degenerate_triangles += 1;
                 continue;
             }

@@ -1,11 +1,11 @@
 //! The OBJ statement reader.
 //!
-//! tobj reads the MTL files (see [`crate::scene`]); the OBJ statements are read here because the
+//! tobj reads the MTL files (`mtl`); the OBJ statements are read here because the
 //! contract needs three things tobj does not give: the line of every error, the `o`-before-`g`
 //! object rule (tobj treats both alike), and the file's own vertex numbering (tobj renumbers per
 //! model), which the per-vertex interpolation weights are expressed in.
 
-use crate::error::BakeError;
+use crate::SceneError;
 use std::path::Path;
 
 /// One polygonal face as written, indices resolved to 0-based and range-checked.
@@ -39,8 +39,8 @@ pub(crate) struct RawObj {
     pub(crate) short_faces: usize,
 }
 
-fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> BakeError {
-    BakeError::Parse {
+fn parse_err(path: &Path, line: usize, message: impl Into<String>) -> SceneError {
+    SceneError::Parse {
         path: path.into(),
         line,
         message: message.into(),
@@ -57,7 +57,7 @@ fn intern(names: &mut Vec<String>, name: &str) -> u32 {
     }
 }
 
-fn parse_f64(path: &Path, line: usize, tok: Option<&str>, what: &str) -> Result<f64, BakeError> {
+fn parse_f64(path: &Path, line: usize, tok: Option<&str>, what: &str) -> Result<f64, SceneError> {
     let tok = tok.ok_or_else(|| parse_err(path, line, format!("missing {what}")))?;
     let x: f64 = tok
         .parse()
@@ -79,7 +79,7 @@ fn resolve(
     tok: &str,
     count: usize,
     what: &str,
-) -> Result<u32, BakeError> {
+) -> Result<u32, SceneError> {
     let k: i64 = tok
         .parse()
         .map_err(|_| parse_err(path, line, format!("bad {what} index `{tok}`")))?;
@@ -105,7 +105,7 @@ fn resolve(
 }
 
 /// Reads the statements of `text`; `path` is only used in messages.
-pub(crate) fn parse(path: &Path, text: &str) -> Result<RawObj, BakeError> {
+pub(crate) fn parse(path: &Path, text: &str) -> Result<RawObj, SceneError> {
     let mut obj = RawObj::default();
     let mut current_o: Option<u32> = None;
     let mut current_g: Option<u32> = None;

@@ -2,7 +2,7 @@
 //! since accessor reading in the `gltf` crate can panic on a short buffer.
 
 use super::Loader;
-use crate::error::BakeError;
+use crate::SceneError;
 use ::gltf::accessor::{DataType, Dimensions};
 use base64::Engine as _;
 use std::path::{Path, PathBuf};
@@ -115,7 +115,7 @@ impl Loader<'_> {
         what: &str,
         types: &[DataType],
         dims: Dimensions,
-    ) -> Result<Elements<'_>, BakeError> {
+    ) -> Result<Elements<'_>, SceneError> {
         let i = acc.index();
         let (n, dim_name) = dimensions_of(acc.dimensions());
         if acc.dimensions() != dims || !types.contains(&acc.data_type()) {

@@ -1,8 +1,8 @@
 //! Mesh instances: a node's mesh placed in world space, its primitives cut into triangles.
 
 use super::Loader;
-use crate::error::BakeError;
-use crate::scene::Triangle;
+use crate::SceneError;
+use crate::Triangle;
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::{Mode, Semantic};
 use glam::{DMat4, DVec3};
@@ -28,7 +28,7 @@ impl Loader<'_> {
         node: &::gltf::Node<'_>,
         mesh: &::gltf::Mesh<'_>,
         world: &DMat4,
-    ) -> Result<(), BakeError> {
+    ) -> Result<(), SceneError> {
         let mut instance = Instance {
             node,
             world,
@@ -54,7 +54,7 @@ impl Loader<'_> {
         instance: &mut Instance<'_, '_>,
         mesh: &::gltf::Mesh<'_>,
         prim: &::gltf::Primitive<'_>,
-    ) -> Result<(), BakeError> {
+    ) -> Result<(), SceneError> {
         if prim.morph_targets().next().is_some() {
             self.ignored.insert("morph targets");
         }
@@ -112,7 +112,7 @@ impl Loader<'_> {
         pos_acc: &::gltf::Accessor<'_>,
         world: &DMat4,
         pwhat: &str,
-    ) -> Result<Vec<DVec3>, BakeError> {
+    ) -> Result<Vec<DVec3>, SceneError> {
         let pos = self.elements(pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?;
         let mut world_pos = Vec::with_capacity(pos.count);
         for v in 0..pos.count {
@@ -150,7 +150,7 @@ impl Loader<'_> {
         material: u32,
         nverts: usize,
         pwhat: &str,
-    ) -> Result<Option<Vec<[f64; 2]>>, BakeError> {
+    ) -> Result<Option<Vec<[f64; 2]>>, SceneError> {
         if self.scene.materials[material as usize].texture.is_none() {
             return Ok(None);
         }
@@ -201,7 +201,7 @@ impl Loader<'_> {
         prim: &::gltf::Primitive<'_>,
         nverts: usize,
         pwhat: &str,
-    ) -> Result<(Option<Vec<[f64; 3]>>, Option<Vec<f64>>), BakeError> {
+    ) -> Result<(Option<Vec<[f64; 3]>>, Option<Vec<f64>>), SceneError> {
         let Some(acc) = prim.get(&Semantic::Colors(0)) else {
             return Ok((None, None));
         };
@@ -269,7 +269,7 @@ impl Loader<'_> {
         prim: &::gltf::Primitive<'_>,
         nverts: usize,
         pwhat: &str,
-    ) -> Result<Vec<u32>, BakeError> {
+    ) -> Result<Vec<u32>, SceneError> {
         let Some(acc) = prim.indices() else {
             return Ok((0..nverts as u32).collect());
         };
@@ -412,7 +412,7 @@ impl Loader<'_> {
             },
             _ => {
                 let (mut acc, mut n) = (0.0, 0.0);
-                crate::scene::texture::barycentric_lattice(16, |w| {
+                crate::texture::barycentric_lattice(16, |w| {
                     let a = w[0] * factor[0] + w[1] * factor[1] + w[2] * factor[2];
                     acc += cutoff.map_or(a, |c| f64::from(u8::from(a >= c)));
                     n += 1.0;

@@ -11,8 +11,9 @@ mod material;
 mod mesh;
 mod nodes;
 
-use super::{LoadOptions, LoadReport, Material, Scene, TriangleFilter};
-use crate::error::BakeError;
+use crate::SceneError;
+use crate::checks::TriangleFilter;
+use crate::{LoadOptions, LoadReport, Material, Scene};
 use accessor::{Buffers, read_uri};
 use nodes::NodeTree;
 use std::collections::{BTreeSet, HashMap, HashSet};
@@ -55,9 +56,16 @@ struct Loader<'a> {
     no_nodes: bool,
 }
 
-/// Loads a `.gltf` or `.glb` file into a scene.
-pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeError> {
-    let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+/// Loads a glTF 2.0 file (`.gltf` with its buffers and images, or `.glb`): the default scene
+/// (else the first) with its node hierarchy; see `docs/contract.md` for what is read and what
+/// is ignored. The reader of the glTF row of [`crate::format::FORMATS`].
+///
+/// Errors (never panics) for malformed JSON or GLB, a missing or short buffer, an accessor or
+/// index out of range, NaN or infinite positions (also after the node transforms), a cycle in
+/// the node graph, an unsupported required extension, an invalid material, or a scene without
+/// any usable triangle.
+pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.into(),
         source,
     })?;
@@ -97,8 +105,8 @@ pub(crate) fn load(path: &Path, options: &LoadOptions) -> Result<Scene, BakeErro
     loader.finish()
 }
 
-fn gltf_error(path: &Path, message: String) -> BakeError {
-    BakeError::Gltf {
+fn gltf_error(path: &Path, message: String) -> SceneError {
+    SceneError::Gltf {
         path: path.into(),
         message,
     }
@@ -107,7 +115,7 @@ fn gltf_error(path: &Path, message: String) -> BakeError {
 /// Refuses a glTF 1.0 file by name (its maps where 2.0 has arrays would otherwise be a serde
 /// type error), and gives a scene without `nodes` (optional in glTF 2.0, required by the gltf
 /// crate) an empty list: `Some(bytes)` when the JSON was changed.
-fn normalised_json(path: &Path, bytes: &[u8]) -> Result<Option<Vec<u8>>, BakeError> {
+fn normalised_json(path: &Path, bytes: &[u8]) -> Result<Option<Vec<u8>>, SceneError> {
     let old = |version: &str| {
         gltf_error(
             path,
@@ -145,7 +153,7 @@ fn normalised_json(path: &Path, bytes: &[u8]) -> Result<Option<Vec<u8>>, BakeErr
 
 /// The document of a glTF JSON or GLB file, validated (but for accessor bounds), and its GLB
 /// binary chunk.
-fn parse(path: &Path, bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), BakeError> {
+fn parse(path: &Path, bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), SceneError> {
     let gerr = |message: String| gltf_error(path, message);
     let what = if bytes.starts_with(b"glTF") {
         "GLB"
@@ -163,7 +171,7 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>
         .extensions_required()
         .find(|e| !SUPPORTED_EXTENSIONS.contains(e))
     {
-        return Err(BakeError::UnsupportedExtension {
+        return Err(SceneError::UnsupportedExtension {
             path: path.into(),
             extension: ext.to_owned(),
         });
@@ -199,7 +207,7 @@ fn read_buffers(
     dir: &Path,
     doc: &::gltf::Document,
     blob: Option<Vec<u8>>,
-) -> Result<Vec<Vec<u8>>, BakeError> {
+) -> Result<Vec<Vec<u8>>, SceneError> {
     let gerr = |message: String| gltf_error(path, message);
     let mut buffers = Vec::new();
     for b in doc.buffers() {
@@ -233,15 +241,15 @@ fn read_buffers(
 
 impl Loader<'_> {
     /// An error about this file.
-    fn err(&self, message: impl Into<String>) -> BakeError {
-        BakeError::Gltf {
+    fn err(&self, message: impl Into<String>) -> SceneError {
+        SceneError::Gltf {
             path: self.path.into(),
             message: message.into(),
         }
     }
 
     /// The report's warnings, and the scene (an error if it has no triangle).
-    fn finish(mut self) -> Result<Scene, BakeError> {
+    fn finish(mut self) -> Result<Scene, SceneError> {
         let path = self.path;
         let doc = self.doc;
         if doc.animations().next().is_some() {
@@ -312,7 +320,7 @@ impl Loader<'_> {
             } else {
                 String::new()
             };
-            return Err(BakeError::EmptyScene {
+            return Err(SceneError::EmptyScene {
                 path: path.into(),
                 why,
             });

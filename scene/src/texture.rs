@@ -1,6 +1,6 @@
 //! Albedo textures (`map_Kd`, glTF `baseColorTexture`): decoded once to linear RGB, then averaged over regions.
 
-use crate::error::BakeError;
+use crate::SceneError;
 use std::path::Path;
 
 /// A decoded albedo texture in linear RGB, each channel in `[0, 1]`.
@@ -25,8 +25,8 @@ fn srgb_to_linear(c: f32) -> f32 {
 
 impl Texture {
     /// Decodes an image file (PNG, JPEG or GIF).
-    pub fn load(path: &Path) -> Result<Self, BakeError> {
-        let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
             path: path.into(),
             source,
         })?;
@@ -35,8 +35,8 @@ impl Texture {
 
     /// Decodes an encoded image (PNG, JPEG or GIF) held in memory; `path` and `what` (e.g.
     /// `image 2: `, may be empty) name it in messages.
-    pub fn decode(bytes: &[u8], path: &Path, what: &str) -> Result<Self, BakeError> {
-        let img = image::load_from_memory(bytes).map_err(|e| BakeError::Texture {
+    pub fn decode(bytes: &[u8], path: &Path, what: &str) -> Result<Self, SceneError> {
+        let img = image::load_from_memory(bytes).map_err(|e| SceneError::Texture {
             path: path.into(),
             message: format!("{what}{e}"),
         })?;
@@ -51,7 +51,7 @@ impl Texture {
         let rgb = img.to_rgb32f();
         let (width, height) = (rgb.width() as usize, rgb.height() as usize);
         if width == 0 || height == 0 {
-            return Err(BakeError::Texture {
+            return Err(SceneError::Texture {
                 path: path.into(),
                 message: format!("{what}empty image"),
             });

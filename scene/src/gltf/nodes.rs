@@ -1,7 +1,7 @@
 //! The node hierarchy: checked to be a forest, walked depth first with transforms in f64.
 
 use super::Loader;
-use crate::error::BakeError;
+use crate::SceneError;
 use glam::{DMat4, DQuat, DVec3};
 
 /// The node graph: each node's children and parent, checked to form trees.
@@ -100,7 +100,7 @@ impl Loader<'_> {
 
     /// Adds every mesh instance under `roots`: depth first, children in order, with an
     /// explicit stack (deep hierarchies are fine).
-    pub(super) fn walk(&mut self, roots: &[usize], tree: &NodeTree) -> Result<(), BakeError> {
+    pub(super) fn walk(&mut self, roots: &[usize], tree: &NodeTree) -> Result<(), SceneError> {
         let doc = self.doc;
         let mut stack: Vec<(usize, DMat4)> =
             roots.iter().rev().map(|&r| (r, DMat4::IDENTITY)).collect();
