@@ -9,7 +9,7 @@ use crate::args::BakeArgs;
 use crate::picture::LinearImage;
 use anyhow::Context;
 use glam::DVec3;
-use radiosity_core::{Light, Rgb};
+use radiosity_core::{Gather, Light, Rgb};
 use radiosity_runtime::BakedScene;
 use std::path::Path;
 use std::time::Instant;
@@ -35,8 +35,54 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
     let t = Instant::now();
     let (baked, _) =
         crate::bake::bake_scene(&obj, Some("embedded"), &Default::default(), &params, false)?;
-    let probe_report = baked.report.probes.clone().context("the demo's probes")?;
     let bake_s = t.elapsed().as_secs_f64();
+    write_bake(out, &baked, bake_s)?;
+
+    let rt = BakedScene::new(baked.file);
+    let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
+    let gather = chosen.gather.as_mut();
+
+    // demo.png: the box by its own light.
+    let cam = radiosity_runtime::render::auto_camera(&rt, 512, 512)?;
+    let t = Instant::now();
+    let (frame, gather_ms) = rt.frame(gather, &[], 1.0)?;
+    let prim = radiosity_runtime::render::primary(&rt, &cam, 2)?;
+    let img = radiosity_runtime::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
+    let png = out.join("demo.png");
+    crate::picture::save_png(&img, &png, img.auto_exposure())?;
+    outln!(
+        "{}: 512×512, gather {:.2} ms, image {:.0} ms",
+        png.display(),
+        gather_ms,
+        t.elapsed().as_secs_f64() * 1e3 - gather_ms
+    );
+
+    let mut anim = animate(&rt, gather)?;
+    // One exposure for the whole animation, so that brightness changes are real.
+    let mut exposures: Vec<f32> = anim.images.iter().map(LinearImage::auto_exposure).collect();
+    exposures.sort_by(f32::total_cmp);
+    let exposure = exposures[exposures.len() / 2];
+    let gif = out.join("demo.gif");
+    write_gif(&gif, &anim.images, Some(exposure))?;
+    outln!(
+        "{}: {} frames 256×256, per frame: gather {:.2} ms ({}), direct light + gather {:.2} ms, probes {:.2} ms (medians)",
+        gif.display(),
+        FRAMES,
+        median(&mut anim.gathers),
+        gather.name(),
+        median(&mut anim.frames_ms),
+        median(&mut anim.probes_ms)
+    );
+    Ok(())
+}
+
+/// Writes `demo.rad` and prints the bake's summary, the file's size and its probes.
+fn write_bake(
+    out: &Path,
+    baked: &radiosity_bake::pipeline::BakeOutput,
+    bake_s: f64,
+) -> anyhow::Result<()> {
+    let probe_report = baked.report.probes.clone().context("the demo's probes")?;
     let bytes = baked.file.to_bytes()?;
     let rad = out.join("demo.rad");
     crate::output::write_bytes(&rad, &bytes)?;
@@ -61,43 +107,37 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
         dense / 1e6,
         dense / without_probes
     );
-
     outln!(
         "probes: {} ({:.2} MB of the file)",
         probe_report.placed,
         probe_report.bytes as f64 / 1e6
     );
+    Ok(())
+}
 
-    let rt = BakedScene::new(baked.file);
-    let mut chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;
+/// The animation's frames and their times, ms.
+struct Animation {
+    images: Vec<LinearImage>,
+    gathers: Vec<f64>,
+    frames_ms: Vec<f64>,
+    probes_ms: Vec<f64>,
+}
 
-    // demo.png: the box by its own light.
-    let cam = radiosity_runtime::render::auto_camera(&rt, 512, 512)?;
-    let t = Instant::now();
-    let (frame, gather_ms) = rt.frame(chosen.gather.as_mut(), &[], 1.0)?;
-    let prim = radiosity_runtime::render::primary(&rt, &cam, 2)?;
-    let img = radiosity_runtime::render::shade(&rt, &prim, &frame, &[], 1.0, None)?;
-    let png = out.join("demo.png");
-    crate::picture::save_png(&img, &png, img.auto_exposure())?;
-    outln!(
-        "{}: 512×512, gather {:.2} ms, image {:.0} ms",
-        png.display(),
-        gather_ms,
-        t.elapsed().as_secs_f64() * 1e3 - gather_ms
-    );
-
-    // demo.gif: ceiling light off, a point light circling under the ceiling, a sphere floating
-    // through the box's middle (over the short block, in front of the tall one).
+/// demo.gif's frames: ceiling light off, a point light circling under the ceiling, a sphere
+/// floating through the box's middle (over the short block, in front of the tall one).
+fn animate(rt: &BakedScene, gather: &mut dyn Gather) -> anyhow::Result<Animation> {
     let (lo, hi) = rt
         .mesh_bounds()
         .context("the demo's mesh has no vertices")?;
     let (centre, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
-    let cam = radiosity_runtime::render::auto_camera(&rt, 256, 256)?;
-    let prim = radiosity_runtime::render::primary(&rt, &cam, 1)?;
-    let mut gathers = Vec::with_capacity(FRAMES);
-    let mut frames_ms = Vec::with_capacity(FRAMES);
-    let mut probes_ms = Vec::with_capacity(FRAMES);
-    let mut images: Vec<LinearImage> = Vec::with_capacity(FRAMES);
+    let cam = radiosity_runtime::render::auto_camera(rt, 256, 256)?;
+    let prim = radiosity_runtime::render::primary(rt, &cam, 1)?;
+    let mut anim = Animation {
+        images: Vec::with_capacity(FRAMES),
+        gathers: Vec::with_capacity(FRAMES),
+        frames_ms: Vec::with_capacity(FRAMES),
+        probes_ms: Vec::with_capacity(FRAMES),
+    };
     for f in 0..FRAMES {
         let a = std::f64::consts::TAU * f as f64 / FRAMES as f64;
         let p = DVec3::new(
@@ -111,12 +151,12 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
             intensity: Rgb::new(3.0, 2.6, 2.0),
         }];
         let t = Instant::now();
-        let (frame, g) = rt.frame(chosen.gather.as_mut(), &lights, 0.0)?;
-        frames_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        gathers.push(g);
+        let (frame, g) = rt.frame(gather, &lights, 0.0)?;
+        anim.frames_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        anim.gathers.push(g);
         let t = Instant::now();
-        let sh = radiosity_runtime::probes::frame_sh(&rt, &frame.irradiance, &lights)?;
-        probes_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let sh = radiosity_runtime::probes::frame_sh(rt, &frame.irradiance, &lights)?;
+        anim.probes_ms.push(t.elapsed().as_secs_f64() * 1e3);
         let b = -2.0 * a;
         let centre = DVec3::new(
             centre.x + 0.1 * half.x + 0.35 * half.x * b.cos(),
@@ -127,11 +167,11 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
             centre,
             radius: 0.18 * half.y,
             reflectance: Rgb::splat(0.75),
-            sh: radiosity_runtime::probes::sh_at(&rt, &sh, centre)
+            sh: radiosity_runtime::probes::sh_at(rt, &sh, centre)
                 .context("the demo's sphere left the probe grid")?,
         };
-        images.push(radiosity_runtime::render::shade(
-            &rt,
+        anim.images.push(radiosity_runtime::render::shade(
+            rt,
             &prim,
             &frame,
             &lights,
@@ -139,22 +179,7 @@ pub(crate) fn run(out: &Path, backend: Option<&str>, patches: usize) -> anyhow::
             Some(&sphere),
         )?);
     }
-    // One exposure for the whole animation, so that brightness changes are real.
-    let mut exposures: Vec<f32> = images.iter().map(LinearImage::auto_exposure).collect();
-    exposures.sort_by(f32::total_cmp);
-    let exposure = exposures[exposures.len() / 2];
-    let gif = out.join("demo.gif");
-    write_gif(&gif, &images, Some(exposure))?;
-    outln!(
-        "{}: {} frames 256×256, per frame: gather {:.2} ms ({}), direct light + gather {:.2} ms, probes {:.2} ms (medians)",
-        gif.display(),
-        FRAMES,
-        median(&mut gathers),
-        chosen.gather.name(),
-        median(&mut frames_ms),
-        median(&mut probes_ms)
-    );
-    Ok(())
+    Ok(anim)
 }
 
 pub(crate) fn median(v: &mut [f64]) -> f64 {

@@ -156,6 +156,13 @@ fn print_text(path: &Path, file: &RadFile<'_>, s: &Value) {
         (Some(v), None) => outln!("  compression  relative Frobenius error {v:.4}"),
         (None, _) => outln!("  compression  error not measured"),
     }
+    print_extras(file, s);
+}
+
+/// The lines after the matrix's: the lighting error, the form factors, the probes, the
+/// parts, the coverage and the effects, each where the file has it.
+fn print_extras(file: &RadFile<'_>, s: &Value) {
+    let mib = |b: &Value| b.as_f64().unwrap_or(0.0) / (1024.0 * 1024.0);
     if let Some(v) = file.lighting_error {
         // As `bake` prints it: a percentage (`--json` keeps the fraction).
         outln!(

@@ -165,89 +165,9 @@ enum Command {
         b: PathBuf,
     },
     /// Light a scene (its emitters, plus analytic lights) and report per-object irradiance and radiosity.
-    Solve {
-        /// A scene, OBJ or glTF 2.0 (.gltf/.glb; baked first, with the bake flags), or a .rad
-        /// file.
-        input: PathBuf,
-        #[command(flatten)]
-        bake: BakeArgs,
-        /// Analytic lights added to the scene's emitters (JSON; every field:
-        /// docs/examples/lights.json).
-        ///
-        /// {"lights": [...]}, each light one of {"type": "point", "position": [x,y,z],
-        /// "intensity": [r,g,b]}, {"type": "spot", "position", "direction": [x,y,z] (the cone's
-        /// axis), "cone_deg": the cone's half-angle in degrees, in (0, 180], "intensity"} or
-        /// {"type": "directional", "direction" (the way the light travels), "irradiance":
-        /// [r,g,b]}. Every field required; positions in scene units, intensity in W/sr,
-        /// irradiance in W/m² on a surface facing the light.
-        #[arg(long, value_name = "LIGHTS.json")]
-        lights: Option<PathBuf>,
-        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
-        #[arg(long)]
-        backend: Option<String>,
-        /// Reflectance edits of named objects, applied without a re-bake (JSON):
-        /// {"materials": [{"object": "leftWall", "reflectance": [r,g,b]}]}, each channel in
-        /// [0, 1).
-        #[arg(long, value_name = "EDITS.json")]
-        materials: Option<PathBuf>,
-        /// Points at which to report the total irradiance (JSON): {"points": [{"position":
-        /// [x,y,z], "normal": [x,y,z]}]}; a point inside an object or outside the scene is
-        /// reported as such.
-        #[arg(long, value_name = "POINTS.json")]
-        points: Option<PathBuf>,
-        /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"},
-        /// "materials" with --materials, "points" with --points.
-        #[arg(long)]
-        json: bool,
-    },
+    Solve(solve::SolveArgs),
     /// Render an image: ray-cast direct light with shadows plus the baked indirect light.
-    Render {
-        /// A scene, OBJ or glTF 2.0 (.gltf/.glb; baked first, with the bake flags), or a .rad
-        /// file.
-        input: PathBuf,
-        #[command(flatten)]
-        bake: BakeArgs,
-        /// Analytic lights added to the scene's emitters (JSON; every field:
-        /// docs/examples/lights.json).
-        ///
-        /// {"lights": [...]}, each light one of {"type": "point", "position": [x,y,z],
-        /// "intensity": [r,g,b]}, {"type": "spot", "position", "direction": [x,y,z] (the cone's
-        /// axis), "cone_deg": the cone's half-angle in degrees, in (0, 180], "intensity"} or
-        /// {"type": "directional", "direction" (the way the light travels), "irradiance":
-        /// [r,g,b]}. Every field required; positions in scene units, intensity in W/sr,
-        /// irradiance in W/m² on a surface facing the light.
-        #[arg(long, value_name = "LIGHTS.json")]
-        lights: Option<PathBuf>,
-        /// Camera (JSON; every field: docs/examples/camera.json); default: framed
-        /// automatically.
-        ///
-        /// {"position": [x,y,z], "look_at": [x,y,z]} (scene units), and optionally "up"
-        /// (default [0,1,0]), "fov_deg" (the vertical field of view in degrees, in (0, 180),
-        /// default 40), "width" and "height" (pixels, 1 to 8192, default 512 each: a camera
-        /// file sets the size, not --width and --height).
-        #[arg(long, value_name = "CAMERA.json")]
-        camera: Option<PathBuf>,
-        /// Where to write the PNG (written atomically).
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Image width when the camera is framed automatically.
-        #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
-        width: u32,
-        /// Image height when the camera is framed automatically.
-        #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
-        height: u32,
-        /// Antialiasing: N×N camera samples per pixel (1 to 8).
-        #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
-        aa: u32,
-        /// Exposure: the factor on linear radiance before tone mapping (default: automatic,
-        /// the 99th percentile of luminance to 0.8; the value used is printed). Give `render`
-        /// and `pathtrace` the same value to compare their images.
-        #[arg(long, allow_negative_numbers = true)]
-        exposure: Option<f32>,
-        /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
-        #[arg(long)]
-        backend: Option<String>,
-    },
+    Render(render::RenderArgs),
     /// Object-to-object view factors of a scene (OBJ or glTF), from its full-detail geometry.
     ViewFactors {
         /// The scene file: OBJ (+ MTL), or glTF 2.0 (.gltf or .glb).
@@ -325,8 +245,8 @@ fn parse() -> Result<Cli, clap::Error> {
     let mut cli = Cli::from_arg_matches(&matches)?;
     if let (
         Some((_, sub)),
-        Command::Solve { bake, .. }
-        | Command::Render { bake, .. }
+        Command::Solve(solve::SolveArgs { bake, .. })
+        | Command::Render(render::RenderArgs { bake, .. })
         | Command::Bake { bake, .. }
         | Command::BakePlan { bake, .. },
     ) = (matches.subcommand(), &mut cli.command)
@@ -353,34 +273,48 @@ fn main() -> ExitCode {
     }
     let cli = match parse() {
         Ok(cli) => cli,
-        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            // `radiosity` alone: the help, on stderr, with clap's usage-error status.
-            let _ = e.print();
-            return ExitCode::from(2);
-        }
-        Err(e) if !e.use_stderr() => {
-            // --help and --version: clap prints them as usual.
-            let _ = e.print();
-            return ExitCode::SUCCESS;
-        }
-        Err(e) => {
-            // Usage errors keep the one-line contract: clap's first paragraph (which names the
-            // flag, and its continuation lines such as the missing argument) on one line.
-            let text = e.to_string();
-            let first: Vec<&str> = text
-                .lines()
-                .take_while(|l| !l.trim().is_empty())
-                .map(str::trim)
-                .collect();
-            let first = first.join(" ");
-            eprintln!(
-                "error: {} (see --help)",
-                first.trim_start_matches("error: ")
-            );
-            return ExitCode::from(2);
-        }
+        Err(e) => return usage(&e),
     };
-    let result = match cli.command {
+    match run(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {}", error_line(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// What a command line clap refused or answered itself ends with: `radiosity` alone gets
+/// the help on stderr with clap's usage-error status, `--help` and `--version` their text,
+/// and a usage error one line.
+fn usage(e: &clap::Error) -> ExitCode {
+    if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        let _ = e.print();
+        return ExitCode::from(2);
+    }
+    if !e.use_stderr() {
+        let _ = e.print();
+        return ExitCode::SUCCESS;
+    }
+    // Usage errors keep the one-line contract: clap's first paragraph (which names the flag,
+    // and its continuation lines such as the missing argument) on one line.
+    let text = e.to_string();
+    let first: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    let first = first.join(" ");
+    eprintln!(
+        "error: {} (see --help)",
+        first.trim_start_matches("error: ")
+    );
+    ExitCode::from(2)
+}
+
+/// Runs one subcommand: its exit status (`compare`'s 1 for files that differ), or its error.
+fn run(command: Command) -> anyhow::Result<ExitCode> {
+    let result = match command {
         Command::Bake {
             scene,
             output,
@@ -437,30 +371,15 @@ fn main() -> ExitCode {
             reuse,
             json,
         } => planned::run_assemble(&scene, &plan, &rows, &output, reuse.as_deref(), json),
-        Command::Compare { a, b } => match planned::run_compare(&a, &b) {
-            Ok(true) => Ok(()),
-            Ok(false) => return ExitCode::from(1),
-            Err(e) => Err(e),
-        },
-        Command::Solve {
-            input,
-            bake,
-            lights,
-            backend,
-            materials,
-            points,
-            json,
-        } => solve::run(
-            &input,
-            &bake,
-            solve::Inputs {
-                lights: lights.as_deref(),
-                materials: materials.as_deref(),
-                points: points.as_deref(),
-            },
-            backend.as_deref(),
-            json,
-        ),
+        Command::Compare { a, b } => {
+            let same = planned::run_compare(&a, &b)?;
+            return Ok(if same {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            });
+        }
+        Command::Solve(args) => solve::run(&args),
         Command::Demo { show } => demo::run(&show.out, show.backend.as_deref(), show.patches),
         Command::Sunset {
             show,
@@ -474,40 +393,13 @@ fn main() -> ExitCode {
             frames,
             (width, height),
         ),
-        Command::Render {
-            input,
-            bake,
-            lights,
-            camera,
-            output,
-            width,
-            height,
-            aa,
-            exposure,
-            backend,
-        } => render::run(
-            &input,
-            &bake,
-            lights.as_deref(),
-            camera.as_deref(),
-            &output,
-            (width, height),
-            aa,
-            exposure,
-            backend.as_deref(),
-        ),
+        Command::Render(args) => render::run(&args),
         Command::ViewFactors { scene, json } => view_factors::run(&scene, json),
         Command::Bench {
             patches,
             runs,
             json,
-        } => radiosity_bake::limits::check_patches(
-            patches,
-            radiosity_bake::transfer::BounceSpec::Infinite,
-            radiosity_bake::pipeline::SystemsChoice::Off,
-        )
-        .map_err(anyhow::Error::from)
-        .and_then(|()| bench::run(patches, json, runs)),
+        } => bench::run(patches, json, runs),
         Command::Report { quick, output } => {
             report::output_dir(output).and_then(|dir| report::run(quick, &dir))
         }
@@ -519,13 +411,7 @@ fn main() -> ExitCode {
             export_dds,
         } => inspect::run(&file, json, export_dds.as_deref()),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", error_line(&e));
-            ExitCode::FAILURE
-        }
-    }
+    result.map(|()| ExitCode::SUCCESS)
 }
 
 /// An error as one line: the context chain joined, never a backtrace. A cause its parent

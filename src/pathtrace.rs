@@ -83,6 +83,16 @@ fn check_args(args: &PathtraceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What `pathtrace` measured: per object, per point, the image, and the time of each step.
+struct Traced {
+    objects: Vec<ObjectEstimate>,
+    /// Per point: irradiance and its standard error.
+    points: Option<Vec<([f64; 3], [f64; 3])>>,
+    /// The image's JSON (`null` without `-o`).
+    image: serde_json::Value,
+    timings: serde_json::Map<String, serde_json::Value>,
+}
+
 pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     check_args(args)?;
     crate::picture::check_exposure(args.exposure)?;
@@ -105,7 +115,25 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
         .as_deref()
         .map(crate::files::points)
         .transpose()?;
+    let traced = trace(args, &lights, points.as_deref(), camera)?;
+    if args.json {
+        print_json(args, lights.len(), points.as_deref(), traced)?;
+    } else {
+        print_text(args, points.as_deref(), &traced);
+    }
+    if let Some(note) = camera_note {
+        eprintln!("note: {note}");
+    }
+    Ok(())
+}
 
+/// Loads the scene and path traces it: per object, at the points, and the image (with `-o`).
+fn trace(
+    args: &PathtraceArgs,
+    lights: &[radiosity_core::Light],
+    points: Option<&[radiosity_runtime::points::Point]>,
+    camera: Option<Camera>,
+) -> anyhow::Result<Traced> {
     let mut timings = serde_json::Map::new();
     let mut lap = |name: &str, t: Instant| {
         timings.insert(name.into(), json!(t.elapsed().as_secs_f64() * 1e3));
@@ -118,19 +146,18 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
     }
     lap("load", t);
     let t = Instant::now();
-    let tracer = PathTracer::new(&scene, &lights).map_err(anyhow::Error::msg)?;
+    let tracer = PathTracer::new(&scene, lights).map_err(anyhow::Error::msg)?;
     lap("build", t);
     let t = Instant::now();
     let objects = tracer.object_irradiance(args.samples, args.seed);
     lap("objects", t);
-    let point_estimates = points.as_ref().map(|points| {
+    let point_estimates = points.map(|points| {
         let t = Instant::now();
         let at: Vec<_> = points.iter().map(|p| (p.position, p.normal)).collect();
         let e = tracer.point_irradiance(&at, args.samples, args.seed);
         lap("points", t);
         e
     });
-
     let mut image = serde_json::Value::Null;
     if let Some(out) = &args.output {
         let camera = camera.unwrap_or_else(|| {
@@ -150,88 +177,103 @@ pub(crate) fn run(args: &PathtraceArgs) -> anyhow::Result<()> {
             "exposure": exposure,
         });
     }
+    Ok(Traced {
+        objects,
+        points: point_estimates,
+        image,
+        timings,
+    })
+}
 
-    if args.json {
-        let out = json!({
-            "samples_per_object": args.samples,
-            "seed": args.seed,
-            "lights": lights.len(),
-            "objects": objects.iter().map(object_json).collect::<Vec<_>>(),
-            "image": image,
-            "timings_ms": timings,
-        });
-        let mut out = out;
-        if let (Some(points), Some(estimates)) = (&points, &point_estimates) {
-            out["points"] = points
-                .iter()
-                .zip(estimates)
-                .map(|(p, (h, se))| {
-                    json!({
-                        "position": p.position.to_array(),
-                        "normal": p.given_normal.to_array(),
-                        "irradiance": h,
-                        "stderr": se,
-                    })
+/// `pathtrace --json`.
+fn print_json(
+    args: &PathtraceArgs,
+    lights: usize,
+    points: Option<&[radiosity_runtime::points::Point]>,
+    traced: Traced,
+) -> anyhow::Result<()> {
+    let mut out = json!({
+        "samples_per_object": args.samples,
+        "seed": args.seed,
+        "lights": lights,
+        "objects": traced.objects.iter().map(object_json).collect::<Vec<_>>(),
+        "image": traced.image,
+        "timings_ms": traced.timings,
+    });
+    if let (Some(points), Some(estimates)) = (points, &traced.points) {
+        out["points"] = points
+            .iter()
+            .zip(estimates)
+            .map(|(p, (h, se))| {
+                json!({
+                    "position": p.position.to_array(),
+                    "normal": p.given_normal.to_array(),
+                    "irradiance": h,
+                    "stderr": se,
                 })
-                .collect::<Vec<_>>()
-                .into();
-        }
-        outln!("{}", serde_json::to_string_pretty(&out)?);
-    } else {
+            })
+            .collect::<Vec<_>>()
+            .into();
+    }
+    outln!("{}", serde_json::to_string_pretty(&out)?);
+    Ok(())
+}
+
+/// `pathtrace`'s text: one line an object, one a point, the image's path.
+fn print_text(
+    args: &PathtraceArgs,
+    points: Option<&[radiosity_runtime::points::Point]>,
+    traced: &Traced,
+) {
+    outln!(
+        "{} (path traced, {} samples per object, seed {}, {:.0} ms)",
+        args.scene.display(),
+        args.samples,
+        args.seed,
+        traced.timings["objects"].as_f64().unwrap_or(0.0)
+    );
+    outln!(
+        "{:<24} {:>12} {:>12} {:>52} {:>36}",
+        "object",
+        "area",
+        "exposed",
+        "irradiance W/m² (r g b) ± standard error",
+        "radiosity W/m² (r g b)"
+    );
+    for o in &traced.objects {
+        let h: Vec<String> = (0..3)
+            .map(|c| format!("{:>9.4} ±{:<7.2e}", o.irradiance[c], o.stderr[c]))
+            .collect();
+        let b: Vec<String> = o.radiosity.iter().map(|v| format!("{v:>11.4}")).collect();
         outln!(
-            "{} (path traced, {} samples per object, seed {}, {:.0} ms)",
-            args.scene.display(),
-            args.samples,
-            args.seed,
-            timings["objects"].as_f64().unwrap_or(0.0)
+            "{:<24} {:>12.5} {:>12.5} {} {}",
+            o.name,
+            o.area,
+            o.exposed_area,
+            h.join(" "),
+            b.join(" ")
         );
-        outln!(
-            "{:<24} {:>12} {:>12} {:>52} {:>36}",
-            "object",
-            "area",
-            "exposed",
-            "irradiance W/m² (r g b) ± standard error",
-            "radiosity W/m² (r g b)"
-        );
-        for o in &objects {
-            let h: Vec<String> = (0..3)
-                .map(|c| format!("{:>9.4} ±{:<7.2e}", o.irradiance[c], o.stderr[c]))
-                .collect();
-            let b: Vec<String> = o.radiosity.iter().map(|v| format!("{v:>11.4}")).collect();
+    }
+    if let (Some(points), Some(estimates)) = (points, &traced.points) {
+        for (p, (h, se)) in points.iter().zip(estimates) {
+            let q = p.position;
             outln!(
-                "{:<24} {:>12.5} {:>12.5} {} {}",
-                o.name,
-                o.area,
-                o.exposed_area,
-                h.join(" "),
-                b.join(" ")
+                "point [{:.3}, {:.3}, {:.3}]: {:.4} ±{:.2e} {:.4} ±{:.2e} {:.4} ±{:.2e}",
+                q.x,
+                q.y,
+                q.z,
+                h[0],
+                se[0],
+                h[1],
+                se[1],
+                h[2],
+                se[2]
             );
         }
-        if let (Some(points), Some(estimates)) = (&points, &point_estimates) {
-            for (p, (h, se)) in points.iter().zip(estimates) {
-                let q = p.position;
-                outln!(
-                    "point [{:.3}, {:.3}, {:.3}]: {:.4} ±{:.2e} {:.4} ±{:.2e} {:.4} ±{:.2e}",
-                    q.x,
-                    q.y,
-                    q.z,
-                    h[0],
-                    se[0],
-                    h[1],
-                    se[1],
-                    h[2],
-                    se[2]
-                );
-            }
-        }
-        if let Some(out) = &args.output {
-            outln!("image: {}", out.display());
-        }
     }
-    if let Some(note) = camera_note {
-        eprintln!("note: {note}");
+    if let Some(out) = &args.output {
+        outln!("image: {}", out.display());
     }
-    Ok(())
 }
 
 /// The `solve --json` object shape plus the standard errors.

@@ -1,21 +1,69 @@
 //! `radiosity render SCENE.obj|BAKED.rad [--lights L] [--camera C] -o OUT.png`: the runtime's
 //! ray-cast camera (`radiosity_runtime::render`) over a frame, written as PNG.
 
+use crate::args::BakeArgs;
 use radiosity_runtime::render::{auto_camera, primary, shade};
-use std::path::Path;
+use std::path::PathBuf;
+
+/// The flags of `radiosity render`.
+#[derive(clap::Args, Clone, Debug)]
+pub(crate) struct RenderArgs {
+    /// A scene, OBJ or glTF 2.0 (.gltf/.glb; baked first, with the bake flags), or a .rad
+    /// file.
+    pub(crate) input: PathBuf,
+    #[command(flatten)]
+    pub(crate) bake: BakeArgs,
+    /// Analytic lights added to the scene's emitters (JSON; every field:
+    /// docs/examples/lights.json).
+    ///
+    /// {"lights": [...]}, each light one of {"type": "point", "position": [x,y,z],
+    /// "intensity": [r,g,b]}, {"type": "spot", "position", "direction": [x,y,z] (the cone's
+    /// axis), "cone_deg": the cone's half-angle in degrees, in (0, 180], "intensity"} or
+    /// {"type": "directional", "direction" (the way the light travels), "irradiance":
+    /// [r,g,b]}. Every field required; positions in scene units, intensity in W/sr,
+    /// irradiance in W/m² on a surface facing the light.
+    #[arg(long, value_name = "LIGHTS.json")]
+    pub(crate) lights: Option<PathBuf>,
+    /// Camera (JSON; every field: docs/examples/camera.json); default: framed
+    /// automatically.
+    ///
+    /// {"position": [x,y,z], "look_at": [x,y,z]} (scene units), and optionally "up"
+    /// (default [0,1,0]), "fov_deg" (the vertical field of view in degrees, in (0, 180),
+    /// default 40), "width" and "height" (pixels, 1 to 8192, default 512 each: a camera
+    /// file sets the size, not --width and --height).
+    #[arg(long, value_name = "CAMERA.json")]
+    pub(crate) camera: Option<PathBuf>,
+    /// Where to write the PNG (written atomically).
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    /// Image width when the camera is framed automatically.
+    #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
+    pub(crate) width: u32,
+    /// Image height when the camera is framed automatically.
+    #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
+    pub(crate) height: u32,
+    /// Antialiasing: N×N camera samples per pixel (1 to 8).
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
+    pub(crate) aa: u32,
+    /// Exposure: the factor on linear radiance before tone mapping (default: automatic,
+    /// the 99th percentile of luminance to 0.8; the value used is printed). Give `render`
+    /// and `pathtrace` the same value to compare their images.
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) exposure: Option<f32>,
+    /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+    #[arg(long)]
+    pub(crate) backend: Option<String>,
+}
 
 /// The `render` command.
-pub(crate) fn run(
-    input: &Path,
-    args: &crate::args::BakeArgs,
-    lights: Option<&Path>,
-    camera_file: Option<&Path>,
-    output: &Path,
-    size: (u32, u32),
-    spp_side: u32,
-    exposure: Option<f32>,
-    backend: Option<&str>,
-) -> anyhow::Result<()> {
+pub(crate) fn run(a: &RenderArgs) -> anyhow::Result<()> {
+    let (input, args, output) = (a.input.as_path(), &a.bake, a.output.as_path());
+    let (size, spp_side, exposure) = ((a.width, a.height), a.aa, a.exposure);
+    let (lights, camera_file, backend) = (
+        a.lights.as_deref(),
+        a.camera.as_deref(),
+        a.backend.as_deref(),
+    );
     crate::picture::check_exposure(exposure)?;
     if !(1..=8).contains(&spp_side) {
         anyhow::bail!("--aa must be 1 to 8 (samples per pixel side), not {spp_side}");
@@ -56,7 +104,7 @@ pub(crate) fn run(
     // A level is lit to its steady state through the same frame (its `Gather`).
     let (mut level, mut chosen);
     let gather: &mut dyn radiosity_core::Gather = if rt.file.systems.is_some() {
-        level = crate::backend::choose_level(backend, &rt.file, &[])?.0;
+        level = crate::backend::choose_level(backend, &rt.file, &[])?.light;
         level.gather_mut()
     } else {
         chosen = crate::backend::choose(backend, rt.file.matrix.clone())?;

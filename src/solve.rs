@@ -10,14 +10,45 @@ use radiosity_core::{
     Bounces, DecodeMode, EditedGather, Gather, ReflectanceEdit, Rgb, finish_frame, first_exitance,
 };
 use serde_json::{Value, json};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// The files `solve` reads besides its input.
-pub(crate) struct Inputs<'a> {
-    pub(crate) lights: Option<&'a Path>,
-    pub(crate) materials: Option<&'a Path>,
-    pub(crate) points: Option<&'a Path>,
+/// The flags of `radiosity solve`.
+#[derive(clap::Args, Clone, Debug)]
+pub(crate) struct SolveArgs {
+    /// A scene, OBJ or glTF 2.0 (.gltf/.glb; baked first, with the bake flags), or a .rad
+    /// file.
+    pub(crate) input: PathBuf,
+    #[command(flatten)]
+    pub(crate) bake: BakeArgs,
+    /// Analytic lights added to the scene's emitters (JSON; every field:
+    /// docs/examples/lights.json).
+    ///
+    /// {"lights": [...]}, each light one of {"type": "point", "position": [x,y,z],
+    /// "intensity": [r,g,b]}, {"type": "spot", "position", "direction": [x,y,z] (the cone's
+    /// axis), "cone_deg": the cone's half-angle in degrees, in (0, 180], "intensity"} or
+    /// {"type": "directional", "direction" (the way the light travels), "irradiance":
+    /// [r,g,b]}. Every field required; positions in scene units, intensity in W/sr,
+    /// irradiance in W/m² on a surface facing the light.
+    #[arg(long, value_name = "LIGHTS.json")]
+    pub(crate) lights: Option<PathBuf>,
+    /// Gather backend: auto, cpu, gpu or reference (default: $RADIOSITY_BACKEND, else auto).
+    #[arg(long)]
+    pub(crate) backend: Option<String>,
+    /// Reflectance edits of named objects, applied without a re-bake (JSON):
+    /// {"materials": [{"object": "leftWall", "reflectance": [r,g,b]}]}, each channel in
+    /// [0, 1).
+    #[arg(long, value_name = "EDITS.json")]
+    pub(crate) materials: Option<PathBuf>,
+    /// Points at which to report the total irradiance (JSON): {"points": [{"position":
+    /// [x,y,z], "normal": [x,y,z]}]}; a point inside an object or outside the scene is
+    /// reported as such.
+    #[arg(long, value_name = "POINTS.json")]
+    pub(crate) points: Option<PathBuf>,
+    /// Print JSON: {"patches", "bounces", "backend", "objects", "effects", "timings_ms"},
+    /// "materials" with --materials, "points" with --points.
+    #[arg(long)]
+    pub(crate) json: bool,
 }
 
 /// A level's steady state: the relative change of the exitance in a frame at most this.
@@ -25,36 +56,62 @@ const LEVEL_TOLERANCE: f32 = 1e-4;
 /// A level's frames at most.
 const LEVEL_MAX_FRAMES: usize = 100;
 
-pub(crate) fn run(
-    input: &Path,
-    args: &BakeArgs,
-    inputs: Inputs<'_>,
-    backend: Option<&str>,
-    json_out: bool,
-) -> anyhow::Result<()> {
+/// What lit the frame: the backend, the gather and its time (ms, the backend's setup apart),
+/// and the edit's and the level's summaries for the JSON.
+struct Lit {
+    kind: &'static str,
+    ms: f64,
+    gather: String,
+    materials: Option<Value>,
+    systems: Option<Value>,
+}
+
+/// What `solve` reports: the objects and the points, with what lit them.
+struct Solved<'a> {
+    input: &'a Path,
+    n: usize,
+    lights: usize,
+    bounces: Bounces,
+    lit: Lit,
+    objects: Vec<Value>,
+    effects: Value,
+    timings: std::collections::BTreeMap<&'static str, f64>,
+    answers: Option<Vec<Answered<'a>>>,
+}
+
+/// A point and its answer.
+type Answered<'a> = (
+    &'a radiosity_runtime::points::Point,
+    radiosity_runtime::points::Answer,
+);
+
+/// The `solve` command.
+pub(crate) fn run(a: &SolveArgs) -> anyhow::Result<()> {
+    let (input, backend, json_out) = (a.input.as_path(), a.backend.as_deref(), a.json);
     // Read the lights, edits and points first: a bad file fails before any bake.
-    let lights = match inputs.lights {
+    let lights = match &a.lights {
         Some(p) => crate::files::lights(p)?,
         None => Vec::new(),
     };
-    let materials = inputs.materials.map(crate::files::materials).transpose()?;
-    let points = inputs.points.map(crate::files::points).transpose()?;
+    let materials = a
+        .materials
+        .as_deref()
+        .map(crate::files::materials)
+        .transpose()?;
+    let points = a.points.as_deref().map(crate::files::points).transpose()?;
     let crate::scene::Loaded {
         mut runtime,
         effects,
         mut timings,
-    } = crate::scene::load(input, args, json_out)?;
-    let (edit, mut edited_level) = match &materials {
+    } = crate::scene::load(input, &a.bake, json_out)?;
+    let edit = match &materials {
         Some(m) => {
             let t = Instant::now();
             let edit = edit_materials(&mut runtime, m, backend)?;
             timings.insert("edit_setup", t.elapsed().as_secs_f64() * 1e3);
-            match edit {
-                EditSetup::One(e) => (Some(*e), None),
-                EditSetup::Level(level) => (None, Some(*level)),
-            }
+            Some(edit)
         }
-        None => (None, None),
+        None => None,
     };
     let file = &runtime.file;
     let n = file.n();
@@ -66,51 +123,9 @@ pub(crate) fn run(
     // The backend prints its choice: choose it once the input to the gather is known good, so
     // a failure before it stays one `error:` line.
     let mut y = vec![Rgb::ZERO; n];
-    let (kind, gather_name, edit_json, systems_json);
-    let t;
-    if file.systems.is_some() {
-        // A level: each system's CPU gather, lit block by block to the steady state.
-        let ((mut level, chosen, name), edited) = match edited_level.take() {
-            Some((level, summary)) => (level, Some(summary)),
-            None => (crate::backend::choose_level(backend, file, &[])?, None),
-        };
-        t = Instant::now();
-        let frames = level.steady(&x, LEVEL_TOLERANCE, LEVEL_MAX_FRAMES)?;
-        y.copy_from_slice(level.gathered());
-        kind = chosen;
-        gather_name = name;
-        edit_json = edited;
-        systems_json = Some(json!({
-            "count": level.count(),
-            "frames": frames,
-            "change": level.change(),
-            "frame_ms": t.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64,
-        }));
-    } else {
-        let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
-        t = Instant::now();
-        edit_json = match edit {
-            Some(edit) => {
-                let summary = json!({
-                    "objects": materials.as_ref().map_or(0, Vec::len),
-                    "patches": edit.len(),
-                    "bytes": edit.bytes(),
-                });
-                EditedGather::new(&mut *chosen.gather, edit)
-                    .map_err(|e| anyhow::anyhow!("materials: {e}"))?
-                    .gather(&x, &mut y)?;
-                Some(summary)
-            }
-            None => {
-                chosen.gather.gather(&x, &mut y)?;
-                None
-            }
-        };
-        kind = chosen.kind;
-        gather_name = chosen.gather.name().to_owned();
-        systems_json = None;
-    }
-    timings.insert("gather", t.elapsed().as_secs_f64() * 1e3);
+    let edited = materials.as_ref().map_or(0, Vec::len);
+    let lit = light(file, &x, &mut y, edit, edited, backend)?;
+    timings.insert("gather", lit.ms);
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
     finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
     radiosity_runtime::scene::ensure_finite(&h, &b)?;
@@ -135,89 +150,172 @@ pub(crate) fn run(
         }
         None => None,
     };
+    let solved = Solved {
+        input,
+        n,
+        lights: lights.len(),
+        bounces: runtime.file.bounces,
+        lit,
+        objects,
+        effects,
+        timings,
+        answers,
+    };
     if json_out {
-        let out = json!({
-            "patches": n,
-            "lights": lights.len(),
-            "bounces": match file.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
-            "backend": kind,
-            "gather": gather_name,
-            "objects": objects,
-            "effects": effects,
-            "timings_ms": timings,
-        });
-        let mut out = out;
-        if let Some(m) = edit_json {
-            out["materials"] = m;
-        }
-        if let Some(sys) = systems_json {
-            out["systems"] = sys;
-        }
-        if let Some(answers) = &answers {
-            out["points"] = answers
-                .iter()
-                .map(|(p, a)| point_json(p, *a))
-                .collect::<Vec<_>>()
-                .into();
-        }
-        outln!("{}", serde_json::to_string_pretty(&out)?);
+        print_json(solved)?;
     } else {
-        outln!(
-            "{} ({n} patches, {} gather {:.2} ms)",
-            input.display(),
-            gather_name,
-            timings["gather"]
-        );
-        if let Some(sys) = &systems_json {
-            outln!(
-                "{} systems lit to the steady state in {} frame(s) of {:.1} ms (last relative change {:.2e})",
-                sys["count"],
-                sys["frames"],
-                sys["frame_ms"].as_f64().unwrap_or(f64::NAN),
-                sys["change"].as_f64().unwrap_or(f64::NAN)
-            );
-        }
-        outln!(
-            "{:<24} {:>12} {:>12} {:>36} {:>36}",
-            "object",
-            "area",
-            "exposed",
-            "irradiance W/m² (r g b)",
-            "radiosity W/m² (r g b)"
-        );
-        for o in &objects {
-            let v = |k: &str| -> String {
-                let a = o[k].as_array().cloned().unwrap_or_default();
-                a.iter()
-                    .map(|x| format!("{:>11.4}", x.as_f64().unwrap_or(0.0)))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            };
-            outln!(
-                "{:<24} {:>12.5} {:>12.5} {} {}",
-                o["name"].as_str().unwrap_or(""),
-                o["area"].as_f64().unwrap_or(0.0),
-                o["exposed_area"].as_f64().unwrap_or(0.0),
-                v("irradiance"),
-                v("radiosity")
-            );
-        }
-    }
-    if let (false, Some(answers)) = (json_out, &answers) {
-        print_points(answers);
+        print_text(&solved);
     }
     // After the results, as every warning: a failure stays the one `error:` line.
     crate::scene::warn_if_unlit(&runtime, &lights);
     Ok(())
 }
 
+/// Gathers `x` into `y` on the chosen backend: a level lit block by block to the steady
+/// state (its edit, if any, built into its systems' gathers), or one matrix, through `edit`
+/// when there is one (of `edited` objects).
+fn light(
+    file: &radiosity_core::RadFile<'static>,
+    x: &[Rgb],
+    y: &mut [Rgb],
+    edit: Option<EditSetup>,
+    edited: usize,
+    backend: Option<&str>,
+) -> anyhow::Result<Lit> {
+    let (edit, edited_level) = match edit {
+        Some(EditSetup::One(e)) => (Some(*e), None),
+        Some(EditSetup::Level(level)) => (None, Some(*level)),
+        None => (None, None),
+    };
+    if file.systems.is_some() {
+        let (mut level, materials) = match edited_level {
+            Some((level, summary)) => (level, Some(summary)),
+            None => (crate::backend::choose_level(backend, file, &[])?, None),
+        };
+        let t = Instant::now();
+        let frames = level.light.steady(x, LEVEL_TOLERANCE, LEVEL_MAX_FRAMES)?;
+        y.copy_from_slice(level.light.gathered());
+        let systems = json!({
+            "count": level.light.count(),
+            "frames": frames,
+            "change": level.light.change(),
+            "frame_ms": t.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64,
+        });
+        return Ok(Lit {
+            kind: level.kind,
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            gather: level.name,
+            materials,
+            systems: Some(systems),
+        });
+    }
+    let mut chosen = crate::backend::choose(backend, file.matrix.clone())?;
+    let t = Instant::now();
+    let materials = match edit {
+        Some(edit) => {
+            let summary = json!({
+                "objects": edited,
+                "patches": edit.len(),
+                "bytes": edit.bytes(),
+            });
+            EditedGather::new(&mut *chosen.gather, edit)
+                .map_err(|e| anyhow::anyhow!("materials: {e}"))?
+                .gather(x, y)?;
+            Some(summary)
+        }
+        None => {
+            chosen.gather.gather(x, y)?;
+            None
+        }
+    };
+    Ok(Lit {
+        kind: chosen.kind,
+        ms: t.elapsed().as_secs_f64() * 1e3,
+        gather: chosen.gather.name().to_owned(),
+        materials,
+        systems: None,
+    })
+}
+
+/// `solve --json`.
+fn print_json(s: Solved<'_>) -> anyhow::Result<()> {
+    let mut out = json!({
+        "patches": s.n,
+        "lights": s.lights,
+        "bounces": match s.bounces { Bounces::Finite(k) => json!(k), Bounces::Infinite => json!("infinite") },
+        "backend": s.lit.kind,
+        "gather": s.lit.gather,
+        "objects": s.objects,
+        "effects": s.effects,
+        "timings_ms": s.timings,
+    });
+    if let Some(m) = s.lit.materials {
+        out["materials"] = m;
+    }
+    if let Some(sys) = s.lit.systems {
+        out["systems"] = sys;
+    }
+    if let Some(answers) = &s.answers {
+        out["points"] = answers
+            .iter()
+            .map(|(p, a)| point_json(p, *a))
+            .collect::<Vec<_>>()
+            .into();
+    }
+    outln!("{}", serde_json::to_string_pretty(&out)?);
+    Ok(())
+}
+
+/// `solve`'s text: the gather, the level's frames, one line an object, the points.
+fn print_text(s: &Solved<'_>) {
+    outln!(
+        "{} ({} patches, {} gather {:.2} ms)",
+        s.input.display(),
+        s.n,
+        s.lit.gather,
+        s.timings["gather"]
+    );
+    if let Some(sys) = &s.lit.systems {
+        outln!(
+            "{} systems lit to the steady state in {} frame(s) of {:.1} ms (last relative change {:.2e})",
+            sys["count"],
+            sys["frames"],
+            sys["frame_ms"].as_f64().unwrap_or(f64::NAN),
+            sys["change"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    outln!(
+        "{:<24} {:>12} {:>12} {:>36} {:>36}",
+        "object",
+        "area",
+        "exposed",
+        "irradiance W/m² (r g b)",
+        "radiosity W/m² (r g b)"
+    );
+    for o in &s.objects {
+        let v = |k: &str| -> String {
+            let a = o[k].as_array().cloned().unwrap_or_default();
+            a.iter()
+                .map(|x| format!("{:>11.4}", x.as_f64().unwrap_or(0.0)))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        outln!(
+            "{:<24} {:>12.5} {:>12.5} {} {}",
+            o["name"].as_str().unwrap_or(""),
+            o["area"].as_f64().unwrap_or(0.0),
+            o["exposed_area"].as_f64().unwrap_or(0.0),
+            v("irradiance"),
+            v("radiosity")
+        );
+    }
+    if let Some(answers) = &s.answers {
+        print_points(answers);
+    }
+}
+
 /// The points' table of `solve`'s text output.
-fn print_points(
-    answers: &[(
-        &radiosity_runtime::points::Point,
-        radiosity_runtime::points::Answer,
-    )],
-) {
+fn print_points(answers: &[Answered<'_>]) {
     outln!(
         "{:<44} {:>36}",
         "point (position; normal)",
@@ -313,7 +411,7 @@ fn edit_materials(
         let patches = file.patches.to_mut();
         for &(i, rho) in &resolved.patches {
             patches[i as usize].reflectance = rho;
-            chosen.0.set_reflectance(i as usize, rho);
+            chosen.light.set_reflectance(i as usize, rho);
         }
         set_mesh(file);
         let summary = json!({

@@ -1,8 +1,10 @@
 //! The report's pictures: the paper's figures at the middle size, the bake rendered beside the
 //! path tracer, and the summary plots over every configuration.
 
-use super::{Level, Plan, Sample, middle_samples, table};
-use crate::picture::LinearImage;
+use super::fit::{pareto_front, power_fit};
+use super::{Level, Plan, Sample, middle_samples};
+use crate::plots::{self, Chart, Series};
+use crate::timing::ms;
 use anyhow::Context;
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::order::{self, OrderKind};
@@ -10,11 +12,24 @@ use radiosity_bake::pipeline::BakeOutput;
 use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
 use radiosity_core::{DecodeMode, Format};
 use radiosity_pathtrace::PathTracer;
-use radiosity_perf::plots::{self, Chart, Series};
-use radiosity_perf::timing::ms;
 use radiosity_runtime::BakedScene;
+use radiosity_runtime::image::LinearImage;
 use std::path::Path;
 use std::time::Instant;
+
+/// The tone-mapped image as an 8-bit sRGB `image` buffer.
+fn srgb8(img: &LinearImage, exposure: f32) -> anyhow::Result<image::RgbImage> {
+    image::RgbImage::from_raw(img.width, img.height, img.to_srgb8(exposure))
+        .context("an sRGB image of three bytes a pixel")
+}
+
+/// Writes an 8-bit image as PNG, atomically (a temporary file beside it, renamed into place).
+fn save_png(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png)
+        .with_context(|| format!("cannot encode {}", path.display()))?;
+    Ok(radiosity_bake::host::write_atomic(path, png.get_ref())?)
+}
 
 /// Figs. 1, 2 and 4 of the paper at the middle size: the value distribution of F and M, the
 /// matrix before and after reordering, and the BC1 compression error before and after.
@@ -67,7 +82,7 @@ pub(super) fn paper_figures(
         8,
     );
     let p = out.join("fig2_matrix_orders.png");
-    crate::picture::save_png_atomic(&img, &p)?;
+    save_png(&img, &p)?;
     figs.push((
         "fig2_matrix_orders.png".into(),
         format!("Fig. 2: M (green, log10 over 6 decades, brighter = larger; each pixel the largest entry it covers) in the bake's numbering and after the paper's neighbour sort; right: the top-left {frag}×{frag} fragment of each."),
@@ -92,7 +107,7 @@ pub(super) fn paper_figures(
     };
     let img = plots::side_by_side(&[&err_image(none), &err_image(paper)], 8);
     let p = out.join("fig4_error_map.png");
-    crate::picture::save_png_atomic(&img, &p)?;
+    save_png(&img, &p)?;
     let rmse = |o: &BakeOutput| {
         o.report
             .compression_rmse
@@ -132,12 +147,12 @@ pub(super) fn renders(
     let reference: LinearImage = pt.render(&cam, plan.pt_spp, 11);
     let pt_ms = ms(t.elapsed());
     let exposure = reference.auto_exposure();
-    let a = crate::picture::srgb8(&ours, exposure);
-    let b = crate::picture::srgb8(&reference, exposure);
-    crate::picture::save_png_atomic(&a, &out.join("render_baked.png"))?;
-    crate::picture::save_png_atomic(&b, &out.join("render_pathtraced.png"))?;
+    let a = srgb8(&ours, exposure)?;
+    let b = srgb8(&reference, exposure)?;
+    save_png(&a, &out.join("render_baked.png"))?;
+    save_png(&b, &out.join("render_pathtraced.png"))?;
     let p = out.join("fig7_render_vs_pathtracer.png");
-    crate::picture::save_png_atomic(&plots::side_by_side(&[&a, &b], 8), &p)?;
+    save_png(&plots::side_by_side(&[&a, &b], 8), &p)?;
     Ok(vec![(
         "fig7_render_vs_pathtracer.png".into(),
         format!(
@@ -193,7 +208,7 @@ fn error_plots(
     // Error vs gather time at the middle size (every sweep is there), Pareto front marked.
     let middle = middle_samples(samples);
     let pts: Vec<(f64, f64)> = middle.iter().map(|s| (s.cpu_ms, s.err_exact)).collect();
-    let front: Vec<(f64, f64)> = table::pareto_front(&pts).iter().map(|&i| pts[i]).collect();
+    let front: Vec<(f64, f64)> = pareto_front(&pts).iter().map(|&i| pts[i]).collect();
     let n_mid = middle.first().map_or(0, |s| s.patches);
     let title = format!(
         "Lighting error vs CPU gather time, Cornell box n = {n_mid} (formats, K, orders, thresholds)"
@@ -213,7 +228,7 @@ fn error_plots(
     made.push(("error_vs_time.png".to_owned(), format!("Headline: error of the scene's own lighting against the exact solution of the same {n_mid} patches, against CPU gather time, for every format, bounce count, order, sparse threshold and block-correction share at that size; the black line is the Pareto front.")));
     // The true error (against the path tracer) over every size.
     let pts: Vec<(f64, f64)> = samples.iter().map(|s| (s.cpu_ms, s.err_pt)).collect();
-    let front: Vec<(f64, f64)> = table::pareto_front(&pts).iter().map(|&i| pts[i]).collect();
+    let front: Vec<(f64, f64)> = pareto_front(&pts).iter().map(|&i| pts[i]).collect();
     plots::chart(
         &out.join("error_pt_vs_time.png"),
         &Chart {
@@ -230,7 +245,7 @@ fn error_plots(
         .iter()
         .map(|s| (s.file_bytes as f64 / 1e6, s.err_exact))
         .collect();
-    let front: Vec<(f64, f64)> = table::pareto_front(&pts).iter().map(|&i| pts[i]).collect();
+    let front: Vec<(f64, f64)> = pareto_front(&pts).iter().map(|&i| pts[i]).collect();
     plots::chart(
         &out.join("error_vs_memory.png"),
         &Chart {
@@ -267,7 +282,7 @@ fn scaling_plots(
                 if points.is_empty() {
                     return None;
                 }
-                let name = match (fit, table::power_fit(&points)) {
+                let name = match (fit, power_fit(&points)) {
                     (true, Some((k, _))) => format!("{} (∝ n^{k:.2})", f.name()),
                     _ => f.name().to_owned(),
                 };

@@ -2,46 +2,47 @@
 //! CPU frame, the direct light with shadow rays (through `solve`'s path and the C ABI's
 //! `rad_scene_direct`), and the host-device frame on every adapter.
 
+use crate::Progress;
+use crate::timing::ms;
 use anyhow::Context;
 use radiosity_backend_wgpu::time_host_frame;
 use radiosity_bake::order;
 use radiosity_bake::pipeline::Discretised;
 use radiosity_core::Rgb;
-use radiosity_perf::timing::ms;
 use serde::Serialize;
 use std::time::Instant;
 
 /// One adapter's host-device frame: [`time_host_frame`]'s medians.
 #[derive(Serialize)]
-pub(super) struct HostFrameOut {
-    pub(super) adapter: String,
-    pub(super) format: &'static str,
-    pub(super) path: String,
-    pub(super) dispatches: usize,
-    pub(super) corners: usize,
+pub struct HostFrameOut {
+    pub adapter: String,
+    pub format: &'static str,
+    pub path: String,
+    pub dispatches: usize,
+    pub corners: usize,
     /// CPU time to record the gather and the corner pass into the host's encoder, ms.
-    pub(super) record_ms: f64,
+    pub record_ms: f64,
     /// GPU time of the gather's pass, ms (`null` without timestamps).
-    pub(super) gather_ms: Option<f64>,
+    pub gather_ms: Option<f64>,
     /// GPU time of the corner pass, ms (`null` without timestamps).
-    pub(super) corners_ms: Option<f64>,
+    pub corners_ms: Option<f64>,
     /// Probes the probe pass writes.
-    pub(super) probes: usize,
+    pub probes: usize,
     /// GPU time of the probe pass, ms (`null` without probes or timestamps).
-    pub(super) probes_ms: Option<f64>,
-    pub(super) frames: usize,
+    pub probes_ms: Option<f64>,
+    pub frames: usize,
 }
 
 /// One frame's direct light per patch with shadow rays (a point light under the ceiling):
 /// medians over [`HOST_FRAMES`] frames, ms.
 #[derive(Serialize)]
-pub(super) struct DirectOut {
+pub struct DirectOut {
     /// Shadow rays a frame (the mesh's direct-light points).
-    pub(super) points: usize,
+    pub points: usize,
     /// `BakedScene::direct`, what `solve --lights` runs.
-    pub(super) cli_ms: f64,
+    pub cli_ms: f64,
     /// The C ABI's `rad_scene_direct` on a scene opened from the same file's bytes.
-    pub(super) c_ms: f64,
+    pub c_ms: f64,
 }
 
 /// [`DirectOut`] for the file `rt` holds.
@@ -114,18 +115,20 @@ pub(super) fn bench_direct(rt: &radiosity_runtime::BakedScene) -> anyhow::Result
 
 /// The box's probes (`bake --probes auto`) and one CPU frame of them, `P·(B − E)`.
 #[derive(Serialize)]
-pub(super) struct ProbesOut {
-    pub(super) count: usize,
-    pub(super) weights: usize,
-    pub(super) bytes: usize,
+pub struct ProbesOut {
+    pub count: usize,
+    pub weights: usize,
+    pub bytes: usize,
     /// Median CPU time of `P·(B − E)` (the probes over the threads) over [`HOST_FRAMES`]
     /// frames, ms.
-    pub(super) cpu_ms: f64,
+    pub cpu_ms: f64,
 }
 
 /// Probes over the box as `bake --probes auto` places them, for a file of `matrix` over the
 /// patches of `sys` in the order `perm` with the full-detail `mesh`; and their CPU frame time.
+/// A direct-light frame that cannot run is a note of `progress`.
 pub(super) fn bench_probes(
+    progress: &Progress<'_>,
     scene: &radiosity_bake::scene::Scene,
     sys: &Discretised,
     perm: &[u32],
@@ -155,7 +158,7 @@ pub(super) fn bench_probes(
     };
     let rt = radiosity_runtime::BakedScene::new(file);
     let direct = bench_direct(&rt)
-        .map_err(|e| eprintln!("note: no direct-light frame: {e:#}"))
+        .map_err(|e| (progress.note)(&format!("note: no direct-light frame: {e:#}")))
         .ok();
     let (probes, report) = radiosity_bake::passes::probes::bake(
         &rt,
@@ -186,11 +189,12 @@ pub(super) fn bench_probes(
 }
 
 /// Frames each host-device measurement runs (medians over them).
-pub(super) const HOST_FRAMES: usize = 21;
+pub const HOST_FRAMES: usize = 21;
 
 /// [`time_host_frame`] of `matrix`, `mesh` and `probes` on every adapter; an adapter that
-/// cannot run it gets a note on stderr instead of a row.
+/// cannot run it gets a note of `progress` instead of a row.
 pub(super) fn host_frames(
+    progress: &Progress<'_>,
     matrix: &radiosity_core::TransferMatrix<'_>,
     mesh: &radiosity_core::Mesh<'_>,
     probes: Option<(&radiosity_core::Probes<'_>, &[radiosity_core::Patch])>,
@@ -214,7 +218,7 @@ pub(super) fn host_frames(
                     frames: HOST_FRAMES,
                 }),
                 Err(e) => {
-                    eprintln!("note: no host-device frame on {}: {e}", a.info);
+                    (progress.note)(&format!("note: no host-device frame on {}: {e}", a.info));
                     None
                 }
             },

@@ -2,6 +2,9 @@
 //! in and its cost per call. The encoded matrix on the CPU (and on the GPU where there is an
 //! adapter) in every format, then the peers.
 
+use crate::Progress;
+use crate::peers::{Cost, FaerDense, JacobiBounces, LuSolve, gather_cost};
+use crate::timing::ms;
 use anyhow::Context;
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::encode::{
@@ -9,8 +12,6 @@ use radiosity_bake::encode::{
 };
 use radiosity_bake::pipeline::Discretised;
 use radiosity_core::{Format, Gather, Rgb};
-use radiosity_perf::peers::{Cost, FaerDense, JacobiBounces, LuSolve, gather_cost};
-use radiosity_perf::timing::ms;
 use std::time::Instant;
 
 /// Jacobi bounce iterations per frame for the classical-radiosity peer (`jacobi-8`).
@@ -32,13 +33,14 @@ pub(super) struct Row {
 
 /// A `cpu-<format>` row per format (BC1 only with three channels) and, on the best adapter
 /// when there is one, the `gpu-…` rows of the same matrix. `on_default` sees the matrix in the
-/// bake's default format for `channels` (BC1, or BC4 for one channel).
+/// bake's default format for `channels` (BC1, or BC4 for one channel). What it skips is a
+/// note of `progress`.
 pub(super) fn encoded_rows(
     n: usize,
     channels: usize,
     m_file: Vec<f32>,
     weights: &ErrorWeights,
-    stage: &dyn Fn(&str),
+    progress: &Progress<'_>,
     on_default: &mut dyn FnMut(&radiosity_core::TransferMatrix<'_>),
 ) -> anyhow::Result<Vec<Row>> {
     let default = if channels == 1 {
@@ -49,14 +51,16 @@ pub(super) fn encoded_rows(
     let mut rows: Vec<Row> = Vec::new();
     let gpu = radiosity_backend_wgpu::adapters().into_iter().next();
     if gpu.is_none() {
-        eprintln!("note: no GPU adapter: gpu-… rows skipped");
+        (progress.note)("note: no GPU adapter: gpu-… rows skipped");
     }
     for format in Format::ALL {
         if format == Format::Bc1 && channels == 1 {
-            eprintln!("note: cpu-bc1 skipped: the scene is grey and BC1 cannot hold one channel");
+            (progress.note)(
+                "note: cpu-bc1 skipped: the scene is grey and BC1 cannot hold one channel",
+            );
             continue;
         }
-        stage(&format!("encode {}", format.name()));
+        (progress.stage)(&format!("encode {}", format.name()));
         let t = Instant::now();
         let encode = EncodeParams {
             sparse_fraction: default_sparse_fraction(format, channels),

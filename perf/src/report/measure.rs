@@ -3,24 +3,28 @@
 //! CPU gather; the dense peers at the largest size.
 
 use super::{Gpu, Level, Plan, Sample};
+use crate::Progress;
+use crate::backend::{Request, choose};
 use crate::bench::relative_l2;
+use crate::peers::{FaerDense, JacobiBounces};
+use crate::timing::{interleaved_medians, median, ms, runs_for};
 use anyhow::Context;
 use radiosity_backend_cpu::CpuGather;
 use radiosity_bake::pipeline::{BakeOutput, BakeParams, Hooks, ObjectShares, bake_discretised};
 use radiosity_bake::transfer::{BounceSpec, transfer_matrix};
-use radiosity_core::{Format, Gather, Rgb};
+use radiosity_core::{Format, Gather, Rgb, TransferMatrix};
 use radiosity_pathtrace::ObjectEstimate;
-use radiosity_perf::peers::{FaerDense, JacobiBounces};
-use radiosity_perf::timing::{interleaved_medians, median, ms, runs_for};
 use std::time::Instant;
 
-/// Bakes one configuration from the level's system and measures it.
+/// Bakes one configuration from the level's system and measures it; the GPU backend chosen
+/// is a note of `progress`.
 pub(super) fn sample(
     level: &Level<'_>,
     sweep: &'static str,
     params: &BakeParams,
     plan: &Plan,
     gpu: &mut Gpu,
+    progress: &Progress<'_>,
 ) -> anyhow::Result<(Sample, BakeOutput, Timer)> {
     let t = Instant::now();
     let out = bake_discretised(level.scene, &level.sys, params, Hooks::default())
@@ -36,32 +40,7 @@ pub(super) fn sample(
     let runs = runs_for(t.elapsed(), plan.gather_budget, 5, 101);
     let err_exact = relative_l2(&y, |i| level.exact[file.order[i] as usize]);
     let err_pt = object_error(&out, &y, level.reference);
-    // `auto` takes a hardware GPU only (a software rasteriser such as llvmpipe would time the
-    // CPU twice); anything else is recorded once as the reason there is no GPU column.
-    let gpu_ms = match gpu {
-        Gpu::Missing(_) => None,
-        _ => match crate::backend::choose(Some("auto"), file.matrix.clone()) {
-            Ok(mut chosen) if chosen.kind == "gpu" => {
-                *gpu = Gpu::Available;
-                let mut yg = vec![Rgb::ZERO; n];
-                chosen.gather.gather(&x, &mut yg)?;
-                Some(ms(median(runs, || {
-                    let _ = chosen.gather.gather(&x, &mut yg);
-                })))
-            }
-            Ok(chosen) => {
-                *gpu = Gpu::Missing(format!(
-                    "no hardware GPU adapter (auto chose {}: {})",
-                    chosen.kind, chosen.detail
-                ));
-                None
-            }
-            Err(e) => {
-                *gpu = Gpu::Missing(format!("{e:#}"));
-                None
-            }
-        },
-    };
+    let gpu_ms = gpu_median(gpu, &file.matrix, &x, runs, progress)?;
     let r = &out.report;
     let s = Sample {
         sweep,
@@ -100,6 +79,48 @@ pub(super) fn sample(
         runs,
     };
     Ok((s, out, timer))
+}
+
+/// The median GPU gather time of `matrix` on `auto`'s backend, when that is a GPU. `auto`
+/// takes a hardware GPU only (a software rasteriser such as llvmpipe would time the CPU
+/// twice); anything else is recorded once in `gpu` as the reason there is no GPU column.
+fn gpu_median(
+    gpu: &mut Gpu,
+    matrix: &TransferMatrix<'_>,
+    x: &[Rgb],
+    runs: usize,
+    progress: &Progress<'_>,
+) -> anyhow::Result<Option<f64>> {
+    if let Gpu::Missing(_) = gpu {
+        return Ok(None);
+    }
+    let auto = Request::new(Some("auto"), None)?;
+    Ok(match choose(&auto, matrix.clone().into_owned()) {
+        Ok(mut chosen) => {
+            (progress.note)(&format!(
+                "backend: {} ({})",
+                chosen.gather.name(),
+                chosen.detail
+            ));
+            if chosen.kind != "gpu" {
+                *gpu = Gpu::Missing(format!(
+                    "no hardware GPU adapter (auto chose {}: {})",
+                    chosen.kind, chosen.detail
+                ));
+                return Ok(None);
+            }
+            *gpu = Gpu::Available;
+            let mut y = vec![Rgb::ZERO; x.len()];
+            chosen.gather.gather(x, &mut y)?;
+            Some(ms(median(runs, || {
+                let _ = chosen.gather.gather(x, &mut y);
+            })))
+        }
+        Err(e) => {
+            *gpu = Gpu::Missing(format!("{e:#}"));
+            None
+        }
+    })
 }
 
 /// A configuration's CPU gather, kept until its whole level is timed.
