@@ -35,8 +35,8 @@ pub(crate) fn flags(args: &BakeArgs) -> BakeFlags {
 /// `bake-plan` take.
 pub(crate) fn flags_with_probes(args: &BakeArgs, probes: &ProbeArgs) -> BakeFlags {
     BakeFlags {
-        probes: Some(probes.probes.clone()),
-        probe_rank: Some(probes.probe_rank.clone()),
+        probes: Some(probes.probes.as_str().into()),
+        probe_rank: Some(probes.probe_rank.as_str().into()),
         ..flags(args)
     }
 }

@@ -10,8 +10,16 @@
 //! here. Each test also checks that its standard error is small, so the bound has teeth.
 
 use super::*;
+
+/// The test scenes' OBJ writer of `radiosity-tests`, taken as a file rather than through that
+/// crate, which depends on the bake: the path tracer stays independent of the bake it checks
+/// (`cargo tree -p radiosity-pathtrace` has no `radiosity-bake`).
+#[path = "../../tests/src/scenes.rs"]
+// Its items are public for the tests crate; here some go unused.
+#[allow(unreachable_pub, dead_code)]
+mod scenes;
 use glam::dvec3;
-use radiosity_tests::scenes::{Material as Mat, Quad, block, closed_box, write_scene};
+use scenes::{Material as Mat, Quad, block, closed_box, write_scene};
 use std::f64::consts::PI;
 
 const K_SIGMA: f64 = 4.0;
