@@ -350,8 +350,9 @@ fn a_plan_carries_the_probes_and_its_level_has_them() {
     assert!(placed > 0, "{}", report["probes"]);
     assert_eq!(report["probes"]["rank"], serde_json::Value::Null);
 
-    // A point above the town's ground, lit by a sun: its probe irradiance is the direct
-    // light plus what the probes gather from the level's lit patches.
+    // A point above the town's ground in the sun (no box stands between it and the sun): its
+    // probe irradiance is the direct light plus what the probes gather from the level's lit
+    // patches.
     let lights = d.join("lights.json");
     std::fs::write(
         &lights,
@@ -361,7 +362,7 @@ fn a_plan_carries_the_probes_and_its_level_has_them() {
     let points = d.join("points.json");
     std::fs::write(
         &points,
-        r#"{"points":[{"position":[15,1,15],"normal":[0,1,0]}]}"#,
+        r#"{"points":[{"position":[20,1,50],"normal":[0,1,0]}]}"#,
     )
     .unwrap();
     let solved = json(&radiosity_ok(&[
@@ -382,10 +383,11 @@ fn a_plan_carries_the_probes_and_its_level_has_them() {
             .map(|v| v.as_f64().unwrap())
             .sum()
     };
-    // The reflected light the probes add is positive and smaller than the sun's own.
+    // The sun's own light reaches it, and the probes add the light the lit walls and ground
+    // reflect (order-2 SH may ring below zero in shade, never by the sun's size).
     let (direct, probed) = (total("irradiance"), total("probe_irradiance"));
-    assert!(probed.is_finite() && probed > 0.0, "{p}");
     assert!(direct > 0.0, "{p}");
+    assert!(probed.is_finite() && probed > 0.5 * direct, "{p}");
 
     // Probes the plan does not say: refused, naming the flag; nothing written.
     let other = d.join("other.rad");
