@@ -12,6 +12,7 @@
 
 mod blocks;
 pub(crate) mod correct;
+mod emitters;
 mod refine;
 mod select;
 mod source;
@@ -20,6 +21,7 @@ mod tests;
 mod weights;
 
 pub use blocks::{Bc1Fit, encode_bc1_block, encode_bc4_block};
+pub use emitters::{EMITTER_ERROR_LIMIT, EXACT_EMITTERS_CAP, EmitterColumns, lighting_error};
 pub use select::SparseSelection;
 pub use weights::ErrorWeights;
 
@@ -64,6 +66,10 @@ pub struct EncodeParams {
     /// Whether that second start is texpresso's iterative cluster fit (slower) instead of
     /// its cluster fit.
     pub bc1_iterative: bool,
+    /// The largest relative error of the scene's own light (`y = M·E`) the blocks may leave
+    /// before the emitting columns are kept exact in the sparse list ([`EmitterColumns`]): 0
+    /// keeps them always, infinity never. Default [`EMITTER_ERROR_LIMIT`].
+    pub emitter_error_limit: f32,
 }
 
 impl Default for EncodeParams {
@@ -76,6 +82,7 @@ impl Default for EncodeParams {
             corrections: default_correction_fraction(Format::Bc1, 3),
             bc1_retry: BC1_RETRY,
             bc1_iterative: false,
+            emitter_error_limit: EMITTER_ERROR_LIMIT,
         }
     }
 }
@@ -241,6 +248,9 @@ pub fn encode_dense(
 /// 5. The sparse list: each kept entry's exact value minus what its block decodes there.
 /// 6. The block corrections (BC1, BC4): `params.corrections` of the block positions, those
 ///    where a correction removes the most weighted error (`correct`).
+/// 7. With emitters: where the scene's own light through the result is more than
+///    `params.emitter_error_limit` off, the emitting columns move whole into the sparse list
+///    and the corrections are chosen again ([`EmitterColumns`]).
 ///
 /// Float formats keep nothing sparse and are stored as they are. Deterministic: the same input
 /// gives the same bytes on any thread count (per-block work is independent, the coupled pass
@@ -253,6 +263,19 @@ pub fn encode_dense_with(
     weights: &ErrorWeights,
     selection: SparseSelection,
 ) -> Result<TransferMatrix<'static>, EncodeError> {
+    encode_dense_noting(n, channels, dense, params, weights, selection).map(|(m, _)| m)
+}
+
+/// [`encode_dense_with`], and what step 7 did with the emitters' columns (`None` without
+/// emitters or for the float formats): what the bake reports as its `exact_emitters` effect.
+pub fn encode_dense_noting(
+    n: usize,
+    channels: usize,
+    dense: &[f32],
+    params: &EncodeParams,
+    weights: &ErrorWeights,
+    selection: SparseSelection,
+) -> Result<(TransferMatrix<'static>, Option<EmitterColumns>), EncodeError> {
     let layout = check_input(n, channels, dense, params)?;
     weights.check(n)?;
     let fraction = if params.format.is_log() {
@@ -351,7 +374,8 @@ pub fn encode_dense_with(
     matrix.sparse = build_sparse(&matrix, dense, &|e| sparse_at(&masks, e / n, e % n));
     let count = correct::count(params, side);
     matrix.corrections = correct::choose(&matrix, dense, weights, count);
-    Ok(matrix)
+    let emitters = emitters::review(&mut matrix, dense, weights, params);
+    Ok((matrix, emitters))
 }
 
 /// Steps 2 and 3 of [`encode_dense_with`]: every block encoded with the `first` sparse masks

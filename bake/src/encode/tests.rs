@@ -199,7 +199,11 @@ fn coupled_pass_cancels_the_lamps_row_errors() {
         let n = 160;
         let (m, e) = scene(n, 12, 9);
         let run = |weights: &ErrorWeights| {
-            let p = EncodeParams::for_format(format);
+            // The coupled pass alone: no exact columns after it.
+            let p = EncodeParams {
+                emitter_error_limit: f32::INFINITY,
+                ..EncodeParams::for_format(format)
+            };
             let t = encode_dense_with(n, 3, &m, &p, weights, SparseSelection::ErrorDriven).unwrap();
             let d = t.decode_dense(DecodeMode::D3d10);
             let zero = vec![0f32; m.len()];
@@ -224,6 +228,57 @@ fn coupled_pass_cancels_the_lamps_row_errors() {
             "{format}: Frobenius error {old_f:.5} → {new_f:.5}, more than 1.2×"
         );
     }
+}
+
+/// Where the blocks light the scene by its own lamp more than the limit off, the lamp's
+/// columns move whole into the sparse list: its light is then exact (f32 rounding of one
+/// addition per entry), the other columns keep their blocks, and the note says what it cost.
+/// Under the limit nothing moves.
+#[test]
+fn a_lamp_lit_off_by_the_blocks_gets_exact_columns() {
+    let n = 160;
+    let (m, e) = scene(n, 12, 9);
+    let weights = ErrorWeights::for_emitters(&e);
+    let encode = |limit: f32| {
+        let p = EncodeParams {
+            emitter_error_limit: limit,
+            ..EncodeParams::for_format(Format::Bc1)
+        };
+        encode_dense_noting(n, 3, &m, &p, &weights, SparseSelection::ErrorDriven).unwrap()
+    };
+    let (never, note) = encode(f32::INFINITY);
+    let note = note.expect("the scene emits");
+    assert!(!note.kept);
+    // The coupled pass leaves 0.33% (measured, `coupled_pass_cancels_the_lamps_row_errors`).
+    assert!(note.error_in_blocks > 1e-3, "{note:?}");
+    let emitting: Vec<usize> = (0..n).filter(|&j| e[j] != Rgb::ZERO).collect();
+    assert_eq!(note.columns, emitting.len());
+
+    let (kept, note) = encode(note.error_in_blocks as f32 / 2.0);
+    let note = note.unwrap();
+    assert!(note.kept, "{note:?}");
+    kept.validate().unwrap();
+    assert_eq!(
+        kept.sparse.bytes() - never.sparse.bytes(),
+        note.bytes,
+        "the note counts the bytes added"
+    );
+    let after = lighting_error(&m, n, 3, &kept, &e).unwrap();
+    // One f32 addition of block and residual per entry: rounding, far below any code step.
+    assert!(after < 1e-6, "lighting error {after:e} with exact columns");
+    let d = kept.decode_dense(DecodeMode::D3d10);
+    for r in 0..n {
+        for &c in &emitting {
+            let i = (r * n + c) * 3;
+            for k in 0..3 {
+                assert!((d[i + k] - m[i + k]).abs() <= 1e-6 * m[i + k].abs().max(1e-6));
+            }
+        }
+    }
+    // Above the error the blocks leave, nothing moves and the bytes are those of `never`.
+    let (same, note) = encode(note.error_in_blocks as f32 * 2.0);
+    assert!(!note.unwrap().kept);
+    assert_eq!(same, never);
 }
 
 /// What the file format promises of any encode, checked on the bake's own path (weights,

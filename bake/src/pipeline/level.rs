@@ -5,7 +5,8 @@
 
 use super::measure::{self, BakeSummary, Measured};
 use super::steps::{
-    attach_runtime, encode_error, encode_params_for, finish, objects_of, transfer_step,
+    attach_runtime, encode_error, encode_params_for, exact_emitters_effect, finish, objects_of,
+    transfer_step,
 };
 use super::{BakeOutput, BakeParams};
 use crate::BakeError;
@@ -13,7 +14,7 @@ use crate::discretise::Discretised;
 use crate::effect_plan::Effect;
 use crate::effect_plan::Effects;
 use crate::encode::EncodeParams;
-use crate::encode::{ErrorWeights, SparseSelection, encode_dense_with};
+use crate::encode::{EmitterColumns, ErrorWeights, SparseSelection, encode_dense_noting};
 use crate::form_factor::SparseFormFactors;
 use crate::hooks::{Hooks, Laps};
 use crate::order::{Candidate, OrderKind};
@@ -233,6 +234,9 @@ pub(crate) fn systems_bake(
     let sizes: Vec<usize> = level.split.ranges.iter().map(|r| r.len()).collect();
     let why = systems_why(system.len(), &sizes, level.crossing_share, coupling_entries);
     matrices.effects.insert("systems", Effect::new(true, why));
+    if let Some(effect) = exact_emitters_effect(&matrices.emitters) {
+        matrices.effects.insert("exact_emitters", effect);
+    }
     let discretise_ms: f64 = system.timings_ms.values().sum();
     laps.set("total", discretise_ms + t_all.elapsed().as_secs_f64() * 1e3);
     let chosen = unordered(order, &matrices);
@@ -336,6 +340,8 @@ struct Matrices {
     matrix_bytes: usize,
     transfer_ms: f64,
     encode_ms: f64,
+    /// What each system encoded here did with its emitters' columns.
+    emitters: Vec<Option<EmitterColumns>>,
 }
 
 impl Matrices {
@@ -351,6 +357,7 @@ impl Matrices {
             matrix_bytes: 0,
             transfer_ms: 0.0,
             encode_ms: 0.0,
+            emitters: Vec::with_capacity(systems),
         }
     }
 
@@ -424,7 +431,7 @@ impl Matrices {
         self.bounces = transfer.bounces;
         let t = Instant::now();
         let emission: Vec<Rgb> = patches.iter().map(|p| p.emission).collect();
-        let matrix = encode_dense_with(
+        let (matrix, emitters) = encode_dense_noting(
             members.len(),
             system.channels,
             &m,
@@ -433,6 +440,7 @@ impl Matrices {
             SparseSelection::ErrorDriven,
         )
         .map_err(encode_error)?;
+        self.emitters.push(emitters);
         self.encode_ms += t.elapsed().as_secs_f64() * 1e3;
         let (e, d) = squared_error(&m, &matrix);
         self.err2 += e;

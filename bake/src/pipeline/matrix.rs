@@ -3,12 +3,13 @@
 
 use super::measure::{self, BakeSummary, Measured};
 use super::steps::{
-    attach_runtime, encode_error, encode_params_for, finish, objects_of, transfer_step,
+    attach_runtime, encode_error, encode_params_for, exact_emitters_effect, finish, objects_of,
+    transfer_step,
 };
 use super::{BakeOutput, BakeParams};
 use crate::BakeError;
 use crate::discretise::Discretised;
-use crate::encode::{EncodeParams, ErrorWeights, SparseSelection, encode_dense_with};
+use crate::encode::{EncodeParams, ErrorWeights, SparseSelection, encode_dense_noting};
 use crate::hooks::{Hooks, Laps};
 use crate::order::{self, Candidate, DenseMatrix, OrderKind, OrderParams};
 use crate::scene::Scene;
@@ -54,7 +55,7 @@ pub(super) fn one_matrix(
     // (`ErrorWeights`), and the sparse entries chosen by that weighted error.
     let file_patches: Vec<Patch> = order::permute_rows(&system.core_patches, &chosen.perm);
     let emission: Vec<Rgb> = file_patches.iter().map(|p| p.emission).collect();
-    let matrix = encode_dense_with(
+    let (matrix, emitters) = encode_dense_noting(
         n,
         channels,
         &m,
@@ -63,6 +64,9 @@ pub(super) fn one_matrix(
         SparseSelection::ErrorDriven,
     )
     .map_err(encode_error)?;
+    if let Some(effect) = exact_emitters_effect(&[emitters]) {
+        effects.insert("exact_emitters", effect);
+    }
     laps.lap("encode");
 
     hooks.start("measure")?;

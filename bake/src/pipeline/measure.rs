@@ -7,7 +7,7 @@ use crate::order::{self, Candidate};
 use crate::report::{BakeReport, Bytes};
 use crate::scene::Scene;
 use radiosity_core::{
-    Bounces, DecodeMode, Format, Gather, RadFile, ReferenceGather, Rgb, TransferMatrix,
+    Bounces, DecodeMode, Format, RadFile, Rgb, TransferMatrix,
 };
 use radiosity_runtime::SharedPatch;
 use std::collections::BTreeMap;
@@ -25,55 +25,6 @@ pub(crate) fn relative_frobenius(a: &[f32], b: &[f32]) -> f64 {
     } else {
         (num / den).sqrt()
     }
-}
-
-/// Relative L2 error of `y = M·E` (the scene's own emitters) between the exact dense `m` and
-/// the encoded matrix; `None` when nothing emits.
-pub(crate) fn lighting_error(
-    m: &[f32],
-    n: usize,
-    channels: usize,
-    encoded: &TransferMatrix<'_>,
-    emission: &[Rgb],
-) -> Option<f64> {
-    let peak = emission
-        .iter()
-        .map(|e| e.max_channel())
-        .fold(0.0f32, f32::max);
-    if !(peak > 0.0) {
-        return None;
-    }
-    // The error is relative, so scale-free: measure with the brightest emitter at 1, so that
-    // emission near f32's limit cannot overflow the f32 gather into a NaN estimate.
-    let scaled: Vec<Rgb> = emission.iter().map(|e| *e * (1.0 / peak)).collect();
-    let emission = &scaled[..];
-    let mut exact = vec![[0f64; 3]; n];
-    for i in 0..n {
-        for j in 0..n {
-            let e = emission[j].to_array();
-            for k in 0..3 {
-                let v = m[(i * n + j) * channels + if channels == 1 { 0 } else { k }];
-                exact[i][k] += f64::from(v) * f64::from(e[k]);
-            }
-        }
-    }
-    let mut gather = ReferenceGather::new(encoded.clone(), DecodeMode::D3d10);
-    let mut y = vec![Rgb::ZERO; n];
-    gather.gather(emission, &mut y).ok()?;
-    let num: f64 = exact
-        .iter()
-        .zip(&y)
-        .map(|(a, b)| {
-            (0..3)
-                .map(|k| (a[k] - f64::from(b.channel(k))).powi(2))
-                .sum::<f64>()
-        })
-        .sum();
-    let den: f64 = exact
-        .iter()
-        .map(|a| a.iter().map(|v| v * v).sum::<f64>())
-        .sum();
-    (den > 0.0).then(|| (num / den).sqrt())
 }
 
 /// The compression errors of a bake: measured on the encoded matrix for the chosen order,
@@ -105,7 +56,7 @@ impl Measured {
         let rmse = relative_frobenius(m, &decoded);
         let code_rmse = order::code_rms(matrix, m, &decoded);
         drop(decoded);
-        let lighting_error = lighting_error(m, n, channels, matrix, emission);
+        let lighting_error = crate::encode::lighting_error(m, n, channels, matrix, emission);
         let mut compression_rmse: BTreeMap<String, f64> = candidates
             .iter()
             .map(|c| (c.kind.name().to_owned(), c.error.relative))

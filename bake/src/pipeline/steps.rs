@@ -7,7 +7,8 @@ use crate::BakeError;
 use crate::discretise::Discretised;
 use crate::effect_plan::{Effect, Effects};
 use crate::encode::{
-    EncodeError, EncodeParams, default_correction_fraction, default_sparse_fraction,
+    EmitterColumns, EncodeError, EncodeParams, default_correction_fraction,
+    default_sparse_fraction,
 };
 use crate::hooks::Hooks;
 use crate::passes::{self, sky::PlannedSky, sky::Sky};
@@ -178,6 +179,54 @@ pub(super) fn objects_of(scene: &Scene) -> Vec<Cow<'static, str>> {
 
 pub(super) fn encode_error(e: EncodeError) -> BakeError {
     BakeError::InvalidParams(e.to_string())
+}
+
+/// The `exact_emitters` decision of one matrix or of a level's systems (`None` for each
+/// system without emitters; no decision when none has them).
+pub(super) fn exact_emitters_effect(systems: &[Option<EmitterColumns>]) -> Option<Effect> {
+    let with: Vec<&EmitterColumns> = systems.iter().flatten().collect();
+    let worst = with
+        .iter()
+        .map(|c| c.error_in_blocks)
+        .fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e))))?;
+    let kept: Vec<&&EmitterColumns> = with.iter().filter(|c| c.kept).collect();
+    let columns: usize = kept.iter().map(|c| c.columns).sum();
+    let bytes: usize = kept.iter().map(|c| c.bytes).sum();
+    let of = if systems.len() > 1 {
+        format!(" in {} of {} systems with emitters", kept.len(), with.len())
+    } else {
+        String::new()
+    };
+    let limit = 100.0 * f64::from(crate::encode::EMITTER_ERROR_LIMIT);
+    Some(if !kept.is_empty() {
+        Effect::new(
+            true,
+            format!(
+                "the blocks light the scene by its own emitters {:.2}% off (more than {limit:.2}%): their {columns} columns kept exact in the sparse list{of}, {:.1} KiB more",
+                100.0 * worst,
+                bytes as f64 / 1024.0
+            ),
+        )
+    } else if with.iter().any(|c| c.error_in_blocks > f64::from(crate::encode::EMITTER_ERROR_LIMIT)) {
+        let share = with.iter().map(|c| c.share_of_blocks).fold(0.0, f64::max);
+        Effect::new(
+            false,
+            format!(
+                "the blocks light the scene by its own emitters {:.2}% off, but exact columns would add {:.0}% to the block bytes (at most {:.0}%): emitters too large a share of the scene",
+                100.0 * worst,
+                100.0 * share,
+                100.0 * crate::encode::EXACT_EMITTERS_CAP
+            ),
+        )
+    } else {
+        Effect::new(
+            false,
+            format!(
+                "the blocks light the scene by its own emitters {:.3}% off (at most {limit:.2}%): the columns stay in the blocks",
+                100.0 * worst
+            ),
+        )
+    })
 }
 
 fn bounces_needed(gain: f64, spec: BounceSpec) -> String {

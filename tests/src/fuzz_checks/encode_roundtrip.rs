@@ -2,7 +2,8 @@
 //! gather with it.
 
 use radiosity_bake::encode::{
-    EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense, encode_dense_with,
+    EMITTER_ERROR_LIMIT, EncodeError, EncodeParams, ErrorWeights, SparseSelection, encode_dense,
+    encode_dense_with,
 };
 use radiosity_core::half::f16_to_f32;
 use radiosity_core::{
@@ -63,6 +64,7 @@ impl EncodeCase {
             bc1_retry: [0.0, 0.05, 0.5, 1.0][usize::from((b2 >> 3) & 3)],
             bc1_iterative: b2 & 4 != 0,
             corrections: [0.0, 0.1, 1.0][usize::from(b0 / 24) % 3],
+            emitter_error_limit: EMITTER_ERROR_LIMIT,
         };
         let narrow = b2 & 0x80 != 0;
         let body = data.get(3..).unwrap_or(&[]);
