@@ -19,6 +19,9 @@ const QUIET_FOR: Duration = Duration::from_secs(1);
 /// How often a counting stage's line is printed when stderr is not a terminal.
 const PROGRESS_EVERY: Duration = Duration::from_secs(60);
 
+/// The share of a stage done before its line estimates the time left.
+const ESTIMATE_FROM: f64 = 0.1;
+
 /// The stage lines of a run whose stderr is not a terminal.
 struct StageLog {
     /// What the lines start with: the subcommand (`bake`, `solve`, `bench`, …).
@@ -72,8 +75,17 @@ impl StageLog {
             return None;
         }
         let spent = t.elapsed().as_secs_f64();
-        let left = spent * (total - done) as f64 / done as f64;
         self.last_line = Instant::now();
+        // Units of one stage differ in cost (a row of many pieces against one of few), so the
+        // pace of the first few says little: a form-factor stage 1/20000 done after a minute
+        // read "about 2022251 s left" and ended minutes later. No estimate before ESTIMATE_FROM.
+        if (done as f64) < ESTIMATE_FROM * total as f64 {
+            return Some(format!(
+                "{}: {name} {done}/{total} ({spent:.0} s so far)",
+                self.label
+            ));
+        }
+        let left = spent * (total - done) as f64 / done as f64;
         Some(format!(
             "{}: {name} {done}/{total} ({spent:.0} s, about {left:.0} s left)",
             self.label
@@ -211,6 +223,10 @@ mod tests {
         log.last_line -= PROGRESS_EVERY;
         let line = log.progress_line(1, 4).expect("a line is due");
         assert_eq!(line, "bake: transfer 1/4 (100 s, about 300 s left)");
+        // Early in a stage the pace of its first units says little: no estimate.
+        log.last_line -= PROGRESS_EVERY;
+        let line = log.progress_line(3, 1000).expect("a line is due");
+        assert_eq!(line, "bake: transfer 3/1000 (100 s so far)");
         // Right after a line, the next waits; nothing is printed for a finished count.
         assert_eq!(log.progress_line(2, 4), None);
         log.last_line -= PROGRESS_EVERY;

@@ -6,6 +6,7 @@ mod demo;
 mod engine;
 mod gltf;
 mod materials;
+mod memory;
 mod ux;
 
 mod parts;

@@ -133,7 +133,7 @@ fn an_edit_at_run_time_matches_a_rebake_of_the_edited_scene() {
 fn an_edit_of_the_cornell_box_under_its_own_lamp_matches_a_rebake() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box");
     let obj = std::fs::read_to_string(src.join("CornellBox-Original.obj")).unwrap();
     let mtl = std::fs::read_to_string(src.join("CornellBox-Original.mtl")).unwrap();
     std::fs::write(d.join("CornellBox-Original.mtl"), &mtl).unwrap();
@@ -169,7 +169,14 @@ fn an_edit_of_the_cornell_box_under_its_own_lamp_matches_a_rebake() {
     .unwrap();
     let (a, b) = (d.join("a.rad"), d.join("b.rad"));
     for (scene, out) in [("cb.obj", &a), ("blue.obj", &b)] {
-        radiosity_ok(&["bake", &s(&d.join(scene)), "-o", &s(out), "--probes", "none"]);
+        radiosity_ok(&[
+            "bake",
+            &s(&d.join(scene)),
+            "-o",
+            &s(out),
+            "--probes",
+            "none",
+        ]);
     }
     let run = solve(&["solve", &s(&a), "--materials", &s(&edits), "--json"]);
     let rebake = solve(&["solve", &s(&b), "--json"]);
@@ -198,7 +205,11 @@ fn an_edit_of_the_cornell_box_under_its_own_lamp_matches_a_rebake() {
     );
     // The edit is visible: unedited, some object is off by far more than the bound.
     assert!(moved > 0.05, "the edit moves the light by only {moved:.3}");
-    assert!(worst <= 0.005, "the edit is {:.3}% off the re-bake", 100.0 * worst);
+    assert!(
+        worst <= 0.005,
+        "the edit is {:.3}% off the re-bake",
+        100.0 * worst
+    );
     // The bake says why the lamp's columns are exact.
     let inspect: Value =
         serde_json::from_slice(&radiosity_ok(&["inspect", &s(&a), "--json"]).stdout).unwrap();

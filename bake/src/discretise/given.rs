@@ -34,6 +34,6 @@ impl GivenRows {
         }
         let cover = crate::form_factor::coverage(patches, Some(occ));
         let s = pool(patches, &self.counts, self.rays, cover.as_deref());
-        Ok((self.burial, sparse_exchange(s, patches.pieces.len())))
+        Ok((self.burial, sparse_exchange(s, patches)))
     }
 }

@@ -9,7 +9,8 @@ use crate::exposure::{Exposure, expose};
 use crate::form_factor::matrix::Dense;
 use crate::form_factor::matrix::{Exchange, live_rows_dense};
 use crate::form_factor::{
-    FAR_RAYS, FormFactorParams, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, Visibility,
+    FAR_RAYS, FormFactorParams, FormFactors, MAX_EXACT_PIECES, NEAR_RAYS, RAYS_PER_PIECE_PAIR,
+    Visibility,
 };
 use crate::geometry::Occluders;
 use crate::hooks::{Hooks, Laps};
@@ -140,8 +141,18 @@ pub(super) fn form_factor_effects(ff: &FormFactors, budget: usize, effects: &mut
     let pieces = ff.pieces;
     let cast = ff.rays_per_patch > 0;
     let why = if cast {
+        let because = if pieces > budget {
+            format!("{pieces} pieces in all (over {budget})")
+        } else {
+            format!(
+                "{pieces} pieces in all: integrating their {:.1e} piece pairs would cost about {:.0}× casting the rays",
+                ff.piece_pairs,
+                ff.piece_pairs * RAYS_PER_PIECE_PAIR
+                    / (ff.n as f64 * f64::from(ff.rays_per_patch)).max(1.0)
+            )
+        };
         format!(
-            "{pieces} pieces in all (over {budget}): every patch cast {} cosine-weighted rays against the full-detail triangles, hits counted per patch and pooled over both sides of each pair (the cost follows the patches, not the pieces)",
+            "{because}: every patch cast {} cosine-weighted rays against the full-detail triangles, hits counted per patch and pooled over both sides of each pair (the cost follows the patches, not the pieces)",
             ff.rays_per_patch
         )
     } else {

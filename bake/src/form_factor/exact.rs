@@ -38,12 +38,19 @@ pub(super) fn exchange(
     let whole = src.len() * dst.len() * MIN_PIECE_RAYS > EXACT_PAIR_RAYS;
     let mut total = 0.0;
     scratch.samples.clear();
+    // A pair sampled as a whole keeps at most KEPT_CONTRIBUTIONS; past them it only sums
+    // what needs rays, and streams its contributions again below.
+    let mut kept = Kept::new(if whole {
+        KEPT_CONTRIBUTIONS
+    } else {
+        usize::MAX
+    });
     for (si, s) in src.iter().enumerate() {
         source_contributions(
-            si, s, dst, occ, cache, params, tol, whole, scratch, &mut total,
+            si, s, dst, occ, cache, params, tol, whole, scratch, &mut total, &mut kept,
         );
     }
-    if scratch.samples.is_empty() {
+    if scratch.samples.is_empty() && kept.spilled.is_none() {
         return total;
     }
     let o = occ.expect("rays need occluders");
@@ -55,7 +62,63 @@ pub(super) fn exchange(
         skips,
         leaf_stream,
     };
-    ctx.sample(&mut scratch.samples, whole, rays, total)
+    let Some(spilled) = kept.spilled else {
+        return ctx.sample(&mut scratch.samples, whole, rays, total);
+    };
+    // Too many to keep: the same contributions again, one source piece at a time, each
+    // piece's sorted by target as the kept list would be, fed to one sampler in that order.
+    let sum = scratch.samples.iter().map(|e| e.3).sum::<f64>() + spilled;
+    let mut sampler = ctx.whole_sampler(sum);
+    let mut unused = 0.0;
+    for (si, s) in src.iter().enumerate().take(kept.last as usize + 1) {
+        scratch.samples.clear();
+        let mut all = Kept::new(usize::MAX);
+        source_contributions(
+            si,
+            s,
+            dst,
+            occ,
+            cache,
+            params,
+            tol,
+            whole,
+            scratch,
+            &mut unused,
+            &mut all,
+        );
+        scratch.samples.sort_by_key(|e| e.1);
+        let last_piece = si == kept.last as usize;
+        ctx.feed_whole(&mut sampler, &scratch.samples, last_piece);
+    }
+    scratch.samples.clear();
+    *rays += sampler.0.drawn;
+    total + sampler.0.estimate(sum)
+}
+
+/// Contributions that need rays a pair sampled as a whole keeps in its list, at most: 92 MB
+/// of them a thread. A patch of thousands of pieces against another (a finely modelled railing
+/// beside a tessellated roof in one coarse patch each) held hundreds of millions, and a bake of
+/// 8 962 triangles at 64 patches asked for 5.9 GB in one list.
+const KEPT_CONTRIBUTIONS: usize = 1 << 20;
+
+/// What [`Tally`] keeps of the contributions that need rays.
+struct Kept {
+    /// At most this many in the list.
+    limit: usize,
+    /// The sum of those past it (none: nothing left out).
+    spilled: Option<f64>,
+    /// The last source piece with a contribution that needs rays.
+    last: u32,
+}
+
+impl Kept {
+    fn new(limit: usize) -> Self {
+        Self {
+            limit,
+            spilled: None,
+            last: 0,
+        }
+    }
 }
 
 /// Far piece pairs (`FormFactorParams::far_pieces`) take the rule on both sides: each target
@@ -93,6 +156,7 @@ fn source_contributions(
     whole: bool,
     scratch: &mut Scratch,
     total: &mut f64,
+    kept: &mut Kept,
 ) {
     let Scratch {
         live,
@@ -131,6 +195,7 @@ fn source_contributions(
         si: si as u32,
         samples,
         total,
+        kept,
     };
     if !far.is_empty() {
         let rule = params.quadrature.rule;
@@ -186,15 +251,21 @@ struct Tally<'a> {
     si: u32,
     samples: &'a mut Vec<Contribution>,
     total: &'a mut f64,
+    kept: &'a mut Kept,
 }
 
 impl Tally<'_> {
     /// The contribution `v` to target piece `k` from the source's quadrature leaf `leaf`.
     fn add(&mut self, k: usize, leaf: [DVec3; 3], v: f64, need_rays: bool) {
-        if need_rays {
+        if !need_rays {
+            *self.total += v;
+            return;
+        }
+        self.kept.last = self.si;
+        if self.samples.len() < self.kept.limit {
             self.samples.push((self.si, k as u32, leaf, v));
         } else {
-            *self.total += v;
+            *self.kept.spilled.get_or_insert(0.0) += v;
         }
     }
 }
@@ -283,6 +354,74 @@ struct RayContext<'a> {
 }
 
 impl RayContext<'_> {
+    /// Shadow rays per contribution's leaf: the pair's `per_sample` (0 without visibility).
+    fn per_sample(&self) -> u32 {
+        match self.params.visibility {
+            Visibility::Rays { per_sample, .. } => per_sample.max(1),
+            Visibility::Off => 0,
+        }
+    }
+
+    /// One shadow ray from a point of source piece `si` (drawn with `ray` on its quadrature
+    /// leaf `leaf`) to target piece `t`: whether it arrives.
+    fn visible(
+        &self,
+        si: u32,
+        t: &Piece,
+        leaf: &[DVec3; 3],
+        ray: u64,
+        k: u64,
+        scramble: [u32; 2],
+    ) -> bool {
+        let (o, skips) = (self.occ, self.skips);
+        let s = &self.src[si as usize];
+        // A site stands for a whole patch, usually at one quadrature point: its rays are
+        // spread over both polygons, not sent from the point.
+        if s.triangle == SITE || t.triangle == SITE {
+            let x = if s.triangle == SITE {
+                front_point(s, t, k + SITE_SOURCE_OFFSET)
+            } else {
+                Sample::leaf_point(leaf, ray, scramble)
+            };
+            o.segment_visible_skipping(x, front_point(t, s, k), skips.triangle)
+        } else {
+            let x = Sample::leaf_point(leaf, ray, scramble);
+            in_front(x, t)
+                && o.reaches(x, ray_end(x, s, t, k), t.triangle)
+                && !(skips.buried.get(si as usize) == Some(&true) && o.buried(x, s.normal))
+        }
+    }
+
+    /// The sampler of a pair sampled as a whole, whose contributions that need rays sum to
+    /// `sum`: [`exact_pair_rays`] of them, numbered from the pair's stream; with that stream's
+    /// leaf scramble.
+    fn whole_sampler(&self, sum: f64) -> (Systematic, u64, [u32; 2]) {
+        let area: f64 = self.src.iter().map(|p| p.area).sum();
+        let pair_budget = exact_pair_rays(sum, area) * self.per_sample() as usize;
+        let base = self.leaf_stream >> 24;
+        (
+            Systematic::new(sum, pair_budget, base),
+            base,
+            Sample::leaf_scramble(base),
+        )
+    }
+
+    /// Feeds `samples` (in order) to a pair's whole sampler; `last`: they end the pair.
+    fn feed_whole(
+        &self,
+        sampler: &mut (Systematic, u64, [u32; 2]),
+        samples: &[Contribution],
+        last: bool,
+    ) {
+        let (sampler, base, scramble) = (&mut sampler.0, sampler.1, sampler.2);
+        for (i, e) in samples.iter().enumerate() {
+            let t = &self.dst[e.1 as usize];
+            sampler.feed(e.3, last && i + 1 == samples.len(), |ray| {
+                self.visible(e.0, t, &e.2, ray, base + ray, scramble)
+            });
+        }
+    }
+
     /// `total` plus the visible part of the contributions in `samples`, whose rays are drawn
     /// per piece pair (at least `MIN_PIECE_RAYS` each), or for the patch pair as a whole
     /// (`EXACT_PAIR_RAYS`) when `whole`; the rays cast are added to `rays`.
@@ -293,75 +432,39 @@ impl RayContext<'_> {
         rays: &mut u64,
         mut total: f64,
     ) -> f64 {
-        let Self {
-            src,
-            dst,
-            occ: o,
-            params,
-            skips,
-            leaf_stream,
-        } = *self;
-        let skip = skips.triangle;
-        let per_sample = match params.visibility {
-            Visibility::Rays { per_sample, .. } => per_sample.max(1),
-            Visibility::Off => 0,
-        };
+        let per_sample = self.per_sample();
         // Stable: within a piece pair the contributions keep their order.
         samples.sort_by_key(|e| (e.0, e.1));
-        // One shadow ray from source point `x` (drawn with `ray` on leaf `leaf`) of source
-        // piece `si` (`s`) to `t`.
-        let visible = |si: u32, t: &Piece, leaf: &[DVec3; 3], ray: u64, k: u64, scramble| {
-            let s = &src[si as usize];
-            // A site stands for a whole patch, usually at one quadrature point: its rays are
-            // spread over both polygons, not sent from the point.
-            if s.triangle == SITE || t.triangle == SITE {
-                let x = if s.triangle == SITE {
-                    front_point(s, t, k + SITE_SOURCE_OFFSET)
-                } else {
-                    Sample::leaf_point(leaf, ray, scramble)
-                };
-                o.segment_visible_skipping(x, front_point(t, s, k), skip)
-            } else {
-                let x = Sample::leaf_point(leaf, ray, scramble);
-                in_front(x, t)
-                    && o.reaches(x, ray_end(x, s, t, k), t.triangle)
-                    && !(skips.buried.get(si as usize) == Some(&true) && o.buried(x, s.normal))
-            }
-        };
-        let same_pieces = |a: &Contribution, b: &Contribution| (a.0, a.1) == (b.0, b.1);
         if whole {
             let sum: f64 = samples.iter().map(|e| e.3).sum();
-            let area: f64 = src.iter().map(|p| p.area).sum();
-            let pair_budget = exact_pair_rays(sum, area) * per_sample as usize;
-            let base = leaf_stream >> 24;
-            let scramble = Sample::leaf_scramble(base);
-            let mut sampler = Systematic::new(sum, pair_budget, base);
-            for (i, e) in samples.iter().enumerate() {
-                let t = &dst[e.1 as usize];
-                sampler.feed(e.3, i + 1 == samples.len(), |ray| {
-                    visible(e.0, t, &e.2, ray, base + ray, scramble)
-                });
-            }
-            *rays += sampler.drawn;
-            return total + sampler.estimate(sum);
+            let mut sampler = self.whole_sampler(sum);
+            self.feed_whole(&mut sampler, samples, true);
+            *rays += sampler.0.drawn;
+            return total + sampler.0.estimate(sum);
         }
+        let same_pieces = |a: &Contribution, b: &Contribution| (a.0, a.1) == (b.0, b.1);
         for group in samples.chunk_by(same_pieces) {
-            let (s, t) = (&src[group[0].0 as usize], &dst[group[0].1 as usize]);
+            let (s, t) = (
+                &self.src[group[0].0 as usize],
+                &self.dst[group[0].1 as usize],
+            );
             let site = s.triangle == SITE || t.triangle == SITE;
             let per_point = per_sample * if site { SITE_RAYS } else { 1 };
             // Rays start anywhere on their leaf, so a leaf's points share its rays: the budget
             // counts leaves, and a finer rule costs kernel evaluations, not rays.
-            let leaves = group.len().div_ceil(params.quadrature.rule.points().len());
+            let leaves = group
+                .len()
+                .div_ceil(self.params.quadrature.rule.points().len());
             let budget = (leaves * per_point as usize).max(MIN_PIECE_RAYS * per_sample as usize);
             // Each piece pair numbers its own rays: a quadrature that differs in one pair (by
             // rounding) must not renumber the rays of the others.
             let base = u64::from(group[0].0) << 40 | u64::from(group[0].1) << 20;
             let sum: f64 = group.iter().map(|e| e.3).sum();
             let mut sampler = Systematic::new(sum, budget, base);
-            let scramble = Sample::leaf_scramble(base ^ leaf_stream);
+            let scramble = Sample::leaf_scramble(base ^ self.leaf_stream);
             for (i, e) in group.iter().enumerate() {
                 sampler.feed(e.3, i + 1 == group.len(), |ray| {
-                    visible(e.0, t, &e.2, ray, base + ray, scramble)
+                    self.visible(e.0, t, &e.2, ray, base + ray, scramble)
                 });
             }
             *rays += sampler.drawn;

@@ -244,7 +244,7 @@ fn patch_visibility(
     sky_rays(samples, seed, |origin, dir, w| {
         rays += 1;
         if occ
-            .closest_hit_from_surface(origin, dir, f64::INFINITY)
+            .closest_hit_from_stored_point(origin, dir, f64::INFINITY)
             .is_none()
         {
             let y = sh_basis(dir.as_vec3().to_array());

@@ -6,9 +6,7 @@ use crate::effect_plan::Effects;
 use crate::order::{self, Candidate};
 use crate::report::{BakeReport, Bytes};
 use crate::scene::Scene;
-use radiosity_core::{
-    Bounces, DecodeMode, Format, RadFile, Rgb, TransferMatrix,
-};
+use radiosity_core::{Bounces, DecodeMode, Format, RadFile, Rgb, TransferMatrix};
 use radiosity_runtime::SharedPatch;
 use std::collections::BTreeMap;
 

@@ -7,8 +7,7 @@ use crate::BakeError;
 use crate::discretise::Discretised;
 use crate::effect_plan::{Effect, Effects};
 use crate::encode::{
-    EmitterColumns, EncodeError, EncodeParams, default_correction_fraction,
-    default_sparse_fraction,
+    EmitterColumns, EncodeError, EncodeParams, default_correction_fraction, default_sparse_fraction,
 };
 use crate::hooks::Hooks;
 use crate::passes::{self, sky::PlannedSky, sky::Sky};
@@ -207,7 +206,10 @@ pub(super) fn exact_emitters_effect(systems: &[Option<EmitterColumns>]) -> Optio
                 bytes as f64 / 1024.0
             ),
         )
-    } else if with.iter().any(|c| c.error_in_blocks > f64::from(crate::encode::EMITTER_ERROR_LIMIT)) {
+    } else if with
+        .iter()
+        .any(|c| c.error_in_blocks > f64::from(crate::encode::EMITTER_ERROR_LIMIT))
+    {
         let share = with.iter().map(|c| c.share_of_blocks).fold(0.0, f64::max);
         Effect::new(
             false,

@@ -32,7 +32,7 @@ pub(crate) fn form_factors(
         })
         .flatten();
     if let Some(s) = sparse {
-        return sparse_exchange(s, patches.pieces.len());
+        return sparse_exchange(s, patches);
     }
     let mut ff = form_factors_surveyed(patches, occluders, params, Some(burial), Some(progress));
     // F in f64 from here on; the f32 matrix goes as soon as it is converted.
@@ -43,19 +43,19 @@ pub(crate) fn form_factors(
     (Exchange::Dense(Dense::new(patches.len(), values)), ff)
 }
 
-/// Ray-cast sparse rows as the discretisation holds them, with their summary (`pieces`: the
-/// patches' pieces).
-pub(crate) fn sparse_exchange(s: SparseFormFactors, pieces: usize) -> (Exchange, FormFactors) {
+/// Ray-cast sparse rows of `patches` as the discretisation holds them, with their summary.
+pub(crate) fn sparse_exchange(s: SparseFormFactors, patches: &Patches) -> (Exchange, FormFactors) {
     let summary = FormFactors {
         n: s.n,
         matrix: Vec::new(),
         rays_cast: s.rays_cast,
         row_sums: Vec::new(),
         reciprocity_error: 0.0,
-        pieces,
+        pieces: patches.pieces.len(),
         sites: 0,
         clustered_pairs: 0,
         rays_per_patch: s.rays_per_patch,
+        piece_pairs: crate::form_factor::piece_pairs(patches),
     };
     (Exchange::Sparse(SparseRows::from_f32(s)), summary)
 }
