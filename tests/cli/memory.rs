@@ -115,9 +115,7 @@ fn a_part_of_fine_railings_and_roofs_bakes_under_a_memory_cap() {
     let out = dir.path().join("part.rad");
     let status = Command::new("sh")
         .arg("-c")
-        .arg(format!(
-            "ulimit -v 3000000 && exec \"$0\" bake \"$1\" -o \"$2\" --patches 64 --probes none"
-        ))
+        .arg("ulimit -v 3000000 && exec \"$0\" bake \"$1\" -o \"$2\" --patches 64 --probes none")
         .arg(env!("CARGO_BIN_EXE_radiosity"))
         .arg(&scene)
         .arg(&out)
