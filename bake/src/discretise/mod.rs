@@ -128,7 +128,11 @@ pub fn discretise(
     laps.lap("plan");
 
     hooks.start("form factors")?;
-    let rows = steps::form_factors(&patches, &plan, params, given, hooks, &mut laps)?;
+    let surveyed = match given {
+        None => steps::survey_for_target(scene, &mut patches, &mut plan, params)?,
+        Some(_) => None,
+    };
+    let rows = steps::form_factors(&patches, &plan, params, given, hooks, &mut laps, surveyed)?;
     // The rows skipped after a cancellation leave the matrix incomplete: it goes no further.
     hooks.check()?;
     laps.lap("form_factors");
