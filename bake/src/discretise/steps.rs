@@ -121,36 +121,62 @@ pub(super) fn survey_for_target(
     if buried == 0 || live as f64 >= floor || live == 0 {
         return Ok(Some(burial));
     }
-    let aim = (target as f64 * patches.len() as f64 / live as f64).round() as usize;
-    let voxel = VoxelParams {
-        resolution: Resolution::TargetPatches(aim),
-        ..params.voxel.clone()
-    };
+    // The buried share moves with the grid (a finer one may bury more whole patches), so
+    // the aim is corrected up to RETARGETS times and the try nearest the target kept.
     let before = (patches.len(), buried);
-    *patches = crate::simplify::simplify(scene, &voxel)?;
+    let mut best: Option<(Patches, Vec<Vec<u32>>, usize)> = None;
+    let mut aim = target as f64 * patches.len() as f64 / live as f64;
+    let mut tries = Vec::new();
+    for _ in 0..RETARGETS {
+        let voxel = VoxelParams {
+            resolution: Resolution::TargetPatches(aim.round() as usize),
+            ..params.voxel
+        };
+        let next = crate::simplify::simplify(scene, &voxel)?;
+        let burial = survey(&next, occ);
+        let live = next.len() - buried_whole(&burial);
+        tries.push(format!("{} aiming at {:.0} ({live} live)", next.len(), aim));
+        let miss = |l: usize| (l as f64 - target as f64).abs();
+        if best.as_ref().is_none_or(|b| miss(live) < miss(b.2)) {
+            best = Some((next, burial, live));
+        }
+        if (live as f64 - target as f64).abs() <= params.voxel.tolerance * target as f64
+            || live == 0
+        {
+            break;
+        }
+        aim *= target as f64 / live as f64;
+    }
+    let Some((next, next_burial, live)) = best else {
+        return Ok(Some(burial));
+    };
+    if live.abs_diff(target) >= (before.0 - before.1).abs_diff(target) {
+        return Ok(Some(burial));
+    }
+    *patches = next;
     plan.effects
         .insert("colour", effect_plan::plan_colour(patches));
     plan.effects
         .insert("emission", effect_plan::plan_emission(patches));
-    let burial = survey(patches, occ);
-    let buried = buried_whole(&burial);
     plan.effects.insert(
         "buried_patches",
         Effect::new(
             true,
             format!(
-                "{} of {} patches lay buried whole under other objects, which would have left {} of the {target} asked for: simplified again aiming at {aim}, {} patches of which {} buried, {} live",
+                "{} of {} patches lay buried whole under other objects, which would have left {} of the {target} asked for: simplified again, {}; kept {} patches, {live} live",
                 before.1,
                 before.0,
                 before.0 - before.1,
+                tries.join(", "),
                 patches.len(),
-                buried,
-                patches.len() - buried
             ),
         ),
     );
-    Ok(Some(burial))
+    Ok(Some(next_burial))
 }
+
+/// Simplifications tried at most for a target of live patches ([`survey_for_target`]).
+const RETARGETS: usize = 3;
 
 /// Patches whose every surveyed start another object buries ([`survey`]).
 fn buried_whole(burial: &[Vec<u32>]) -> usize {
