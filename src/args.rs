@@ -89,6 +89,14 @@ pub(crate) struct BakeArgs {
     /// patches), or a count (docs/decisions/systems.md)
     #[arg(long, value_name = "off|auto|N", default_value = "auto")]
     pub(crate) systems: String,
+    /// The memory the bake may take at its peak, in GB (default: this machine's physical
+    /// memory); a --patches target whose estimated peak exceeds it is refused at once
+    #[arg(
+        long = "memory-budget",
+        value_name = "GB",
+        allow_negative_numbers = true
+    )]
+    pub(crate) memory_budget: Option<f64>,
     /// The flags above given on the command line (`--patches`, …), filled in by `main`: a
     /// `.rad` input refuses them, since they do not apply to a file already baked.
     #[arg(skip)]
@@ -113,6 +121,7 @@ impl BakeArgs {
             shadow_points: None,
             sky: "on".into(),
             systems: "auto".into(),
+            memory_budget: None,
             given: Vec::new(),
         }
     }

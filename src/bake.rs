@@ -28,6 +28,7 @@ pub(crate) fn flags(args: &BakeArgs) -> BakeFlags {
         probe_rank: None,
         sky: Some(args.sky.clone()),
         systems: Some(args.systems.as_str().into()),
+        memory_budget: args.memory_budget,
     }
 }
 

@@ -30,6 +30,10 @@ fn refuse_contradictions(
     let planned = serde_json::to_value(&plan.flags)?;
     for flag in &args.given {
         let key = flag.trim_start_matches("--").replace('-', "_");
+        // The budget bounds this machine's bake, not the file: any may bake the plan.
+        if key == "memory_budget" {
+            continue;
+        }
         if cli.get(&key) != planned.get(&key) {
             bail!(
                 "{flag} contradicts the plan {}: a planned bake takes its flags from the plan (make another plan to change them)",

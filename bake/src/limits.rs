@@ -65,7 +65,7 @@ pub(crate) fn largest_fitting(memory: u64, bounces: BounceSpec) -> usize {
 }
 
 /// The machine's physical memory in bytes (`MemTotal` of `/proc/meminfo`), where known.
-pub(crate) fn physical_memory() -> Option<u64> {
+pub fn physical_memory() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
     let kib: u64 = line
@@ -105,6 +105,45 @@ pub(crate) fn check_ceiling(patches: usize) -> Result<(), BakeError> {
     }
 }
 
+/// The memory a bake may take at its peak.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// The machine's physical memory, where known.
+    Machine(Option<u64>),
+    /// Bytes given by `--memory-budget`.
+    Given(f64),
+}
+
+impl Budget {
+    fn bytes(self) -> Option<f64> {
+        match self {
+            Budget::Machine(m) => m.map(|m| m as f64),
+            Budget::Given(b) => Some(b),
+        }
+    }
+
+    /// What the budget is, for a refusal.
+    fn name(self) -> String {
+        match self {
+            Budget::Machine(m) => format!(
+                "this machine's {:.1} GB of memory",
+                m.unwrap_or(0) as f64 / 1e9
+            ),
+            Budget::Given(b) => format!("the --memory-budget of {:.1} GB", b / 1e9),
+        }
+    }
+}
+
+/// [`check_patches_in`] under `budget`: the machine's memory or `--memory-budget`.
+pub fn check_patches_within(
+    patches: usize,
+    budget: Budget,
+    bounces: BounceSpec,
+    systems: SystemsChoice,
+) -> Result<(), BakeError> {
+    check_patches_named(patches, budget, bounces, systems)
+}
+
 /// Refuses a patch target the bake cannot hold: above [`MAX_LEVEL_PATCHES`], above
 /// [`MAX_PATCHES`] for one matrix, or whose estimated peak ([`bake_peak_bytes`], or
 /// [`level_peak_bytes`] where `systems` cuts the target into systems) exceeds `memory` bytes
@@ -115,15 +154,26 @@ pub(crate) fn check_patches_in(
     bounces: BounceSpec,
     systems: SystemsChoice,
 ) -> Result<(), BakeError> {
+    check_patches_named(patches, Budget::Machine(memory), bounces, systems)
+}
+
+/// [`check_patches_in`] against `budget`, named in the refusal.
+fn check_patches_named(
+    patches: usize,
+    budget: Budget,
+    bounces: BounceSpec,
+    systems: SystemsChoice,
+) -> Result<(), BakeError> {
+    let memory = budget.bytes();
     check_ceiling(patches)?;
     if let Some(count) = systems.count_for(patches) {
         let peak = level_peak_bytes(patches, count, bounces);
         return match memory {
-            Some(memory) if peak > memory as f64 => Err(BakeError::Flag(format!(
-                "--patches {patches} in {count} systems needs about {:.1} GB at the bake's peak (sparse form factors of {:.0} kB a patch and the largest system's dense transfer), more than this machine's {:.1} GB of memory: cut it into more systems or aim at fewer patches",
+            Some(memory) if peak > memory => Err(BakeError::Flag(format!(
+                "--patches {patches} in {count} systems needs about {:.1} GB at the bake's peak (sparse form factors of {:.0} kB a patch and the largest system's dense transfer), more than {}: cut it into more systems or aim at fewer patches",
                 peak / 1e9,
                 LEVEL_BYTES_PER_PATCH / 1e3,
-                memory as f64 / 1e9,
+                budget.name(),
             ))),
             _ => Ok(()),
         };
@@ -135,14 +185,14 @@ pub(crate) fn check_patches_in(
     }
     if let Some(memory) = memory {
         let peak = bake_peak_bytes(patches, bounces);
-        if peak > memory as f64 {
+        if peak > memory {
             return Err(BakeError::Flag(format!(
-                "--patches {patches} needs about {:.1} GB at the bake's peak (dense matrices of {} bytes per pair of up to {} patches), more than this machine's {:.1} GB of memory: at most {} patches fit",
+                "--patches {patches} needs about {:.1} GB at the bake's peak (dense matrices of {} bytes per pair of up to {} patches), more than {}: at most {} patches fit, or cut the level into systems with --systems N",
                 peak / 1e9,
                 bytes_per_entry(bounces),
                 (patches as f64 * OVERSHOOT).round(),
-                memory as f64 / 1e9,
-                largest_fitting(memory, bounces)
+                budget.name(),
+                largest_fitting(memory as u64, bounces)
             )));
         }
     }

@@ -128,3 +128,32 @@ fn a_part_of_fine_railings_and_roofs_bakes_under_a_memory_cap() {
     );
     assert!(out.exists());
 }
+
+/// `--memory-budget GB` bounds the bake's estimated peak in place of the machine's memory: a
+/// target above it is refused at once in one line that names the budget and what fits, and
+/// writes nothing; a budget that is not a positive number is refused the same way.
+#[test]
+fn a_memory_budget_refuses_a_target_above_it_before_loading() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = railings_and_roofs(dir.path(), 2);
+    let out = dir.path().join("x.rad");
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    // 8000 patches: 32 bytes a pair of up to 8800, 2.5 GB, over a budget of 1 GB.
+    let run = super::radiosity(&[
+        "bake",
+        s,
+        "-o",
+        o,
+        "--patches",
+        "8000",
+        "--memory-budget",
+        "1",
+    ]);
+    super::assert_one_line_error(&run, "more than the --memory-budget of 1.0 GB");
+    assert!(String::from_utf8_lossy(&run.stderr).contains("at most 5000 patches fit"));
+    for bad in ["0", "-2", "nan"] {
+        let run = super::radiosity(&["bake", s, "-o", o, "--memory-budget", bad]);
+        super::assert_one_line_error(&run, "--memory-budget must be a positive number of GB");
+    }
+    assert!(!out.exists(), "a refused bake wrote its file");
+}

@@ -93,10 +93,15 @@ pub struct BakeFlags {
     /// Systems: `auto` (the default), `off` or a count.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub systems: Option<Word>,
+    /// The memory the bake may take at its peak, in GB (default: the machine's physical
+    /// memory): a patch target whose estimated peak exceeds it is refused before anything is
+    /// loaded.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory_budget: Option<f64>,
 }
 
 /// The keys of [`BakeFlags`] in JSON.
-const KEYS: [&str; 16] = [
+const KEYS: [&str; 17] = [
     "patches",
     "voxel",
     "bounces",
@@ -113,6 +118,7 @@ const KEYS: [&str; 16] = [
     "probe_rank",
     "sky",
     "systems",
+    "memory_budget",
 ];
 
 /// Refuses with a flag's message.
@@ -231,9 +237,18 @@ impl BakeFlags {
                 }
             },
         };
+        let budget = match self.memory_budget {
+            None => crate::limits::Budget::Machine(crate::limits::physical_memory()),
+            Some(gb) if gb.is_finite() && gb > 0.0 => crate::limits::Budget::Given(gb * 1e9),
+            Some(gb) => {
+                return refuse(format!(
+                    "--memory-budget must be a positive number of GB, not {gb}"
+                ));
+            }
+        };
         if let Some(n) = self.patches {
             // Before anything is loaded or allocated: the matrices must fit in memory.
-            crate::limits::check_patches(n, p.bounces, p.systems)?;
+            crate::limits::check_patches_within(n, budget, p.bounces, p.systems)?;
         }
         Ok((p, capped_loading(self.max_reflectance)?))
     }

@@ -233,6 +233,8 @@ pub fn make_plan(
     let mut flags = flags.clone();
     // The grid is fixed by `cell_size`: the target that found it stays as a record only.
     flags.voxel = None;
+    // A memory budget bounds the machine that bakes, not the plan.
+    flags.memory_budget = None;
     let mut plan = Plan {
         format: PLAN_FORMAT.into(),
         version: PLAN_VERSION,
