@@ -110,14 +110,14 @@ pub(super) fn review(
         .collect();
     let error_in_blocks = lighting_error(dense, n, channels, matrix, &emission)?;
     let emitting: Vec<bool> = emission.iter().map(|e| *e != Rgb::ZERO).collect();
-    let columns = emitting.iter().filter(|&&e| e).count();
     let old = matrix.sparse.clone();
     let held = |r: usize, c: usize| {
         let cols = &old.cols[old.row_ptr[r] as usize..old.row_ptr[r + 1] as usize];
         cols.binary_search(&(c as u32)).is_ok()
     };
+    let columns_at: Vec<usize> = (0..n).filter(|&c| emitting[c]).collect();
     let added = (0..n)
-        .map(|r| (0..n).filter(|&c| emitting[c] && !held(r, c)).count())
+        .map(|r| columns_at.iter().filter(|&&c| !held(r, c)).count())
         .sum::<usize>();
     let bytes = added * (4 + 4 * channels);
     let share_of_blocks = bytes as f64 / matrix.blocks.len().max(1) as f64;
@@ -131,7 +131,7 @@ pub(super) fn review(
         matrix.corrections = correct::choose(matrix, dense, weights, correct::count(params, side));
     }
     Some(EmitterColumns {
-        columns,
+        columns: columns_at.len(),
         error_in_blocks,
         kept,
         bytes,
