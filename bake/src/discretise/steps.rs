@@ -100,7 +100,8 @@ pub(super) fn plan_effects(
 /// With a target patch count (`--patches N`) and occluders: the burial survey, and where so
 /// many patches lie buried whole under other objects that fewer than `N` (less the target's
 /// tolerance) would stay in the matrix, the scene simplified again for `N` live ones (the
-/// target scaled by all over live, once) and surveyed again. Overlapping solids, as a BIM
+/// aim scaled by the target over the live count, up to [`RETARGETS`] times, each try surveyed
+/// again, the one nearest the target kept). Overlapping solids, as a BIM
 /// export has them, bury a third of some buildings' surface: a house asked for 4096 patches
 /// had 2413 left. The `buried_patches` effect says what was done.
 pub(super) fn survey_for_target(
