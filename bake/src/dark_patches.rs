@@ -10,24 +10,27 @@ use crate::patch::points::{Owners, shares};
 use rayon::prelude::*;
 use serde::Serialize;
 
-/// The `dark_patches` decision for a non-empty `dark` list, of which the burial test buried
-/// `buried` whole ([`expose`]), checked by hemisphere rays ([`check_dark`]); a dark patch whose
-/// rays land on patches also adds a warning to `patches`.
+/// The `dark_patches` decision for a non-empty `dark` list, of which `kept` stay in the matrix
+/// (the rest the burial test buried whole, [`expose`]), those checked by hemisphere rays
+/// ([`check_dark`]); a kept dark patch whose rays land on patches also adds a warning to
+/// `patches`.
 pub(crate) fn dark_patches(
     patches: &mut Patches,
     occ: &Occluders,
     dark: &[usize],
-    buried: usize,
+    kept: &[usize],
     areas: &[f64],
     seed: u64,
 ) -> Effect {
-    let check = check_dark(patches, occ, dark, seed);
+    let buried = dark.len() - kept.len();
+    let check = check_dark(patches, occ, kept, seed);
     let verdict = if check.seeing > 0 {
+        let seeing_area: f64 = check.seeing_patches.iter().map(|&i| areas[i]).sum();
         patches.warnings.push(format!(
-            "{} of {} dark patches send light to other patches by hemisphere rays (up to {:.3} of it, patch {}), though their form factors are zero: that light is lost",
+            "{} patches ({:.2}% of the area) pass on no bounced light though hemisphere rays from them reach other patches (up to {:.0}% of their rays, patch {}); their form factors found nothing: bake with `--form-factors fine`, or with more `--patches` so that they are not so small",
             check.seeing,
-            check.checked,
-            check.largest_share,
+            100.0 * seeing_area / areas.iter().sum::<f64>(),
+            100.0 * check.largest_share,
             check.worst_patch.unwrap_or(0)
         ));
         format!("; {} contradict it: see the warnings)", check.seeing)
@@ -40,7 +43,7 @@ pub(crate) fn dark_patches(
     };
     // Hemisphere rays pass through a face they start on, so a patch lying face to face against
     // a part whose other side looks out of the room "faces the void" to them.
-    let kept = dark.len() - buried;
+    let kept = kept.len();
     let dark_area: f64 = dark.iter().map(|&i| areas[i]).sum();
     Effect::new(
         true,
@@ -68,7 +71,7 @@ pub(crate) const DARK_CHECK_MAX: usize = 512;
 pub(crate) const DARK_SHARE: f64 = 0.05;
 
 /// What hemisphere rays say of the patches whose row of F is zero (which the bake drops).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct DarkCheck {
     /// Patches checked: every dark patch, or [`DARK_CHECK_MAX`] of them spread evenly.
     pub checked: usize,
@@ -80,6 +83,9 @@ pub struct DarkCheck {
     pub worst_patch: Option<usize>,
     /// Patches whose share reached [`DARK_SHARE`].
     pub seeing: usize,
+    /// Those patches (of the ones checked).
+    #[serde(skip)]
+    pub seeing_patches: Vec<usize>,
     /// Patches whose rays mostly meet back faces first: covered by or inside other objects
     /// (a floor under a block).
     pub covered: usize,
@@ -115,6 +121,12 @@ pub fn check_dark(patches: &Patches, occ: &Occluders, dark: &[usize], seed: u64)
         largest_share: worst.map_or(0.0, |w| w.1),
         worst_patch: worst.map(|w| w.0),
         seeing: shares.iter().filter(|&&s| s >= DARK_SHARE).count(),
+        seeing_patches: picked
+            .iter()
+            .zip(&shares)
+            .filter(|(_, s)| **s >= DARK_SHARE)
+            .map(|(&i, _)| i)
+            .collect(),
         covered: back.iter().filter(|&&b| b > 0.5).count(),
     }
 }

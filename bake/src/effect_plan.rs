@@ -55,6 +55,23 @@ pub(crate) fn plan_colour(patches: &Patches) -> Effect {
     }
 }
 
+/// Whether the simplification kept pieces that see different surroundings out of one patch
+/// (`simplify`'s surroundings split): the count of groups split, or that none needed it.
+pub(crate) fn plan_surroundings(patches: &Patches) -> Effect {
+    match patches.split_by_surroundings {
+        0 => Effect::new(
+            false,
+            "the pieces of every patch see the same surroundings: no patch was split",
+        ),
+        n => Effect::new(
+            true,
+            format!(
+                "{n} groups of one cell and orientation held pieces whose rays meet different surroundings (a sealed cavity's face beside a lit face): each split into patches of pieces that see the same"
+            ),
+        ),
+    }
+}
+
 /// Whether anything can occlude anything: `false` when the scene is the inside of a convex
 /// polyhedron (every vertex on or in front of every triangle's plane), where every pair of
 /// front faces sees each other unobstructed. Planes are de-duplicated first (a finely meshed

@@ -88,6 +88,7 @@ pub(super) fn plan_effects(
     };
     effects.insert("occlusion", occlusion);
     effects.insert("emission", effect_plan::plan_emission(patches));
+    effects.insert("surroundings", effect_plan::plan_surroundings(patches));
     Planned {
         effects,
         channels,
@@ -159,6 +160,8 @@ pub(super) fn survey_for_target(
         .insert("colour", effect_plan::plan_colour(patches));
     plan.effects
         .insert("emission", effect_plan::plan_emission(patches));
+    plan.effects
+        .insert("surroundings", effect_plan::plan_surroundings(patches));
     plan.effects.insert(
         "buried_patches",
         Effect::new(
@@ -387,13 +390,16 @@ pub(super) fn drop_dark(
     let dark_effect = if zero.is_empty() {
         Effect::new(false, "every patch sees some other patch: none dropped")
     } else {
-        // An independent look at the decision: hemisphere rays from the dark patches.
-        let buried = zero.iter().filter(|&&i| whole(i)).count();
+        // An independent look at the zero rows the matrix keeps: hemisphere rays from the dark
+        // patches not buried whole. Those buried whole the burial survey decided at 512 points
+        // each; rays from inside a solid meet the front faces of whatever else it encloses (the
+        // rafters inside a roof slab), which says nothing of the zero row.
+        let kept: Vec<usize> = zero.iter().copied().filter(|&i| !whole(i)).collect();
         dark_patches(
             &mut c.patches,
             plan.checks(scene),
             &zero,
-            buried,
+            &kept,
             &c.full_areas,
             params.seed,
         )

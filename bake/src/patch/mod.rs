@@ -84,6 +84,9 @@ pub struct Patches {
     pub cell_size: f64,
     /// Interpolation weights for every scene vertex.
     pub vertex_weights: VertexWeights,
+    /// Groups of pieces the simplification split because their pieces see different
+    /// surroundings (a sealed cavity's face beside a lit face of one slab).
+    pub split_by_surroundings: usize,
     /// Warnings (a patch target that could not be met).
     pub warnings: Vec<String>,
 }

@@ -49,6 +49,9 @@ pub(super) struct Grouping {
     /// Per group: (first material, pieces). A group's object is chosen when it becomes a
     /// patch (the object with the largest share of its area).
     pub(super) groups: Vec<(u32, Vec<Piece>)>,
+    /// How many groups were split because their pieces see different surroundings (set by
+    /// `super::grouped`).
+    pub(super) split: usize,
 }
 
 /// Connected surfaces: for every triangle, the index of its component, where triangles sharing
@@ -239,6 +242,7 @@ pub(super) fn group(
         .collect();
     Grouping {
         groups: absorb_small_groups(groups, &cell_of, &ends, loose, h),
+        split: 0,
     }
 }
 

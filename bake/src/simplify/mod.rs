@@ -4,7 +4,9 @@
 //! standing on it, never become one patch; separate parts of an object join where they see
 //! each other, so a scene of thousands of parts still meets its patch target. Finely tessellated parts small against a cell face join one
 //! patch whatever their orientation (`SMALL_GROUP`), so that curved furniture does not take
-//! the patch budget from the large surfaces.
+//! the patch budget from the large surfaces. Last, the pieces of each group that see different
+//! surroundings (a sealed cavity's face beside the lit face of one hollow slab) are split into
+//! patches of their own (`surroundings`).
 //!
 //! Each patch keeps the exact pieces it is made of (convex polygons, counter-clockwise about
 //! their triangle's normal), so form factors are computed on the true geometry, not on a disc
@@ -12,12 +14,13 @@
 
 mod grouping;
 pub mod runtime_mesh;
+mod surroundings;
 
 use crate::error::BakeError;
 use crate::patch::{BakePatch, Patches, Piece, VertexWeights, main_object};
 use crate::scene::Scene;
 use glam::DVec3;
-use grouping::{Grouping, Loose, component_areas, components, group};
+use grouping::{Grouping, Loose, component_areas, components};
 use radiosity_core::Rgb;
 
 /// How the grid's cell size is chosen.
@@ -168,7 +171,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
                     "cell size {h} is too small for a scene {extent} across"
                 )));
             }
-            (h, group(scene, &component, &loose, h, cos_max))
+            (h, grouped(scene, &component, &loose, h, cos_max))
         }
         Resolution::TargetPatches(n) => fit_patch_count(
             scene,
@@ -182,6 +185,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         )?,
     };
 
+    let split_by_surroundings = grouping.split;
     let (patches, pieces) = build_patches(scene, grouping);
     // The file stores patches in f32: a scene so large (or small) that a patch's area or centre
     // leaves the f32 range would be refused when writing, or light nothing.
@@ -204,6 +208,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         triangles,
         cell_size: h,
         vertex_weights,
+        split_by_surroundings,
         warnings,
     })
 }
@@ -296,7 +301,7 @@ impl Fit<'_> {
     /// bisection on log(h), the count falling as h grows (about area/h² for flat surfaces).
     fn bisect(&self) -> (f64, Grouping, f64) {
         let (target, tolerance) = (self.target, self.tolerance);
-        let group_at = |h: f64| group(self.scene, self.component, self.loose, h, self.cos_max);
+        let group_at = |h: f64| grouped(self.scene, self.component, self.loose, h, self.cos_max);
         let mut h_small = (self.total_area / target).sqrt() / 8.0;
         let mut h_large = self.extent * 2.0;
         let mut best: Option<(f64, Grouping, f64)> = None;
@@ -382,6 +387,14 @@ impl Fit<'_> {
             String::new()
         }
     }
+}
+
+/// The groups at cell size `h` ([`grouping::group`]), each split where its pieces see
+/// different surroundings ([`surroundings::split_by_surroundings`]).
+fn grouped(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f64) -> Grouping {
+    let merged = grouping::group(scene, component, loose, h, cos_max);
+    let (groups, split) = surroundings::split_by_surroundings(merged.groups, loose, h);
+    Grouping { groups, split }
 }
 
 /// The patches of `grouping` (area-weighted centre, normal and reflectance of their pieces)

@@ -1,0 +1,190 @@
+//! Pieces that see different surroundings kept out of one patch: a few rays from each piece of
+//! a group, the same directions from every piece, and pieces whose rays meet different
+//! surfaces start patches of their own.
+//!
+//! A patch has one irradiance and sends one radiosity, so its pieces must see about the same
+//! things. The grouping rules (one cell, one orientation, one connected surface or parts that
+//! see each other) do not ensure it: a hollow slab is one connected surface, and the face of its
+//! sealed cavity lies within a cell of the sunlit face above it with the same normal. In one
+//! patch the cavity face took the sunlit face's light and sent it into the cavity, whose other
+//! faces (in patches with the slab's lit faces too) sent it back out: pavilions of hollow slabs
+//! came out 11–20% over-lit per object under a sun and a sky (`scripts/sealed_voids.py`,
+//! `docs/decisions/surroundings-split.md`). The test is geometric, so it holds for every light
+//! and needs no re-bake when lights move.
+
+use super::grouping::Loose;
+use crate::geometry::bvh::Occluders;
+use crate::patch::Piece;
+use crate::scene::Scene;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Directions each piece looks along: a 4 × 4 stratified cosine-weighted set about its normal,
+/// the same for every piece of one normal, so two pieces are compared ray by ray with no
+/// sampling noise between them.
+const LOOKS: usize = 16;
+
+/// Share of [`LOOKS`] on which a piece must agree with a cluster's first piece to join it.
+/// Pieces of one surface in one cell agree on nearly every direction (a floor piece by a wall
+/// and one a cell away from it meet the wall at distances within a cell of each other); a
+/// cavity's face and the lit face over it agree on none. A quarter splits only pieces that
+/// see mostly other things: at a half, the roofs' undersides by their beams split too, and
+/// `scripts/architecture.py` (8 sites) at 4096 patches spent so many patches on them that its
+/// cells grew and its error rose from 1.5% to 4.5%; at a quarter it is 1.4%
+/// (`docs/decisions/surroundings-split.md`).
+const AGREE: f64 = 0.25;
+
+/// What one look from a piece met.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Seen {
+    /// Nothing: the ray leaves the scene.
+    Open,
+    /// A surface: its connected surface, the distance, and whether its front faces the ray.
+    Surface {
+        component: u32,
+        distance: f64,
+        front: bool,
+    },
+}
+
+/// Whether two looks along the same direction from two pieces of one cell (cell edge `h`) see
+/// the same surroundings: both leave the scene, or both meet the same side of one connected
+/// surface at distances within a cell, or within half the farther one, of each other.
+fn agree(a: Seen, b: Seen, h: f64) -> bool {
+    match (a, b) {
+        (Seen::Open, Seen::Open) => true,
+        (
+            Seen::Surface {
+                component: ca,
+                distance: da,
+                front: fa,
+            },
+            Seen::Surface {
+                component: cb,
+                distance: db,
+                front: fb,
+            },
+        ) => ca == cb && fa == fb && (da - db).abs() <= h.max(0.5 * da.max(db)),
+        _ => false,
+    }
+}
+
+/// The [`LOOKS`] directions about unit `normal`.
+fn looks(normal: DVec3) -> [DVec3; LOOKS] {
+    let (t1, t2) = normal.any_orthonormal_pair();
+    std::array::from_fn(|k| {
+        let u = ((k % 4) as f64 + 0.5) / 4.0;
+        let v = ((k / 4) as f64 + 0.5) / 4.0;
+        let r = u.sqrt();
+        let phi = std::f64::consts::TAU * v;
+        t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + normal * (1.0 - u).sqrt()
+    })
+}
+
+/// What each look from the centre of `piece` meets.
+fn seen(occ: &Occluders, component: &[u32], piece: &Piece) -> [Seen; LOOKS] {
+    let origin = piece.polygon.centroid();
+    looks(piece.normal).map(
+        |d| match occ.first_surface_from_surface(origin, d, f64::INFINITY) {
+            None => Seen::Open,
+            Some((hit, front)) => Seen::Surface {
+                component: component[hit.triangle as usize],
+                distance: hit.distance,
+                front,
+            },
+        },
+    )
+}
+
+/// Splits each group of several pieces into clusters of pieces that see the same
+/// surroundings ([`agree`] on at least [`AGREE`] of the looks with the cluster's first piece,
+/// the pieces taken largest first). A group whose pieces all agree stays whole and in place;
+/// the clusters split off follow it. `h` is the
+/// cell edge. Returns the groups and how many were split.
+pub(super) fn split_by_surroundings(
+    groups: Vec<(u32, Vec<Piece>)>,
+    loose: &Loose<'_>,
+    h: f64,
+) -> (Vec<(u32, Vec<Piece>)>, usize) {
+    if groups.iter().all(|(_, pieces)| pieces.len() < 2) {
+        return (groups, 0);
+    }
+    let occ = loose.occluders();
+    let component = loose.component;
+    let scene = loose.scene;
+    let split: Vec<Vec<(u32, Vec<Piece>)>> = groups
+        .into_par_iter()
+        .map(|(material, pieces)| {
+            if pieces.len() < 2 {
+                return vec![(material, pieces)];
+            }
+            clusters(material, pieces, |p| seen(occ, component, p), scene, h)
+        })
+        .collect();
+    let count = split.iter().filter(|c| c.len() > 1).count();
+    (split.into_iter().flatten().collect(), count)
+}
+
+/// The clusters of one group's `pieces` (see [`split_by_surroundings`]).
+fn clusters(
+    material: u32,
+    pieces: Vec<Piece>,
+    seen: impl Fn(&Piece) -> [Seen; LOOKS],
+    scene: &Scene,
+    h: f64,
+) -> Vec<(u32, Vec<Piece>)> {
+    let mut order: Vec<usize> = (0..pieces.len()).collect();
+    order.sort_by(|&a, &b| pieces[b].area.total_cmp(&pieces[a].area).then(a.cmp(&b)));
+    let views: Vec<[Seen; LOOKS]> = pieces.iter().map(&seen).collect();
+    let need = (AGREE * LOOKS as f64).ceil() as usize;
+    // A piece whose looks mostly meet back faces lies inside a solid (buried, [`Occluders::buried`]
+    // decides it point by point later): what it sees says nothing of the air beside it. It
+    // joins the first cluster rather than starting one; kept apart, such pieces took patches of
+    // their own that were then dropped as buried whole, and a patch target had to be simplified
+    // again for them (the architecture of `scripts/architecture.py` at 1024 patches: 463 of
+    // 1217 patches buried whole, the bake 3.4× slower).
+    let inside = |p: usize| {
+        let back = views[p]
+            .iter()
+            .filter(|s| matches!(s, Seen::Surface { front: false, .. }))
+            .count();
+        2 * back >= LOOKS
+    };
+    // Each cluster's first piece, and the cluster of every piece.
+    let mut heads: Vec<usize> = Vec::new();
+    let mut of = vec![0usize; pieces.len()];
+    for &p in order.iter().filter(|&&p| !inside(p)) {
+        let found = heads.iter().position(|&q| {
+            let same = (0..LOOKS)
+                .filter(|&k| agree(views[p][k], views[q][k], h))
+                .count();
+            same >= need
+        });
+        of[p] = found.unwrap_or_else(|| {
+            heads.push(p);
+            heads.len() - 1
+        });
+    }
+    if heads.len() <= 1 {
+        return vec![(material, pieces)];
+    }
+    // Clusters in the order of their first piece in the group, pieces in their order, so an
+    // unsplit group's patch keeps its place; each takes its first piece's material (a group's
+    // material is its first piece's: `grouping::Grouping`).
+    let mut slot = vec![usize::MAX; heads.len()];
+    let mut out: Vec<(u32, Vec<Piece>)> = Vec::with_capacity(heads.len());
+    for (p, piece) in pieces.into_iter().enumerate() {
+        let c = of[p];
+        if slot[c] == usize::MAX {
+            slot[c] = out.len();
+            let m = if p == 0 {
+                material
+            } else {
+                scene.triangles[piece.triangle as usize].material
+            };
+            out.push((m, Vec::new()));
+        }
+        out[slot[c]].1.push(piece);
+    }
+    out
+}
