@@ -12,7 +12,7 @@
 //! `docs/decisions/surroundings-split.md`). The test is geometric, so it holds for every light
 //! and needs no re-bake when lights move.
 
-use super::grouping::Loose;
+use super::grouping::{LOOSE_PART, Loose};
 use crate::geometry::bvh::Occluders;
 use crate::patch::Piece;
 use crate::scene::Scene;
@@ -112,13 +112,24 @@ pub(super) fn split_by_surroundings(
     let occ = loose.occluders();
     let component = loose.component;
     let scene = loose.scene;
+    let (area, part) = (&loose.area, LOOSE_PART * h * h);
+    // A piece of a part (a connected surface under `LOOSE_PART` of a cell face): parts share
+    // patches by design where the target needs it, at the grid's resolution.
+    let small = |p: &Piece| area[component[p.triangle as usize] as usize] < part;
     let split: Vec<Vec<(u32, Vec<Piece>)>> = groups
         .into_par_iter()
         .map(|(material, pieces)| {
             if pieces.len() < 2 {
                 return vec![(material, pieces)];
             }
-            clusters(material, pieces, |p| seen(occ, component, p), scene, h)
+            clusters(
+                material,
+                pieces,
+                |p| seen(occ, component, p),
+                &small,
+                scene,
+                h,
+            )
         })
         .collect();
     let count = split.iter().filter(|c| c.len() > 1).count();
@@ -130,6 +141,7 @@ fn clusters(
     material: u32,
     pieces: Vec<Piece>,
     seen: impl Fn(&Piece) -> [Seen; LOOKS],
+    small: &dyn Fn(&Piece) -> bool,
     scene: &Scene,
     h: f64,
 ) -> Vec<(u32, Vec<Piece>)> {
@@ -153,7 +165,10 @@ fn clusters(
     // Each cluster's first piece, and the cluster of every piece.
     let mut heads: Vec<usize> = Vec::new();
     let mut of = vec![0usize; pieces.len()];
-    for &p in order.iter().filter(|&&p| !inside(p)) {
+    // Nor do pieces of parts start clusters: a yard of 250 boxes, each its own object, whose
+    // parts must share patches to meet `--patches 128`, split again into a patch per box's
+    // face at every cell size, and the target's search fell to cells the size of the scene.
+    for &p in order.iter().filter(|&&p| !inside(p) && !small(&pieces[p])) {
         let found = heads.iter().position(|&q| {
             let same = (0..LOOKS)
                 .filter(|&k| agree(views[p][k], views[q][k], h))
