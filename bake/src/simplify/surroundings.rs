@@ -37,6 +37,9 @@ const AGREE: f64 = 0.25;
 /// What one look from a piece met.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Seen {
+    /// Nothing asked: the direction lies under the piece's own surface (a piece of a curved
+    /// surface tilted from the group's mean normal). It agrees with anything.
+    Below,
     /// Nothing: the ray leaves the scene.
     Open,
     /// A surface: its connected surface, the distance, and whether its front faces the ray.
@@ -52,6 +55,7 @@ enum Seen {
 /// surface at distances within a cell, or within half the farther one, of each other.
 fn agree(a: Seen, b: Seen, h: f64) -> bool {
     match (a, b) {
+        (Seen::Below, _) | (_, Seen::Below) => true,
         (Seen::Open, Seen::Open) => true,
         (
             Seen::Surface {
@@ -81,19 +85,27 @@ fn looks(normal: DVec3) -> [DVec3; LOOKS] {
     })
 }
 
-/// What each look from the centre of `piece` meets.
-fn seen(occ: &Occluders, component: &[u32], piece: &Piece) -> [Seen; LOOKS] {
+/// What each of `looks` (about the group's mean normal) meets from the centre of `piece`.
+fn seen(
+    occ: &Occluders,
+    component: &[u32],
+    piece: &Piece,
+    looks: &[DVec3; LOOKS],
+) -> [Seen; LOOKS] {
     let origin = piece.polygon.centroid();
-    looks(piece.normal).map(
-        |d| match occ.first_surface_from_surface(origin, d, f64::INFINITY) {
+    looks.map(|d| {
+        if d.dot(piece.normal) <= 0.0 {
+            return Seen::Below;
+        }
+        match occ.first_surface_from_surface(origin, d, f64::INFINITY) {
             None => Seen::Open,
             Some((hit, front)) => Seen::Surface {
                 component: component[hit.triangle as usize],
                 distance: hit.distance,
                 front,
             },
-        },
-    )
+        }
+    })
 }
 
 /// Splits each group of several pieces into clusters of pieces that see the same
@@ -119,13 +131,28 @@ pub(super) fn split_by_surroundings(
     let split: Vec<Vec<(u32, Vec<Piece>)>> = groups
         .into_par_iter()
         .map(|(material, pieces)| {
-            if pieces.len() < 2 {
+            // Only a group of one connected surface is split: pieces of different surfaces
+            // share a patch only as parts that see each other or small groups absorbed
+            // (`grouping`), at the grid's resolution by design. Split too, a tessellated
+            // sphere's pieces absorbed into a box's walls moved between patches and its view
+            // factors to the walls came out 2% apart.
+            let surface = component[pieces[0].triangle as usize];
+            if pieces.len() < 2
+                || pieces
+                    .iter()
+                    .any(|p| component[p.triangle as usize] != surface)
+            {
                 return vec![(material, pieces)];
             }
+            // One set of directions for the whole group, about its mean normal: each piece's
+            // own would compare different directions on a curved surface (a tessellated
+            // sphere's patches split, and its view factors to a box's walls came out 2% apart).
+            let mean = pieces.iter().map(|p| p.normal * p.area).sum::<DVec3>();
+            let dirs = looks(mean.normalize_or(pieces[0].normal));
             clusters(
                 material,
                 pieces,
-                |p| seen(occ, component, p),
+                |p| seen(occ, component, p, &dirs),
                 &small,
                 scene,
                 h,
@@ -162,26 +189,42 @@ fn clusters(
             .count();
         2 * back >= LOOKS
     };
-    // Each cluster's first piece, and the cluster of every piece.
-    let mut heads: Vec<usize> = Vec::new();
-    let mut of = vec![0usize; pieces.len()];
     // Nor do pieces of parts start clusters: a yard of 250 boxes, each its own object, whose
     // parts must share patches to meet `--patches 128`, split again into a patch per box's
     // face at every cell size, and the target's search fell to cells the size of the scene.
-    for &p in order.iter().filter(|&&p| !inside(p) && !small(&pieces[p])) {
-        let found = heads.iter().position(|&q| {
-            let same = (0..LOOKS)
-                .filter(|&k| agree(views[p][k], views[q][k], h))
-                .count();
-            same >= need
-        });
-        of[p] = found.unwrap_or_else(|| {
-            heads.push(p);
-            heads.len() - 1
-        });
-    }
-    if heads.len() <= 1 {
+    let judged: Vec<usize> = order
+        .iter()
+        .copied()
+        .filter(|&p| !inside(p) && !small(&pieces[p]))
+        .collect();
+    // The split is between enclosed pieces (no look leaves the scene) and open ones, where
+    // the largest of each disagree: a sealed cavity's face and the sunlit face beside it.
+    // Pieces of one enclosure are not split among themselves: in a closed box, the floor
+    // under a sphere and beside it, split, moved the grid so that the sphere's view factors
+    // to the walls came out 2% apart.
+    let open = |p: usize| views[p].contains(&Seen::Open);
+    let (Some(&first_open), Some(&first_sealed)) = (
+        judged.iter().find(|&&p| open(p)),
+        judged.iter().find(|&&p| !open(p)),
+    ) else {
         return vec![(material, pieces)];
+    };
+    let same = (0..LOOKS)
+        .filter(|&k| agree(views[first_open][k], views[first_sealed][k], h))
+        .count();
+    if same >= need {
+        return vec![(material, pieces)];
+    }
+    // Cluster 0 is the larger head's; the rest (pieces inside solids, of parts) join it.
+    let lead_open = judged[0] == first_open;
+    let heads = if lead_open {
+        [first_open, first_sealed]
+    } else {
+        [first_sealed, first_open]
+    };
+    let mut of = vec![0usize; pieces.len()];
+    for &p in &judged {
+        of[p] = usize::from(open(p) != lead_open);
     }
     // Clusters in the order of their first piece in the group, pieces in their order, so an
     // unsplit group's patch keeps its place; each takes its first piece's material (a group's
