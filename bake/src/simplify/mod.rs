@@ -4,9 +4,9 @@
 //! standing on it, never become one patch; separate parts of an object join where they see
 //! each other, so a scene of thousands of parts still meets its patch target. Finely tessellated parts small against a cell face join one
 //! patch whatever their orientation (`SMALL_GROUP`), so that curved furniture does not take
-//! the patch budget from the large surfaces. Last, the pieces of each group that see different
-//! surroundings (a sealed cavity's face beside the lit face of one hollow slab) are split into
-//! patches of their own (`surroundings`).
+//! the patch budget from the large surfaces. Last, a group of one connected surface whose
+//! enclosed pieces and open pieces see different things (a sealed cavity's face beside the lit
+//! face of one hollow slab) is split in two (`surroundings`).
 //!
 //! Each patch keeps the exact pieces it is made of (convex polygons, counter-clockwise about
 //! their triangle's normal), so form factors are computed on the true geometry, not on a disc
