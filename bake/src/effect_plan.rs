@@ -55,18 +55,18 @@ pub(crate) fn plan_colour(patches: &Patches) -> Effect {
     }
 }
 
-/// Whether the simplification kept pieces that see different surroundings out of one patch
+/// Whether the simplification kept enclosed pieces out of the patches of open ones
 /// (`simplify`'s surroundings split): the count of groups split, or that none needed it.
 pub(crate) fn plan_surroundings(patches: &Patches) -> Effect {
     match patches.split_by_surroundings {
         0 => Effect::new(
             false,
-            "the pieces of every patch see the same surroundings: no patch was split",
+            "no patch mixes pieces that see only an enclosure with pieces that see out of the scene",
         ),
         n => Effect::new(
             true,
             format!(
-                "{n} groups of one cell and orientation held pieces whose rays meet different surroundings (a sealed cavity's face beside a lit face): each split into patches of pieces that see the same"
+                "{n} groups of one surface, cell and orientation held pieces that see only an enclosure beside pieces that see out of the scene (a sealed cavity's face beside a lit face): each split in two"
             ),
         ),
     }

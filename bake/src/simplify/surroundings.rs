@@ -1,6 +1,6 @@
-//! Pieces that see different surroundings kept out of one patch: a few rays from each piece of
-//! a group, the same directions from every piece, and pieces whose rays meet different
-//! surfaces start patches of their own.
+//! Enclosed pieces kept out of the patches of open ones: a few rays from each piece of a group
+//! of one connected surface, the same directions from every piece, and where the pieces that
+//! see out of the scene and those that see only an enclosure disagree, two patches.
 //!
 //! A patch has one irradiance and sends one radiosity, so its pieces must see about the same
 //! things. The grouping rules (one cell, one orientation, one connected surface or parts that
@@ -19,18 +19,16 @@ use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Directions each piece looks along: a 4 × 4 stratified cosine-weighted set about its normal,
-/// the same for every piece of one normal, so two pieces are compared ray by ray with no
-/// sampling noise between them.
+/// Directions each piece of a group looks along: a 4 × 4 stratified cosine-weighted set about
+/// the group's mean normal, the same for every piece, so two pieces are compared ray by ray
+/// with no sampling noise between them.
 const LOOKS: usize = 16;
 
-/// Share of [`LOOKS`] on which a piece must agree with a cluster's first piece to join it.
-/// Pieces of one surface in one cell agree on nearly every direction (a floor piece by a wall
-/// and one a cell away from it meet the wall at distances within a cell of each other); a
-/// cavity's face and the lit face over it agree on none. A quarter splits only pieces that
-/// see mostly other things: at a half, the roofs' undersides by their beams split too, and
-/// `scripts/architecture.py` (8 sites) at 4096 patches spent so many patches on them that its
-/// cells grew and its error rose from 1.5% to 4.5%; at a quarter it is 1.4%
+/// Share of [`LOOKS`] on which the largest enclosed and the largest open piece of a group must
+/// agree for it to stay whole. Pieces of one surface in one cell agree on nearly every
+/// direction (a floor piece by a wall and one a cell away from it meet the wall at distances
+/// within a cell of each other); a cavity's face and the lit face over it agree on none. At a
+/// half, roofs' undersides by their beams split too on `scripts/architecture.py`
 /// (`docs/decisions/surroundings-split.md`).
 const AGREE: f64 = 0.25;
 
@@ -108,11 +106,11 @@ fn seen(
     })
 }
 
-/// Splits each group of several pieces into clusters of pieces that see the same
-/// surroundings ([`agree`] on at least [`AGREE`] of the looks with the cluster's first piece,
-/// the pieces taken largest first). A group whose pieces all agree stays whole and in place;
-/// the clusters split off follow it. `h` is the
-/// cell edge. Returns the groups and how many were split.
+/// Splits each group of several pieces of one connected surface in two where its enclosed
+/// pieces (no look leaves the scene) and its open pieces see different things: the largest of
+/// each [`agree`] on fewer than [`AGREE`] of the looks. The cluster of the group's first piece
+/// keeps its place, the other follows it. `h` is the cell edge. Returns the groups and how many
+/// were split.
 pub(super) fn split_by_surroundings(
     groups: Vec<(u32, Vec<Piece>)>,
     loose: &Loose<'_>,
