@@ -22,18 +22,7 @@ import math
 import sys
 from pathlib import Path
 
-
-def box(lo, hi):
-    """The six faces of an axis-aligned box as quads, counter-clockwise seen from outside."""
-    (x0, y0, z0), (x1, y1, z1) = lo, hi
-    return [
-        [(x0, y1, z0), (x0, y1, z1), (x1, y1, z1), (x1, y1, z0)],  # top (+y)
-        [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],  # bottom (-y)
-        [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],  # +z
-        [(x1, y0, z0), (x0, y0, z0), (x0, y1, z0), (x1, y1, z0)],  # -z
-        [(x1, y0, z1), (x1, y0, z0), (x1, y1, z0), (x1, y1, z1)],  # +x
-        [(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)],  # -x
-    ]
+from architecture import box  # the six faces of an axis-aligned box, outward
 
 
 def hollow_slab(x0, x1, outer, inner):
