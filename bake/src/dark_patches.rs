@@ -110,6 +110,12 @@ pub fn check_dark(patches: &Patches, occ: &Occluders, dark: &[usize], seed: u64)
         .par_iter()
         .map(|&i| shares(patches, &owners, occ, i, DARK_CHECK_RAYS, seed))
         .unzip();
+    let seeing_patches: Vec<usize> = picked
+        .iter()
+        .zip(&shares)
+        .filter(|(_, s)| **s >= DARK_SHARE)
+        .map(|(&i, _)| i)
+        .collect();
     let worst = shares
         .iter()
         .enumerate()
@@ -120,13 +126,8 @@ pub fn check_dark(patches: &Patches, occ: &Occluders, dark: &[usize], seed: u64)
         rays: DARK_CHECK_RAYS,
         largest_share: worst.map_or(0.0, |w| w.1),
         worst_patch: worst.map(|w| w.0),
-        seeing: shares.iter().filter(|&&s| s >= DARK_SHARE).count(),
-        seeing_patches: picked
-            .iter()
-            .zip(&shares)
-            .filter(|(_, s)| **s >= DARK_SHARE)
-            .map(|(&i, _)| i)
-            .collect(),
+        seeing: seeing_patches.len(),
+        seeing_patches,
         covered: back.iter().filter(|&&b| b > 0.5).count(),
     }
 }

@@ -123,9 +123,6 @@ pub(super) fn split_by_surroundings(
     let component = loose.component;
     let scene = loose.scene;
     let (area, part) = (&loose.area, LOOSE_PART * h * h);
-    // A piece of a part (a connected surface under `LOOSE_PART` of a cell face): parts share
-    // patches by design where the target needs it, at the grid's resolution.
-    let small = |p: &Piece| area[component[p.triangle as usize] as usize] < part;
     let split: Vec<Vec<(u32, Vec<Piece>)>> = groups
         .into_par_iter()
         .map(|(material, pieces)| {
@@ -134,24 +131,28 @@ pub(super) fn split_by_surroundings(
             // (`grouping`), at the grid's resolution by design. Split too, a tessellated
             // sphere's pieces absorbed into a box's walls moved between patches and its view
             // factors to the walls came out 2% apart.
+            // Nor is a part (a connected surface under `LOOSE_PART` of a cell face): parts share
+            // patches by design where the target needs it. Split, a yard of 250 boxes, each its
+            // own object, that must share patches to meet `--patches 128` gave a patch per box
+            // face at every cell size, and the target's search fell to cells the size of the
+            // scene.
             let surface = component[pieces[0].triangle as usize];
             if pieces.len() < 2
+                || area[surface as usize] < part
                 || pieces
                     .iter()
                     .any(|p| component[p.triangle as usize] != surface)
             {
                 return vec![(material, pieces)];
             }
-            // One set of directions for the whole group, about its mean normal: each piece's
-            // own would compare different directions on a curved surface (a tessellated
-            // sphere's patches split, and its view factors to a box's walls came out 2% apart).
+            // One set of directions for the whole group, about its mean normal, so that pieces
+            // of a curved surface are compared along the same directions.
             let mean = pieces.iter().map(|p| p.normal * p.area).sum::<DVec3>();
             let dirs = looks(mean.normalize_or(pieces[0].normal));
             clusters(
                 material,
                 pieces,
                 |p| seen(occ, component, p, &dirs),
-                &small,
                 scene,
                 h,
             )
@@ -166,7 +167,6 @@ fn clusters(
     material: u32,
     pieces: Vec<Piece>,
     seen: impl Fn(&Piece) -> [Seen; LOOKS],
-    small: &dyn Fn(&Piece) -> bool,
     scene: &Scene,
     h: f64,
 ) -> Vec<(u32, Vec<Piece>)> {
@@ -176,7 +176,7 @@ fn clusters(
     let need = (AGREE * LOOKS as f64).ceil() as usize;
     // A piece whose looks mostly meet back faces lies inside a solid (buried, [`Occluders::buried`]
     // decides it point by point later): what it sees says nothing of the air beside it. It
-    // joins the first cluster rather than starting one; kept apart, such pieces took patches of
+    // joins the larger cluster rather than deciding one; kept apart, such pieces took patches of
     // their own that were then dropped as buried whole, and a patch target had to be simplified
     // again for them (the architecture of `scripts/architecture.py` at 1024 patches: 463 of
     // 1217 patches buried whole, the bake 3.4× slower).
@@ -187,14 +187,7 @@ fn clusters(
             .count();
         2 * back >= LOOKS
     };
-    // Nor do pieces of parts start clusters: a yard of 250 boxes, each its own object, whose
-    // parts must share patches to meet `--patches 128`, split again into a patch per box's
-    // face at every cell size, and the target's search fell to cells the size of the scene.
-    let judged: Vec<usize> = order
-        .iter()
-        .copied()
-        .filter(|&p| !inside(p) && !small(&pieces[p]))
-        .collect();
+    let judged: Vec<usize> = order.iter().copied().filter(|&p| !inside(p)).collect();
     // The split is between enclosed pieces (no look leaves the scene) and open ones, where
     // the largest of each disagree: a sealed cavity's face and the sunlit face beside it.
     // Pieces of one enclosure are not split among themselves: in a closed box, the floor
@@ -213,13 +206,8 @@ fn clusters(
     if same >= need {
         return vec![(material, pieces)];
     }
-    // Cluster 0 is the larger head's; the rest (pieces inside solids, of parts) join it.
+    // Cluster 0 is the larger head's; pieces inside solids join it.
     let lead_open = judged[0] == first_open;
-    let heads = if lead_open {
-        [first_open, first_sealed]
-    } else {
-        [first_sealed, first_open]
-    };
     let mut of = vec![0usize; pieces.len()];
     for &p in &judged {
         of[p] = usize::from(open(p) != lead_open);
@@ -227,8 +215,8 @@ fn clusters(
     // Clusters in the order of their first piece in the group, pieces in their order, so an
     // unsplit group's patch keeps its place; each takes its first piece's material (a group's
     // material is its first piece's: `grouping::Grouping`).
-    let mut slot = vec![usize::MAX; heads.len()];
-    let mut out: Vec<(u32, Vec<Piece>)> = Vec::with_capacity(heads.len());
+    let mut slot = [usize::MAX; 2];
+    let mut out: Vec<(u32, Vec<Piece>)> = Vec::with_capacity(2);
     for (p, piece) in pieces.into_iter().enumerate() {
         let c = of[p];
         if slot[c] == usize::MAX {
