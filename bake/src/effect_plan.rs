@@ -72,6 +72,24 @@ pub(crate) fn plan_surroundings(patches: &Patches) -> Effect {
     }
 }
 
+/// Whether the simplification kept the pieces of one flat surface that cannot see each other
+/// out of one patch (`simplify`'s sight split): the count of groups split, or that none needed
+/// it.
+pub(crate) fn plan_sight(patches: &Patches) -> Effect {
+    match patches.split_by_sight {
+        0 => Effect::new(
+            false,
+            "no patch holds pieces of one flat surface that cannot see each other",
+        ),
+        n => Effect::new(
+            true,
+            format!(
+                "{n} groups of one flat surface and cell held pieces that cannot see each other (a floor under the wall between two rooms): each cut along the wall"
+            ),
+        ),
+    }
+}
+
 /// Whether anything can occlude anything: `false` when the scene is the inside of a convex
 /// polyhedron (every vertex on or in front of every triangle's plane), where every pair of
 /// front faces sees each other unobstructed. Planes are de-duplicated first (a finely meshed

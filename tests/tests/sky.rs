@@ -423,3 +423,65 @@ fn a_hollow_slab_keeps_its_sealed_cavity_dark_under_sun_and_sky() {
     bake_against_the_path_tracer(&rt, &scene, &lights, &["slab", "plate_w", "ground"], 0.05);
     assert!(split.on, "{}", split.why);
 }
+
+/// Two rooms under one floor slab and one ceiling slab, each slab a single block whose faces
+/// run under and over the wall between the rooms; room A has a window, room B none. A box
+/// stands in each room.
+fn rooms_under_one_slab(dir: &std::path::Path) -> Scene {
+    let (t, top) = (0.3, 2.6);
+    let mut quads = Vec::new();
+    let mut add =
+        |lo: [f64; 3], hi: [f64; 3], name: &str| quads.extend(block(lo, hi, name, "grey"));
+    add([0.0, -t, 0.0], [10.0, 0.0, 6.0], "floor");
+    add([0.0, top, 0.0], [10.0, top + t, 6.0], "ceiling");
+    add([0.0, 0.0, 5.7], [10.0, top, 6.0], "wall_n");
+    add([0.0, 0.0, 0.3], [0.3, top, 5.7], "wall_w");
+    add([9.7, 0.0, 0.3], [10.0, top, 5.7], "wall_e");
+    // The south wall round a window into room A (x 1.5–3.5, y 0.8–2.2).
+    add([0.0, 0.0, 0.0], [1.5, top, 0.3], "wall_s");
+    add([3.5, 0.0, 0.0], [10.0, top, 0.3], "wall_s");
+    add([1.5, 0.0, 0.0], [3.5, 0.8, 0.3], "wall_s");
+    add([1.5, 2.2, 0.0], [3.5, top, 0.3], "wall_s");
+    // Inside a 2 m cell of the grid from the scene's corner (x 6–8).
+    add([6.2, 0.0, 0.3], [6.4, top, 5.7], "inner");
+    add([2.2, 0.8, 2.7], [2.8, 1.4, 3.3], "box_a");
+    add([7.7, 0.8, 2.7], [8.3, 1.4, 3.3], "box_b");
+    let mats = [Material::new("grey", [0.6; 3], [0.0; 3])];
+    Scene::load_obj(&write_scene(dir, "rooms", &quads, &mats)).unwrap()
+}
+
+/// A sealed room stays dark when the slabs under and over it run on under the wall into a
+/// lit room. Where a cell straddled the wall, one patch held both rooms' floor (and ceiling),
+/// took the lit room's light and sent it into the sealed one: its box got 6% of the lit
+/// room's box's irradiance, where the path tracer reads exactly 0.
+#[test]
+fn a_sealed_room_beside_a_lit_one_under_one_slab_stays_dark() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = rooms_under_one_slab(dir.path());
+    let lights = [
+        Light::Directional {
+            direction: Vec3::new(0.3, -0.6, 0.74),
+            irradiance: Rgb::new(1000.0, 1000.0, 1000.0),
+        },
+        Light::Sky {
+            radiance: Rgb::new(30.0, 30.0, 30.0),
+        },
+    ];
+    let params = BakeParams {
+        voxel: VoxelParams::with_cell_size(2.0),
+        ..BakeParams::default()
+    };
+    let out = bake(&scene, &params, Hooks::default()).unwrap();
+    let sight = out.report.effects["sight"].clone();
+    let rt = BakedScene::new(out.file);
+    let objects = per_object(&rt, &lights);
+    let (a, b) = (of(&objects, "box_a")[0], of(&objects, "box_b")[0]);
+    // No light reaches room B at all; 0.5% of room A's box is far under the 6% that the
+    // shared patches carried over, and above the f32 rounding of a zero.
+    assert!(a > 10.0, "the lit room's box gets {a} W/m²");
+    assert!(
+        b < 0.005 * a,
+        "the sealed room's box gets {b} W/m², the lit one's {a}"
+    );
+    assert!(sight.on, "{}", sight.why);
+}

@@ -89,6 +89,7 @@ pub(super) fn plan_effects(
     effects.insert("occlusion", occlusion);
     effects.insert("emission", effect_plan::plan_emission(patches));
     effects.insert("surroundings", effect_plan::plan_surroundings(patches));
+    effects.insert("sight", effect_plan::plan_sight(patches));
     Planned {
         effects,
         channels,
@@ -162,6 +163,8 @@ pub(super) fn survey_for_target(
         .insert("emission", effect_plan::plan_emission(patches));
     plan.effects
         .insert("surroundings", effect_plan::plan_surroundings(patches));
+    plan.effects
+        .insert("sight", effect_plan::plan_sight(patches));
     plan.effects.insert(
         "buried_patches",
         Effect::new(

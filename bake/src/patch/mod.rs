@@ -87,6 +87,9 @@ pub struct Patches {
     /// Groups of pieces the simplification split because their pieces see different
     /// surroundings (a sealed cavity's face beside a lit face of one slab).
     pub split_by_surroundings: usize,
+    /// Flat groups the simplification split because their pieces cannot all see each other
+    /// (a floor slab's top under the wall between two rooms).
+    pub split_by_sight: usize,
     /// Warnings (a patch target that could not be met).
     pub warnings: Vec<String>,
 }

@@ -52,6 +52,9 @@ pub(super) struct Grouping {
     /// How many groups were split because their pieces see different surroundings (set by
     /// `super::grouped`).
     pub(super) split: usize,
+    /// How many flat groups were split because their pieces cannot all see each other (set
+    /// by `super::grouped`).
+    pub(super) sight: usize,
 }
 
 /// Connected surfaces: for every triangle, the index of its component, where triangles sharing
@@ -243,6 +246,7 @@ pub(super) fn group(
     Grouping {
         groups: absorb_small_groups(groups, &cell_of, &ends, loose, h),
         split: 0,
+        sight: 0,
     }
 }
 

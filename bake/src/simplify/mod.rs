@@ -6,7 +6,9 @@
 //! patch whatever their orientation (`SMALL_GROUP`), so that curved furniture does not take
 //! the patch budget from the large surfaces. Last, a group of one connected surface whose
 //! enclosed pieces and open pieces see different things (a sealed cavity's face beside the lit
-//! face of one hollow slab) is split in two (`surroundings`).
+//! face of one hollow slab) is split in two (`surroundings`), and a group's flat main surface
+//! is cut where its pieces cannot see each other (`sight`: a slab's top running under the
+//! wall between two rooms).
 //!
 //! Each patch keeps the exact pieces it is made of (convex polygons, counter-clockwise about
 //! their triangle's normal), so form factors are computed on the true geometry, not on a disc
@@ -14,6 +16,7 @@
 
 mod grouping;
 pub mod runtime_mesh;
+mod sight;
 mod surroundings;
 
 use crate::error::BakeError;
@@ -185,7 +188,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         )?,
     };
 
-    let split_by_surroundings = grouping.split;
+    let (split_by_surroundings, split_by_sight) = (grouping.split, grouping.sight);
     let (patches, pieces) = build_patches(scene, grouping);
     // The file stores patches in f32: a scene so large (or small) that a patch's area or centre
     // leaves the f32 range would be refused when writing, or light nothing.
@@ -209,6 +212,7 @@ pub fn simplify(scene: &Scene, params: &VoxelParams) -> Result<Patches, BakeErro
         cell_size: h,
         vertex_weights,
         split_by_surroundings,
+        split_by_sight,
         warnings,
     })
 }
@@ -394,7 +398,12 @@ impl Fit<'_> {
 fn grouped(scene: &Scene, component: &[u32], loose: &Loose<'_>, h: f64, cos_max: f64) -> Grouping {
     let merged = grouping::group(scene, component, loose, h, cos_max);
     let (groups, split) = surroundings::split_by_surroundings(merged.groups, loose, h);
-    Grouping { groups, split }
+    let (groups, sight) = sight::split_by_sight(groups, loose, h);
+    Grouping {
+        groups,
+        split,
+        sight,
+    }
 }
 
 /// The patches of `grouping` (area-weighted centre, normal and reflectance of their pieces)
