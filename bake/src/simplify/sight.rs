@@ -179,6 +179,25 @@ fn sides(
     for s in inside {
         side_of_sub[s] = 0;
     }
+    assemble(
+        (material, pieces),
+        flat,
+        (subs, &at, &side_of_sub),
+        kept.len(),
+        loose.scene,
+    )
+}
+
+/// The groups of one split group: its `pieces` (the first of `material`, `flat` marking its
+/// flat main surface), the sub-pieces cut from the flat ones with their lifted centres and
+/// sides (`usize::MAX`: cut finer again, left out), and the count of sides.
+fn assemble(
+    (material, pieces): (u32, Vec<Piece>),
+    flat: &[bool],
+    (subs, at, side_of_sub): (Vec<(usize, Piece)>, &[DVec3], &[usize]),
+    sides: usize,
+    scene: &Scene,
+) -> Vec<(u32, Vec<Piece>)> {
     // A flat piece whose sub-pieces all lie on one side stays whole; a piece off the flat
     // surface goes to the side of the sub-piece nearest its centre.
     let mut side_of_piece: Vec<Option<usize>> = vec![None; pieces.len()];
@@ -213,7 +232,7 @@ fn sides(
             .find(|&s| subs[s].0 == 0 && side_of_sub[s] != usize::MAX)
             .map_or(0, |s| side_of_sub[s])
     };
-    let mut out: Vec<Vec<Piece>> = vec![Vec::new(); kept.len()];
+    let mut out: Vec<Vec<Piece>> = vec![Vec::new(); sides];
     for (p, piece) in pieces.iter().enumerate() {
         if whole[p] {
             out[side_of_piece[p].unwrap_or(0)].push(*piece);
@@ -232,7 +251,7 @@ fn sides(
             let m = if k == 0 {
                 material
             } else {
-                loose.scene.triangles[side[0].triangle as usize].material
+                scene.triangles[side[0].triangle as usize].material
             };
             (m, side)
         })
