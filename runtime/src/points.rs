@@ -11,10 +11,10 @@
 //! `ρ∘(H_d + H_e + y − y_e)`, with `H_d` from shadow rays to the analytic lights at the hit,
 //! `H_e` from [`HIT_EMITTER_SAMPLES`] shadow rays to the emitting surfaces there, and `y − y_e`
 //! (the frame's gathered irradiance less each patch's own direct light from the emitters)
-//! interpolated from the patches around the hit. The emitters' direct light peaks under a small
-//! light and falls off along the walls beside it, faster than a patch's size; what the patches
-//! pass on beyond it is smooth (`docs/decisions/final-gather-emitters.md`). With
-//! cosine-weighted rays the irradiance is the mean of those radiosities. A small bright
+//! interpolated from the patches around the hit that it sees. The emitters' direct light peaks
+//! under a small light and falls off along the walls beside it, faster than a patch's size;
+//! what the patches pass on beyond it is smooth (`docs/decisions/final-gather-emitters.md`).
+//! With cosine-weighted rays the irradiance is the mean of those radiosities. A small bright
 //! emitter met by the gather's rays instead would be a few dozen of them, a noise of several
 //! per cent. A hit closer to the point than [`NEAR_SIDES`] sides of the patches around it,
 //! where the point sees more detail than the patches hold, takes `y − y_e` from a second
@@ -389,7 +389,17 @@ impl<'a> Surfaces<'a> {
         let at = a * (1.0 - u - v) + b * u + c * v;
         let patches = &self.rt.file.patches;
         weights.clear();
-        (self.grid).weights_at_hit(patches, self.mesh, t, (hit.u, hit.v), at, normal, weights);
+        let sight = Some(self.occ);
+        (self.grid).weights_at_hit(
+            patches,
+            self.mesh,
+            t,
+            (hit.u, hit.v),
+            at,
+            normal,
+            sight,
+            weights,
+        );
         // The side of the patches the kernel takes: their weighted mean area, rooted.
         let area: f64 = weights
             .iter()

@@ -319,3 +319,29 @@ pub fn block(lo: [f64; 3], hi: [f64; 3], object: &str, material: &str) -> Vec<Qu
     }
     quads
 }
+
+/// Two rooms under one floor slab and one ceiling slab, each slab a single block whose faces
+/// run under and over the wall between the rooms; room A has a window, room B none. A box
+/// stands in each room.
+pub fn rooms_under_one_slab(dir: &Path) -> PathBuf {
+    let (t, top) = (0.3, 2.6);
+    let mut quads = Vec::new();
+    let mut add =
+        |lo: [f64; 3], hi: [f64; 3], name: &str| quads.extend(block(lo, hi, name, "grey"));
+    add([0.0, -t, 0.0], [10.0, 0.0, 6.0], "floor");
+    add([0.0, top, 0.0], [10.0, top + t, 6.0], "ceiling");
+    add([0.0, 0.0, 5.7], [10.0, top, 6.0], "wall_n");
+    add([0.0, 0.0, 0.3], [0.3, top, 5.7], "wall_w");
+    add([9.7, 0.0, 0.3], [10.0, top, 5.7], "wall_e");
+    // The south wall round a window into room A (x 1.5–3.5, y 0.8–2.2).
+    add([0.0, 0.0, 0.0], [1.5, top, 0.3], "wall_s");
+    add([3.5, 0.0, 0.0], [10.0, top, 0.3], "wall_s");
+    add([1.5, 0.0, 0.0], [3.5, 0.8, 0.3], "wall_s");
+    add([1.5, 2.2, 0.0], [3.5, top, 0.3], "wall_s");
+    // Inside a 2 m cell of the grid from the scene's corner (x 6–8).
+    add([6.2, 0.0, 0.3], [6.4, top, 5.7], "inner");
+    add([2.2, 0.8, 2.7], [2.8, 1.4, 3.3], "box_a");
+    add([7.7, 0.8, 2.7], [8.3, 1.4, 3.3], "box_b");
+    let mats = [Material::new("grey", [0.6; 3], [0.0; 3])];
+    write_scene(dir, "rooms", &quads, &mats)
+}

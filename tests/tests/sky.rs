@@ -10,7 +10,7 @@ use radiosity_core::{EnvMap, Light, Rgb};
 use radiosity_pathtrace::PathTracer;
 use radiosity_runtime::BakedScene;
 use radiosity_tests::fixtures::reference_frame;
-use radiosity_tests::scenes::{Material, Quad, block, write_scene};
+use radiosity_tests::scenes::{Material, Quad, block, rooms_under_one_slab, write_scene};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -424,32 +424,6 @@ fn a_hollow_slab_keeps_its_sealed_cavity_dark_under_sun_and_sky() {
     assert!(split.on, "{}", split.why);
 }
 
-/// Two rooms under one floor slab and one ceiling slab, each slab a single block whose faces
-/// run under and over the wall between the rooms; room A has a window, room B none. A box
-/// stands in each room.
-fn rooms_under_one_slab(dir: &std::path::Path) -> Scene {
-    let (t, top) = (0.3, 2.6);
-    let mut quads = Vec::new();
-    let mut add =
-        |lo: [f64; 3], hi: [f64; 3], name: &str| quads.extend(block(lo, hi, name, "grey"));
-    add([0.0, -t, 0.0], [10.0, 0.0, 6.0], "floor");
-    add([0.0, top, 0.0], [10.0, top + t, 6.0], "ceiling");
-    add([0.0, 0.0, 5.7], [10.0, top, 6.0], "wall_n");
-    add([0.0, 0.0, 0.3], [0.3, top, 5.7], "wall_w");
-    add([9.7, 0.0, 0.3], [10.0, top, 5.7], "wall_e");
-    // The south wall round a window into room A (x 1.5–3.5, y 0.8–2.2).
-    add([0.0, 0.0, 0.0], [1.5, top, 0.3], "wall_s");
-    add([3.5, 0.0, 0.0], [10.0, top, 0.3], "wall_s");
-    add([1.5, 0.0, 0.0], [3.5, 0.8, 0.3], "wall_s");
-    add([1.5, 2.2, 0.0], [3.5, top, 0.3], "wall_s");
-    // Inside a 2 m cell of the grid from the scene's corner (x 6–8).
-    add([6.2, 0.0, 0.3], [6.4, top, 5.7], "inner");
-    add([2.2, 0.8, 2.7], [2.8, 1.4, 3.3], "box_a");
-    add([7.7, 0.8, 2.7], [8.3, 1.4, 3.3], "box_b");
-    let mats = [Material::new("grey", [0.6; 3], [0.0; 3])];
-    Scene::load_obj(&write_scene(dir, "rooms", &quads, &mats)).unwrap()
-}
-
 /// A sealed room stays dark when the slabs under and over it run on under the wall into a
 /// lit room. Where a cell straddled the wall, one patch held both rooms' floor (and ceiling),
 /// took the lit room's light and sent it into the sealed one: its box got 6% of the lit
@@ -457,7 +431,7 @@ fn rooms_under_one_slab(dir: &std::path::Path) -> Scene {
 #[test]
 fn a_sealed_room_beside_a_lit_one_under_one_slab_stays_dark() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = rooms_under_one_slab(dir.path());
+    let scene = Scene::load_obj(&rooms_under_one_slab(dir.path())).unwrap();
     let lights = [
         Light::Directional {
             direction: Vec3::new(0.3, -0.6, 0.74),

@@ -186,7 +186,7 @@ fn weigh(rt: &BakedScene, grid: &PatchGrid, at: DVec3, seed: u64) -> Option<Vec<
         let p = at + dir * hit.distance;
         weights.clear();
         let uv = (hit.u, hit.v);
-        grid.weights_at_hit(&rt.file.patches, mesh, t, uv, p, normal, &mut weights);
+        grid.weights_at_hit(&rt.file.patches, mesh, t, uv, p, normal, None, &mut weights);
         let y = sh_basis(dir.as_vec3().to_array());
         for &(patch, w) in &weights {
             let e = acc.entry(patch).or_insert([0.0; SH_COEFFICIENTS]);
