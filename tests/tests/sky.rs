@@ -393,6 +393,28 @@ fn hollow_slab(dir: &std::path::Path) -> Scene {
     Scene::load_obj(&write_scene(dir, "hollow_slab", &quads, &mats)).unwrap()
 }
 
+/// A sun of 1000 W/m² travelling along `direction` and a uniform sky of 30 W/(m²·sr).
+fn sun_and_sky(direction: Vec3) -> [Light; 2] {
+    [
+        Light::Directional {
+            direction,
+            irradiance: Rgb::new(1000.0, 1000.0, 1000.0),
+        },
+        Light::Sky {
+            radiance: Rgb::new(30.0, 30.0, 30.0),
+        },
+    ]
+}
+
+/// The default bake of `scene` on a grid of 2 m cells.
+fn baked_in_2m_cells(scene: &Scene) -> radiosity_bake::pipeline::BakeOutput {
+    let params = BakeParams {
+        voxel: VoxelParams::with_cell_size(2.0),
+        ..BakeParams::default()
+    };
+    bake(scene, &params, Hooks::default()).unwrap()
+}
+
 /// The sealed cavity of a hollow slab gets no light, and the slab's mean irradiance (over its
 /// whole surface, the cavity's half of it dark) matches the path tracer's under a sun and a
 /// sky. With the cavity's faces in the patches of the lit faces beside them, each took its
@@ -401,21 +423,9 @@ fn hollow_slab(dir: &std::path::Path) -> Scene {
 fn a_hollow_slab_keeps_its_sealed_cavity_dark_under_sun_and_sky() {
     let dir = tempfile::tempdir().unwrap();
     let scene = hollow_slab(dir.path());
-    let lights = [
-        Light::Directional {
-            direction: Vec3::new(-0.3, -0.57, -0.76),
-            irradiance: Rgb::new(1000.0, 1000.0, 1000.0),
-        },
-        Light::Sky {
-            radiance: Rgb::new(30.0, 30.0, 30.0),
-        },
-    ];
+    let lights = sun_and_sky(Vec3::new(-0.3, -0.57, -0.76));
     // Cells of 2 m (about 200 patches) hold each cavity face with the outer face beside it.
-    let params = BakeParams {
-        voxel: VoxelParams::with_cell_size(2.0),
-        ..BakeParams::default()
-    };
-    let out = bake(&scene, &params, Hooks::default()).unwrap();
+    let out = baked_in_2m_cells(&scene);
     let split = out.report.effects["surroundings"].clone();
     let rt = BakedScene::new(out.file);
     // The slab's patches and the ground's bounce piecewise constant, the sky's visibility from
@@ -432,20 +442,9 @@ fn a_hollow_slab_keeps_its_sealed_cavity_dark_under_sun_and_sky() {
 fn a_sealed_room_beside_a_lit_one_under_one_slab_stays_dark() {
     let dir = tempfile::tempdir().unwrap();
     let scene = Scene::load_obj(&rooms_under_one_slab(dir.path())).unwrap();
-    let lights = [
-        Light::Directional {
-            direction: Vec3::new(0.3, -0.6, 0.74),
-            irradiance: Rgb::new(1000.0, 1000.0, 1000.0),
-        },
-        Light::Sky {
-            radiance: Rgb::new(30.0, 30.0, 30.0),
-        },
-    ];
-    let params = BakeParams {
-        voxel: VoxelParams::with_cell_size(2.0),
-        ..BakeParams::default()
-    };
-    let out = bake(&scene, &params, Hooks::default()).unwrap();
+    let lights = sun_and_sky(Vec3::new(0.3, -0.6, 0.74));
+    // The wall between the rooms lies inside a 2 m cell of the grid.
+    let out = baked_in_2m_cells(&scene);
     let sight = out.report.effects["sight"].clone();
     let rt = BakedScene::new(out.file);
     let objects = per_object(&rt, &lights);
