@@ -99,7 +99,8 @@ pub(crate) fn run(a: &RenderArgs) -> anyhow::Result<()> {
     // Lights that overflow are an error before the backend prints its choice (one line); the
     // direct light computed for that check is the frame's.
     let t = std::time::Instant::now();
-    let direct = rt.direct(&lights)?;
+    let (direct, at) = rt.direct_with_samples(&lights)?;
+    let bounce = rt.first_bounce(&direct, &at);
     let direct_ms = t.elapsed().as_secs_f64() * 1e3;
     // A level is lit to its steady state through the same frame (its `Gather`).
     let (mut level, mut chosen);
@@ -111,7 +112,7 @@ pub(crate) fn run(a: &RenderArgs) -> anyhow::Result<()> {
         chosen.gather.as_mut()
     };
     let t = std::time::Instant::now();
-    let (frame, gather_ms) = rt.frame_with_direct(gather, direct, 1.0)?;
+    let (frame, gather_ms) = rt.frame_with_direct(gather, direct, bounce, 1.0)?;
     let frame_ms = direct_ms + t.elapsed().as_secs_f64() * 1e3;
     let t = std::time::Instant::now();
     let prim = primary(rt, &cam, spp_side)?;

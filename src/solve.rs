@@ -118,8 +118,13 @@ pub(crate) fn run(a: &SolveArgs) -> anyhow::Result<()> {
     let t = Instant::now();
     let (direct, at_samples) = runtime.direct_with_samples(&lights)?;
     timings.insert("direct", t.elapsed().as_secs_f64() * 1e3);
+    let t = Instant::now();
+    let bounce = runtime.first_bounce(&direct, &at_samples);
+    timings.insert("first_bounce", t.elapsed().as_secs_f64() * 1e3);
+    // What the matrix sends on: the direct light and the first bounce's correction.
+    let sent: Vec<Rgb> = direct.iter().zip(&bounce).map(|(d, b)| *d + *b).collect();
     let mut x = vec![Rgb::ZERO; n];
-    first_exitance(&file.patches, &direct, &mut x);
+    first_exitance(&file.patches, &sent, &mut x);
     // The backend prints its choice: choose it once the input to the gather is known good, so
     // a failure before it stays one `error:` line.
     let mut y = vec![Rgb::ZERO; n];
@@ -127,7 +132,7 @@ pub(crate) fn run(a: &SolveArgs) -> anyhow::Result<()> {
     let lit = light(file, &x, &mut y, edit, edited, backend)?;
     timings.insert("gather", lit.ms);
     let (mut h, mut b) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
-    finish_frame(&file.patches, &direct, &y, &mut h, &mut b);
+    finish_frame(&file.patches, &sent, &y, &mut h, &mut b);
     radiosity_runtime::scene::ensure_finite(&h, &b)?;
 
     let objects: Vec<Value> = radiosity_runtime::objects::per_object(
@@ -144,7 +149,9 @@ pub(crate) fn run(a: &SolveArgs) -> anyhow::Result<()> {
     let answers = match &points {
         Some(points) => {
             let t = Instant::now();
-            let a = radiosity_runtime::points::answer(&runtime, &y, &h, &lights, points)?;
+            // A hit's light beyond its own direct: the gather's and the first bounce's.
+            let beyond: Vec<Rgb> = y.iter().zip(&bounce).map(|(y, d)| *y + *d).collect();
+            let a = radiosity_runtime::points::answer(&runtime, &beyond, &h, &lights, points)?;
             timings.insert("points", t.elapsed().as_secs_f64() * 1e3);
             Some(points.iter().zip(a).collect::<Vec<_>>())
         }

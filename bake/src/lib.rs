@@ -63,6 +63,7 @@ pub mod shadow_points;
 pub(crate) mod dark_patches;
 
 /// Each object's own gather row in the patches it shares.
+pub(crate) mod bounce_rows;
 pub(crate) mod part_rows;
 
 pub mod systems;

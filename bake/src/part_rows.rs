@@ -54,8 +54,7 @@ pub(crate) fn part_rows(
     samples: &[Vec<(glam::DVec3, u32)>],
     seed: u64,
 ) -> Vec<Vec<PartRow>> {
-    let owners = Owners::new(patches);
-    let far = 10.0 * occ.extent();
+    let caster = RowCaster::new(patches, occ, samples);
     (0..patches.len())
         .into_par_iter()
         .map(|i| {
@@ -71,77 +70,135 @@ pub(crate) fn part_rows(
                         .filter(|q| q.object == o && q.area > 0.0)
                         .cloned()
                         .collect();
-                    let area: f64 = mine.iter().map(|q| q.area).sum();
-                    if mine.is_empty() || !(area > 0.0) {
-                        return None;
-                    }
                     let mut rng = SplitMix64(
                         seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
                             ^ u64::from(o).wrapping_mul(0xc2b2_ae3d_27d4_eb4f),
                     );
-                    let mut hits: Vec<(u32, u32)> = Vec::new();
-                    let mut exposed = 0u32;
-                    let mut sky = [0f64; SH_COEFFICIENTS];
-                    let nf = f64::from(PART_RAYS);
-                    for k in 0..PART_RAYS {
-                        let u = (f64::from(k) + 0.5) / nf;
-                        let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
-                        let (_, x, n) = patch_point_on(&mine, area, u, v);
-                        let d = cosine_direction(n, &mut rng);
-                        match occ.first_surface_from_surface(x, d, far) {
-                            Some((_, false)) => {}
-                            Some((h, true)) => {
-                                exposed += 1;
-                                let at = x + d * h.distance;
-                                if let Some(j) = owners.patch_at(&patches.pieces, h.triangle, at) {
-                                    let obj = patches.pieces[patches.patches[j].pieces.clone()]
-                                        .iter()
-                                        .find(|q| q.triangle == h.triangle)
-                                        .map_or(u32::MAX, |q| q.object);
-                                    let near = |same: bool| {
-                                        samples[j]
-                                            .iter()
-                                            .enumerate()
-                                            .filter(|(_, s)| !same || s.1 == obj)
-                                            .min_by(|a, b| {
-                                                a.1.0
-                                                    .distance_squared(at)
-                                                    .total_cmp(&b.1.0.distance_squared(at))
-                                            })
-                                            .map(|(k, _)| k as u32)
-                                    };
-                                    let k = near(true).or_else(|| near(false)).unwrap_or(0);
-                                    hits.push((j as u32, k));
-                                }
-                            }
-                            None => {
-                                exposed += 1;
-                                for (t, y) in sky.iter_mut().zip(sh_basis(d.as_vec3().to_array())) {
-                                    *t += f64::from(y);
-                                }
-                            }
-                        }
-                    }
-                    if exposed == 0 {
-                        return None;
-                    }
-                    hits.sort_unstable();
-                    let mut row: Vec<(u32, u32, u16)> = Vec::new();
-                    for (j, k) in hits {
-                        match row.last_mut() {
-                            Some(e) if e.0 == j && e.1 == k => e.2 += 1,
-                            _ => row.push((j, k, 1)),
-                        }
-                    }
-                    let each = 1.0 / f64::from(exposed);
+                    let cast = caster.cast(&mine, PART_RAYS, &mut rng)?;
                     Some(PartRow {
                         object: o,
-                        each,
-                        entries: row,
-                        sky: sky.map(|t| (std::f64::consts::PI * each * t) as f32),
+                        each: cast.each,
+                        entries: cast.entries,
+                        sky: cast.sky,
                     })
                 })
                 .collect()
         })
         .collect()
+}
+
+/// What [`RowCaster::cast`] found: the rays' first hits counted per direct-light sample.
+pub(crate) struct Cast {
+    /// The weight of one count: one over the rays that start exposed.
+    pub(crate) each: f64,
+    /// `(patch, sample, count)` in increasing `(patch, sample)` order (simplification
+    /// numbering; `sample` an index among the patch's samples).
+    pub(crate) entries: Vec<(u32, u32, u16)>,
+    /// The cosine-weighted sky visibility of the rays that leave the scene.
+    pub(crate) sky: [f32; SH_COEFFICIENTS],
+}
+
+/// Casts gather rows from pieces of surface: stratified cosine-weighted rays, each first hit
+/// counted to the nearest direct-light sample of the hit's object on the hit patch, else the
+/// nearest of any (`samples[j]`: patch `j`'s samples `(position, object)` as the runtime mesh
+/// holds them). Rays that start buried (their first hit a back face) are not counted: a row is
+/// the mean over the exposed surface.
+pub(crate) struct RowCaster<'a> {
+    patches: &'a Patches,
+    occ: &'a Occluders,
+    samples: &'a [Vec<(glam::DVec3, u32)>],
+    owners: Owners,
+    far: f64,
+}
+
+impl<'a> RowCaster<'a> {
+    pub(crate) fn new(
+        patches: &'a Patches,
+        occ: &'a Occluders,
+        samples: &'a [Vec<(glam::DVec3, u32)>],
+    ) -> Self {
+        RowCaster {
+            patches,
+            occ,
+            samples,
+            owners: Owners::new(patches),
+            far: 10.0 * occ.extent(),
+        }
+    }
+
+    /// `rays` rays from `pieces` (stratified by area); `None` when they have no area or no
+    /// ray starts exposed.
+    pub(crate) fn cast(&self, pieces: &[Piece], rays: u32, rng: &mut SplitMix64) -> Option<Cast> {
+        let area: f64 = pieces.iter().map(|q| q.area).sum();
+        if pieces.is_empty() || !(area > 0.0) {
+            return None;
+        }
+        let patches = self.patches;
+        let mut hits: Vec<(u32, u32)> = Vec::new();
+        let mut exposed = 0u32;
+        let mut sky = [0f64; SH_COEFFICIENTS];
+        let nf = f64::from(rays);
+        for k in 0..rays {
+            let u = (f64::from(k) + 0.5) / nf;
+            let v = (f64::from(k.reverse_bits()) / 4_294_967_296.0 + 0.5 / nf).fract();
+            let (_, x, n) = patch_point_on(pieces, area, u, v);
+            let d = cosine_direction(n, rng);
+            match self.occ.first_surface_from_surface(x, d, self.far) {
+                Some((_, false)) => {}
+                Some((h, true)) => {
+                    exposed += 1;
+                    let at = x + d * h.distance;
+                    if let Some(j) = self.owners.patch_at(&patches.pieces, h.triangle, at) {
+                        hits.push((j as u32, self.nearest_sample(j, h.triangle, at)));
+                    }
+                }
+                None => {
+                    exposed += 1;
+                    for (t, y) in sky.iter_mut().zip(sh_basis(d.as_vec3().to_array())) {
+                        *t += f64::from(y);
+                    }
+                }
+            }
+        }
+        if exposed == 0 {
+            return None;
+        }
+        hits.sort_unstable();
+        let mut entries: Vec<(u32, u32, u16)> = Vec::new();
+        for (j, k) in hits {
+            match entries.last_mut() {
+                Some(e) if e.0 == j && e.1 == k => e.2 += 1,
+                _ => entries.push((j, k, 1)),
+            }
+        }
+        let each = 1.0 / f64::from(exposed);
+        Some(Cast {
+            each,
+            entries,
+            sky: sky.map(|t| (std::f64::consts::PI * each * t) as f32),
+        })
+    }
+
+    /// The sample of patch `j` nearest to `at` on `triangle`: of the triangle's object where
+    /// the patch has samples of it, else of any.
+    fn nearest_sample(&self, j: usize, triangle: u32, at: glam::DVec3) -> u32 {
+        let patches = self.patches;
+        let obj = patches.pieces[patches.patches[j].pieces.clone()]
+            .iter()
+            .find(|q| q.triangle == triangle)
+            .map_or(u32::MAX, |q| q.object);
+        let near = |same: bool| {
+            self.samples[j]
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| !same || s.1 == obj)
+                .min_by(|a, b| {
+                    a.1.0
+                        .distance_squared(at)
+                        .total_cmp(&b.1.0.distance_squared(at))
+                })
+                .map(|(k, _)| k as u32)
+        };
+        near(true).or_else(|| near(false)).unwrap_or(0)
+    }
 }

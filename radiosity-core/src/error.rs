@@ -54,11 +54,13 @@ pub enum SectionKind {
     Coupling = 21,
     /// Each system's own `.rad` file, back to back at multiples of 16 bytes.
     SystemData = 22,
+    /// Optional first-bounce rows of every patch ([`crate::bounce::BounceRows`]).
+    Bounce = 23,
 }
 
 impl SectionKind {
     /// Every kind, in file order.
-    pub const ALL: [SectionKind; 22] = [
+    pub const ALL: [SectionKind; 23] = [
         SectionKind::Meta,
         SectionKind::Patches,
         SectionKind::Order,
@@ -81,6 +83,7 @@ impl SectionKind {
         SectionKind::Systems,
         SectionKind::Coupling,
         SectionKind::SystemData,
+        SectionKind::Bounce,
     ];
 
     /// The kind with this code.
@@ -105,6 +108,7 @@ impl SectionKind {
                 | SectionKind::Systems
                 | SectionKind::Coupling
                 | SectionKind::SystemData
+                | SectionKind::Bounce
         )
     }
 
@@ -133,6 +137,7 @@ impl SectionKind {
             SectionKind::Systems => "SYSTEMS",
             SectionKind::Coupling => "COUPLING",
             SectionKind::SystemData => "SYSTEM_DATA",
+            SectionKind::Bounce => "BOUNCE",
         }
     }
 }

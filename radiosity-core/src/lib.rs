@@ -53,6 +53,7 @@
 //!     probes: None,
 //!     sky: None,
 //!     parts: None,
+//!     bounce: None,
 //!     coverage: None,
 //!     systems: None,
 //! };
@@ -75,6 +76,7 @@ extern crate std;
 mod bc;
 mod bc1;
 mod bc4;
+pub mod bounce;
 mod checksum;
 mod color;
 pub mod container;
@@ -105,6 +107,7 @@ pub use bc1::{
 pub use bc4::{
     Bc4Block, decode_bc4_block, decode_bc4_block_with, decode_bc4_surface, decode_bc4_surface_into,
 };
+pub use bounce::{BounceRows, first_bounce};
 pub use checksum::{Crc32, crc32};
 pub use color::Rgb;
 pub use container::{Bounces, PatchOrder, RadFile};

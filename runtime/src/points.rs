@@ -477,8 +477,10 @@ fn off_the_surface(surfaces: &Surfaces<'_>, p: DVec3, n: DVec3, slack: f64) -> D
     p + front * (side * slack - front.dot(p - corner))
 }
 
-/// The answer at every point for a frame whose gathered irradiance is `gathered` and total
-/// irradiance `irradiance` (file numbering) under `lights`. The file needs its mesh.
+/// The answer at every point for a frame whose light beyond the direct is `gathered` (the
+/// gather's `y`, plus the first bounce's correction where the file has BOUNCE rows:
+/// [`crate::BakedScene::first_bounce`]) and total irradiance `irradiance` (file numbering)
+/// under `lights`. The file needs its mesh.
 pub fn answer(
     rt: &BakedScene,
     gathered: &[Rgb],

@@ -347,7 +347,10 @@ pub fn shade(
                 let range = primary.rows[row] as usize..primary.rows[row + 1] as usize;
                 let mut indirect = Rgb::ZERO;
                 for &(p, w) in &primary.weights[range] {
-                    indirect += frame.gathered[p as usize] * w;
+                    // The light beyond the direct: the gather's and the first bounce's
+                    // correction (none in a frame built without it).
+                    let bounce = frame.bounce.get(p as usize).copied().unwrap_or(Rgb::ZERO);
+                    indirect += (frame.gathered[p as usize] + bounce) * w;
                     if let Some(sky) = &sky {
                         indirect += sky[p as usize] * w;
                     }

@@ -21,11 +21,14 @@ pub struct BakedScene {
 pub struct Frame {
     /// Direct irradiance from the analytic lights, H_d.
     pub direct: Vec<Rgb>,
-    /// First exitance x = s·E + ρ∘H_d.
+    /// The correction of the first bounce for where each patch's rays land on its senders, Δ
+    /// (the file's BOUNCE rows, [`radiosity_core::bounce`]; zero without them).
+    pub bounce: Vec<Rgb>,
+    /// First exitance x = s·E + ρ∘(H_d + Δ).
     pub exitance: Vec<Rgb>,
     /// Gathered (indirect, and emitter-direct) irradiance y = M·x.
     pub gathered: Vec<Rgb>,
-    /// Total irradiance H = H_d + y.
+    /// Total irradiance H = H_d + Δ + y.
     pub irradiance: Vec<Rgb>,
     /// Radiosity B = s·E + ρ∘H.
     pub radiosity: Vec<Rgb>,
@@ -143,11 +146,41 @@ impl BakedScene {
         ))
     }
 
-    /// Direct irradiance per patch: the area-weighted mean over the patch's samples (one per
-    /// piece of the full-detail surface inside the patch), so that a shadow edge crossing a
-    /// patch dims it in proportion; plus the sky's ([`BakedScene::sky_irradiance`]).
+    /// The per-patch `H_d` a frame is built from (`x = E + ρ∘H_d`, `H = H_d + y`): the
+    /// direct irradiance, the area-weighted mean over the patch's samples (one per piece of
+    /// the full-detail surface inside the patch), so that a shadow edge crossing a patch dims
+    /// it in proportion, plus the sky's ([`BakedScene::sky_irradiance`]), plus the correction
+    /// of the patch's first bounce for where its rays land on its senders where the file has
+    /// BOUNCE rows ([`BakedScene::first_bounce`]). This is what an engine passes on to
+    /// `first_exitance` and `finish_frame`; the direct light alone is
+    /// [`BakedScene::direct_with_samples`]'s.
     pub fn direct(&self, lights: &[Light]) -> crate::Result<Vec<Rgb>> {
-        Ok(self.direct_with_samples(lights)?.0)
+        let (direct, at) = self.direct_with_samples(lights)?;
+        let bounce = self.first_bounce(&direct, &at);
+        Ok(direct.iter().zip(&bounce).map(|(d, b)| *d + *b).collect())
+    }
+
+    /// Each patch's correction of its first bounce, `Δ` ([`radiosity_core::first_bounce`]),
+    /// from the patches' direct irradiance and each mesh sample's
+    /// ([`BakedScene::direct_with_samples`]); zero where the file has no BOUNCE rows or no
+    /// light (`at_samples` empty).
+    pub fn first_bounce(&self, direct: &[Rgb], at_samples: &[Rgb]) -> Vec<Rgb> {
+        let mut out = vec![Rgb::ZERO; self.n()];
+        let (Some(rows), Some(mesh)) = (&self.file.bounce, &self.file.mesh) else {
+            return out;
+        };
+        if at_samples.len() != mesh.samples.len() || direct.len() != out.len() {
+            return out;
+        }
+        radiosity_core::first_bounce(
+            rows,
+            &self.file.patches,
+            &mesh.sample_rows,
+            direct,
+            at_samples,
+            &mut out,
+        );
+        out
     }
 
     /// [`BakedScene::direct`], with the direct irradiance at every sample of the mesh (its sample
@@ -211,16 +244,19 @@ impl BakedScene {
         if !(emission.is_finite() && emission >= 0.0) {
             invalid!("emission scale must be finite and non-negative, not {emission}");
         }
-        let direct = self.direct(lights)?;
-        self.frame_with_direct(gather, direct, emission)
+        let (direct, at) = self.direct_with_samples(lights)?;
+        let bounce = self.first_bounce(&direct, &at);
+        self.frame_with_direct(gather, direct, bounce, emission)
     }
 
-    /// [`BakedScene::frame`] from direct irradiance already computed ([`BakedScene::direct`]) for the
-    /// frame's lights, for a caller that needed it first.
+    /// [`BakedScene::frame`] from direct irradiance and the first bounce's correction already
+    /// computed ([`BakedScene::direct_with_samples`], [`BakedScene::first_bounce`]) for the
+    /// frame's lights, for a caller that needed them first.
     pub fn frame_with_direct(
         &self,
         gather: &mut dyn Gather,
         direct: Vec<Rgb>,
+        bounce: Vec<Rgb>,
         emission: f32,
     ) -> crate::Result<(Frame, f64)> {
         if !(emission.is_finite() && emission >= 0.0) {
@@ -242,20 +278,26 @@ impl BakedScene {
                 .collect();
             &scaled
         };
+        if bounce.len() != n {
+            invalid!("{} first-bounce corrections for {n} patches", bounce.len());
+        }
+        // What the matrix sends on: the direct light and the first bounce's correction.
+        let sent: Vec<Rgb> = direct.iter().zip(&bounce).map(|(d, b)| *d + *b).collect();
         let mut f = Frame {
             direct,
+            bounce,
             exitance: vec![Rgb::ZERO; n],
             gathered: vec![Rgb::ZERO; n],
             irradiance: vec![Rgb::ZERO; n],
             radiosity: vec![Rgb::ZERO; n],
         };
-        first_exitance(patches, &f.direct, &mut f.exitance);
+        first_exitance(patches, &sent, &mut f.exitance);
         let t = std::time::Instant::now();
         gather.gather(&f.exitance, &mut f.gathered)?;
         let gather_ms = t.elapsed().as_secs_f64() * 1e3;
         finish_frame(
             patches,
-            &f.direct,
+            &sent,
             &f.gathered,
             &mut f.irradiance,
             &mut f.radiosity,

@@ -101,6 +101,7 @@ fn shaded_parts_sharing_a_sunlit_patch_gather_their_own_light() {
     assert_eq!(back.parts, file.parts);
     let without = BakedScene::new(RadFile {
         parts: None,
+        bounce: None,
         coverage: None,
         systems: None,
         ..back.clone().into_owned()

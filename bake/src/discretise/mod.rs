@@ -82,6 +82,10 @@ pub struct Discretised {
     /// ([`crate::part_rows`]), their entries' patches renumbered to live indices and their
     /// weights scaled as the closure scaled the patch's row.
     pub(crate) part_rows: Vec<Vec<crate::part_rows::PartRow>>,
+    /// Per patch (simplification order), its first-bounce row ([`crate::bounce_rows`]), its
+    /// entries' patches renumbered to live indices and its weight scaled as the closure scaled
+    /// its row; `None` for a dropped patch, or for all where no patch sees another.
+    pub(crate) bounce_rows: Vec<Option<crate::bounce_rows::BounceRow>>,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
     /// The form-factor settings used.
@@ -142,7 +146,17 @@ pub fn discretise(
     let live = steps::drop_dark(scene, corrected, &mut plan, params);
     let part_rows = steps::part_rows(&live, plan.occluders.as_ref(), params.seed);
     laps.lap("part_rows");
-    Ok(steps::finish(live, part_rows, plan, params, keys, laps))
+    let bounce_rows = steps::bounce_rows(scene, &live, &mut plan, params.seed);
+    laps.lap("bounce_rows");
+    Ok(steps::finish(
+        live,
+        part_rows,
+        bounce_rows,
+        plan,
+        params,
+        keys,
+        laps,
+    ))
 }
 
 /// The live patch `i` of `patches` as the core stores it.

@@ -2,6 +2,7 @@
 
 use super::{DiscretiseParams, Discretised, GivenRows, to_core_patch};
 use crate::BakeError;
+use crate::bounce_rows::BounceRow;
 use crate::closure::{ClosureReport, closure_effect, escape_check};
 use crate::dark_patches::dark_patches;
 use crate::effect_plan::{self, Effect, Effects};
@@ -423,34 +424,100 @@ pub(super) fn part_rows(
     let Some(occ) = occluders.filter(|_| any_shared) else {
         return vec![Vec::new(); n_all];
     };
-    let mut live_at = vec![u32::MAX; n_all];
-    for (k, &i) in c.live.iter().enumerate() {
-        live_at[i] = k as u32;
-    }
+    let live_at = live_numbers(c);
     let samples = direct_samples(c);
     crate::part_rows::part_rows(&c.patches, occ, &c.exposure.shared, &samples, seed)
         .into_iter()
         .enumerate()
         .map(|(i, rows)| {
-            let after = c.f.row_sum(i);
-            let scale = if c.raw_sums[i] > 0.0 {
-                after / c.raw_sums[i]
-            } else {
-                1.0
-            };
+            let scale = closure_scale(c, i);
             rows.into_iter()
                 .map(|mut r| {
-                    r.entries
-                        .retain(|&(j, _, _)| live_at[j as usize] != u32::MAX);
-                    for e in &mut r.entries {
-                        e.0 = live_at[e.0 as usize];
-                    }
+                    to_live(&mut r.entries, &live_at);
                     r.each *= scale;
                     r
                 })
                 .collect()
         })
         .collect()
+}
+
+/// Every live patch's first-bounce row ([`crate::bounce_rows`]), scaled as the closure scaled
+/// its row of F, its entries renumbered to live patches; `None` for the dropped patches and
+/// where no patch sees another (the transfer is zero: no bounce to correct). Casts through
+/// the checks' ray tree, built here where nothing occludes the form factors.
+pub(super) fn bounce_rows(
+    scene: &Scene,
+    c: &Corrected,
+    plan: &mut Planned,
+    seed: u64,
+) -> Vec<Option<BounceRow>> {
+    let n_all = c.patches.len();
+    if !c.live.iter().any(|&i| c.f.row_sum(i) > 0.0) {
+        plan.effects.insert(
+            "first_bounce",
+            Effect::new(
+                false,
+                "no patch sees another: there is no bounce to correct",
+            ),
+        );
+        return vec![None; n_all];
+    }
+    let live_at = live_numbers(c);
+    let samples = direct_samples(c);
+    let rows =
+        crate::bounce_rows::bounce_rows(&c.patches, plan.checks(scene), &c.live, &samples, seed);
+    let rows: Vec<Option<BounceRow>> = rows
+        .into_iter()
+        .enumerate()
+        .map(|(i, row)| {
+            row.map(|mut r| {
+                to_live(&mut r.entries, &live_at);
+                r.each *= closure_scale(c, i);
+                r
+            })
+        })
+        .collect();
+    let entries: usize = rows.iter().flatten().map(|r| r.entries.len()).sum();
+    plan.effects.insert(
+        "first_bounce",
+        Effect::new(
+            true,
+            format!(
+            "each patch's first bounce gathered where {} cosine-weighted rays from it land, at the direct-light samples they meet ({entries} entries, {:.2} MB): a sender lit on part of its area sends that part's light where it is seen, not its mean",
+            crate::bounce_rows::BOUNCE_RAYS,
+            (entries * 6) as f64 / 1e6
+        ),
+        ),
+    );
+    rows
+}
+
+/// Each patch's live index (`u32::MAX` for a dropped one).
+fn live_numbers(c: &Corrected) -> Vec<u32> {
+    let mut live_at = vec![u32::MAX; c.patches.len()];
+    for (k, &i) in c.live.iter().enumerate() {
+        live_at[i] = k as u32;
+    }
+    live_at
+}
+
+/// The closure's scaling of patch `i`'s row of F.
+fn closure_scale(c: &Corrected, i: usize) -> f64 {
+    if c.raw_sums[i] > 0.0 {
+        c.f.row_sum(i) / c.raw_sums[i]
+    } else {
+        1.0
+    }
+}
+
+/// A row's `(patch, sample, count)` entries renumbered to live patches, those on dropped
+/// patches left out.
+fn to_live(entries: &mut Vec<(u32, u32, u16)>, live_at: &[u32]) {
+    entries.retain(|&(j, _, _)| live_at[j as usize] != u32::MAX);
+    for e in entries {
+        e.0 = live_at[e.0 as usize];
+    }
 }
 
 /// Each patch's direct-light samples as the runtime mesh will hold them: the points not
@@ -486,6 +553,7 @@ fn direct_samples(c: &Corrected) -> Vec<Vec<(DVec3, u32)>> {
 pub(super) fn finish(
     c: Corrected,
     part_rows: Vec<Vec<PartRow>>,
+    bounce_rows: Vec<Option<BounceRow>>,
     plan: Planned,
     params: &DiscretiseParams,
     keys: Vec<[u8; 16]>,
@@ -514,6 +582,7 @@ pub(super) fn finish(
         exposure: c.exposure,
         direct_points: c.direct_points,
         part_rows,
+        bounce_rows,
         rays_cast: c.rays_cast,
         keys,
         form_factors: params.form_factors.summary(),

@@ -88,6 +88,7 @@ pub(super) fn attach_runtime(
 ) -> Vec<u32> {
     let (mesh, sample_objects) = file_mesh(scene, system, patch_source);
     file.parts = part_rows_section(system, perm, &mesh, sky);
+    file.bounce = bounce_rows_section(system, perm, &mesh);
     file.mesh = Some(mesh);
     file.coverage = scene
         .coverage
@@ -95,6 +96,56 @@ pub(super) fn attach_runtime(
         .any(|&c| c < 1.0)
         .then(|| Cow::Owned(scene.coverage.clone()));
     sample_objects
+}
+
+/// The BOUNCE section of the file: each patch's first-bounce row
+/// ([`Discretised::bounce_rows`]) in file numbering, its entries naming the mesh's samples;
+/// `None` where the bake made none (no patch sees another).
+fn bounce_rows_section(
+    system: &Discretised,
+    perm: &[u32],
+    mesh: &radiosity_core::Mesh<'_>,
+) -> Option<radiosity_core::BounceRows<'static>> {
+    if system.bounce_rows.iter().all(Option::is_none) {
+        return None;
+    }
+    let file_of = file_numbers(perm);
+    let mut scale = Vec::with_capacity(perm.len());
+    let mut starts = Vec::with_capacity(perm.len() + 1);
+    let (mut samples, mut counts) = (Vec::new(), Vec::new());
+    let mut entries: Vec<(u32, u16)> = Vec::new();
+    starts.push(0u32);
+    for &at in perm {
+        entries.clear();
+        let row = system.bounce_rows[system.live[at as usize]].as_ref();
+        if let Some(row) = row {
+            entries.extend(
+                row.entries
+                    .iter()
+                    .map(|&(j, k, c)| (mesh.sample_rows[file_of[j as usize] as usize] + k, c)),
+            );
+            entries.sort_unstable();
+        }
+        scale.push(row.map_or(0.0, |r| r.each as f32));
+        samples.extend(entries.iter().map(|e| e.0));
+        counts.extend(entries.iter().map(|e| e.1));
+        starts.push(samples.len() as u32);
+    }
+    Some(radiosity_core::BounceRows {
+        scale: Cow::Owned(scale),
+        starts: Cow::Owned(starts),
+        samples: Cow::Owned(samples),
+        counts: Cow::Owned(counts),
+    })
+}
+
+/// `file_of[live]`: the file patch of each live patch (`perm` inverted).
+fn file_numbers(perm: &[u32]) -> Vec<u32> {
+    let mut file_of = vec![0u32; perm.len()];
+    for (k, &at) in perm.iter().enumerate() {
+        file_of[at as usize] = k as u32;
+    }
+    file_of
 }
 
 /// The PARTS section of the file: each shared patch's part rows ([`Discretised::part_rows`])
@@ -105,10 +156,7 @@ fn part_rows_section(
     mesh: &radiosity_core::Mesh<'_>,
     with_sky: bool,
 ) -> Option<radiosity_core::PartRows<'static>> {
-    let mut file_of = vec![0u32; perm.len()];
-    for (k, &at) in perm.iter().enumerate() {
-        file_of[at as usize] = k as u32;
-    }
+    let file_of = file_numbers(perm);
     let mut parts = Vec::new();
     let (mut samples, mut counts, mut sky) = (Vec::new(), Vec::new(), Vec::new());
     let mut entries: Vec<(u32, u16)> = Vec::new();

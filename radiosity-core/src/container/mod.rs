@@ -31,6 +31,7 @@ pub use read::{head_len, section_ranges};
 pub use systems::{LevelSystems, SystemEntry};
 pub use write::reseal;
 
+use crate::bounce::BounceRows;
 use crate::checksum::Crc32;
 use crate::mesh::Mesh;
 use crate::parts::PartRows;
@@ -218,6 +219,10 @@ pub struct RadFile<'a> {
     /// Each object's own gather row in the patches it shares, if the bake stored them
     /// (`None`: every object takes its patches' bounced light).
     pub parts: Option<PartRows<'a>>,
+    /// Each patch's first bounce gathered where its rays land, if the bake stored it
+    /// (`None`: every patch sends its mean, [`crate::bounce`]). A file with it has the MESH
+    /// section, whose samples its entries name.
+    pub bounce: Option<BounceRows<'a>>,
     /// The coverage of each of the mesh's triangles, if some is below 1 (glTF `alphaMode`
     /// MASK or BLEND): the fraction of the triangle that is there, in (0, 1]. Shadow rays
     /// take `1 − c` of the light through a triangle of coverage c. A file with it has the
@@ -356,7 +361,7 @@ impl<'a> RadFile<'a> {
     }
 
     /// The optional sections against the `n` patches and each other: probes, mesh, sky
-    /// (one entry per patch and probe), parts (against the mesh's samples) and coverage (one
+    /// (one entry per patch and probe), parts and first-bounce rows (against the mesh's samples) and coverage (one
     /// value in (0, 1] per mesh triangle).
     fn validate_optional(&self, n: usize) -> Result<(), RadError> {
         if let Some(probes) = &self.probes {
@@ -371,6 +376,16 @@ impl<'a> RadFile<'a> {
         if let Some(parts) = &self.parts {
             let samples = self.mesh.as_ref().map_or(0, |m| m.samples.len());
             parts.validate(n, self.objects.len(), samples)?;
+        }
+        if let Some(bounce) = &self.bounce {
+            let Some(mesh) = &self.mesh else {
+                return Err(invalid(
+                    SectionKind::Bounce,
+                    0,
+                    "first-bounce rows without the mesh they name",
+                ));
+            };
+            bounce.validate(n, mesh.samples.len())?;
         }
         if let Some(coverage) = &self.coverage {
             let triangles = self.mesh.as_ref().map_or(0, |m| m.triangles.len());
@@ -441,6 +456,7 @@ impl<'a> RadFile<'a> {
             probes: None,
             sky: None,
             parts: None,
+            bounce: None,
             coverage: None,
             systems: None,
         }
@@ -468,6 +484,7 @@ impl<'a> RadFile<'a> {
                 values: Cow::Owned(s.values.into_owned()),
             }),
             parts: self.parts.map(PartRows::into_owned),
+            bounce: self.bounce.map(BounceRows::into_owned),
             coverage: self.coverage.map(|c| Cow::Owned(c.into_owned())),
             systems: self.systems.map(LevelSystems::into_owned),
         }

@@ -6,6 +6,7 @@ use super::{
     Bounces, Header, LevelSystems, MAGIC, Meta, OLDEST_VERSION, PatchOrder, RadFile, SectionEntry,
     VERSION, align, f32_to_opt, header_checksum,
 };
+use crate::bounce::BounceRows;
 use crate::checksum::crc32;
 use crate::layout::{Format, MatrixLayout};
 use crate::mesh::Mesh;
@@ -91,6 +92,10 @@ impl<'a> RadFile<'a> {
                 .map(coverage_of)
                 .transpose()?,
             systems: level.map(|l| s.with_data(l)),
+            bounce: s
+                .section(SectionKind::Bounce)
+                .map(BounceRows::from_bytes)
+                .transpose()?,
         };
         file.validate()?;
         Ok(file)

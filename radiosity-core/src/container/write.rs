@@ -4,6 +4,7 @@ use super::{
     Header, MAGIC, Meta, PLAIN_VERSION, RadFile, SectionEntry, VERSION, align, header_checksum,
     opt_to_f32,
 };
+use crate::bounce::BounceRows;
 use crate::checksum::crc32;
 use crate::mesh::Mesh;
 use crate::parts::PartRows;
@@ -114,6 +115,9 @@ impl RadFile<'_> {
                 (SectionKind::SystemData, &s.data[..]),
             ]);
         }
+        if let Some(b) = &encoded.bounce {
+            sections.push((SectionKind::Bounce, b));
+        }
         sections
     }
 }
@@ -125,6 +129,7 @@ struct Encoded {
     mesh: Option<Vec<u8>>,
     probes: Option<Vec<u8>>,
     parts: Option<Vec<u8>>,
+    bounce: Option<Vec<u8>>,
     coupling: Option<Vec<u8>>,
 }
 
@@ -136,6 +141,7 @@ impl Encoded {
             mesh: file.mesh.as_ref().map(Mesh::to_bytes),
             probes: file.probes.as_ref().map(Probes::to_bytes),
             parts: file.parts.as_ref().map(PartRows::to_bytes),
+            bounce: file.bounce.as_ref().map(BounceRows::to_bytes),
             coupling: file.systems.as_ref().map(|s| s.coupling_bytes()),
         }
     }
