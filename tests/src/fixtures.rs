@@ -85,6 +85,7 @@ pub fn sample_file(n: usize, channels: usize, format: Format, max_tile: u32) -> 
         probes: Some(sample_probes(n)),
         sky: Some(sample_sky(n, 2)),
         parts: Some(sample_parts(n, sample_mesh(n).samples.len())),
+        bounce: Some(sample_bounce(n, sample_mesh(n).samples.len())),
         coverage: Some(Cow::Owned(sample_coverage(sample_mesh(n).triangles.len()))),
         ..RadFile::new(
             Cow::Owned(sample_patches(n)),
@@ -126,6 +127,27 @@ pub fn sample_parts(n: usize, samples: usize) -> radiosity_core::PartRows<'stati
         samples: Cow::Owned(at),
         counts: Cow::Owned(counts),
         sky: Cow::Owned(vec![0.25; 9 * (2 * n.min(3))]),
+    }
+}
+
+/// First-bounce rows for `n` patches: patch `i` meets every fourth mesh sample of `samples`
+/// from `i % 4`, each with a count of 1 to 4; the last patch none.
+pub fn sample_bounce(n: usize, samples: usize) -> radiosity_core::BounceRows<'static> {
+    let (mut starts, mut at, mut counts) = (vec![0u32], Vec::new(), Vec::new());
+    for i in 0..n {
+        if i + 1 < n {
+            for s in (i % 4..samples).step_by(4) {
+                at.push(s as u32);
+                counts.push(1 + (s % 4) as u16);
+            }
+        }
+        starts.push(at.len() as u32);
+    }
+    radiosity_core::BounceRows {
+        scale: Cow::Owned((0..n).map(|i| 1.0 / (256.0 + i as f32)).collect()),
+        starts: Cow::Owned(starts),
+        samples: Cow::Owned(at),
+        counts: Cow::Owned(counts),
     }
 }
 

@@ -428,11 +428,81 @@ fn coverage_round_trips_and_bad_values_are_refused_with_their_index() {
     let mut meshless = file;
     meshless.mesh = None;
     meshless.parts = None;
+    meshless.bounce = None;
     assert!(matches!(
         meshless.to_bytes(),
         Err(RadError::Count {
             section: SectionKind::Coverage,
             expected: 0,
+            ..
+        })
+    ));
+}
+
+#[test]
+fn first_bounce_rows_round_trip_and_bad_ones_are_refused_with_their_index() {
+    let file = sample_file(37, 3, Format::Bc1, 16);
+    let bytes = file.to_bytes().unwrap();
+    let parsed = RadFile::parse(&bytes).unwrap();
+    assert!(parsed.bounce.as_ref().is_some_and(|b| !b.samples.is_empty()));
+    assert_eq!(parsed.bounce, file.bounce);
+    // The first patch's weight (f32 at byte 16): NaN, negative.
+    for v in [f32::NAN, -1.0] {
+        let e = corrupt_section(SectionKind::Bounce, |b| set_f32(b, 16, v));
+        assert_eq!(
+            e,
+            RadError::Invalid {
+                section: SectionKind::Bounce,
+                index: 0,
+                reason: "scale not finite and non-negative"
+            },
+            "{v}"
+        );
+    }
+    // A row naming a sample past the mesh's, and a count of zero.
+    let rows = file.bounce.as_ref().unwrap();
+    let samples = file.mesh.as_ref().unwrap().samples.len();
+    let mut bad = file.clone();
+    bad.bounce.as_mut().unwrap().samples.to_mut()[0] = samples as u32;
+    assert!(matches!(
+        bad.to_bytes(),
+        Err(RadError::Invalid {
+            section: SectionKind::Bounce,
+            index: 0,
+            reason: "sample index out of range"
+        })
+    ));
+    let mut bad = file.clone();
+    bad.bounce.as_mut().unwrap().counts.to_mut()[1] = 0;
+    assert!(matches!(
+        bad.to_bytes(),
+        Err(RadError::Invalid {
+            section: SectionKind::Bounce,
+            index: 1,
+            reason: "count outside 1 to 4096"
+        })
+    ));
+    // One row a patch, and the mesh its entries name.
+    let mut short = file.clone();
+    short.bounce.as_mut().unwrap().scale.to_mut().pop();
+    assert!(matches!(
+        short.to_bytes(),
+        Err(RadError::Count {
+            section: SectionKind::Bounce,
+            expected: 37,
+            ..
+        })
+    ));
+    assert!(rows.starts.len() == 38);
+    let mut meshless = file;
+    meshless.mesh = None;
+    meshless.parts = None;
+    meshless.coverage = None;
+    assert!(matches!(
+        meshless.to_bytes(),
+        Err(RadError::Invalid {
+            section: SectionKind::Bounce,
+            reason: "first-bounce rows without the mesh they name",
             ..
         })
     ));
