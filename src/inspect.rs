@@ -58,6 +58,7 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "corrections": m.corrections.bytes(),
             "scales": m.scales.len() * std::mem::size_of::<radiosity_core::LogScale>(),
             "parts": file.parts.as_ref().map_or(0, |p| p.to_bytes().len()),
+            "bounce": file.bounce.as_ref().map_or(0, |b| b.to_bytes().len()),
         },
         "tiles": l.tile_count(),
         "tile_size": l.tile_size(),
@@ -78,6 +79,10 @@ fn summarise(file: &RadFile<'_>, total: usize) -> Value {
             "entries": p.samples.len(),
             "sky": !p.sky.is_empty(),
             "bytes": p.to_bytes().len(),
+        })),
+        "bounce": file.bounce.as_ref().map(|b| json!({
+            "entries": b.samples.len(),
+            "bytes": b.to_bytes().len(),
         })),
         "systems": file.systems.as_ref().map(|sys| json!({
             "count": sys.count(),
@@ -196,6 +201,13 @@ fn print_extras(file: &RadFile<'_>, s: &Value) {
                 ", sky visibility"
             },
             mib(&s["parts"]["bytes"])
+        );
+    }
+    if let Some(b) = &file.bounce {
+        outln!(
+            "  bounce       each patch's first bounce gathered where its rays land ({} entries, {:.3} MiB)",
+            b.samples.len(),
+            mib(&s["bounce"]["bytes"])
         );
     }
     if let Some(c) = &file.coverage {

@@ -467,10 +467,10 @@ int32_t rad_probe_irradiance(const struct RadScene *scene, const struct RadRgb *
 
 /*
  Per-patch direct irradiance from `lights`, with shadow rays against the file's full-detail
- mesh at its direct-light points (each patch the area-weighted mean over its points), plus,
- where the file has first-bounce rows (its BOUNCE section), the correction of each patch's
- first bounce for where its rays land on its senders: what `radiosity solve --lights` feeds
- its gather and adds to the gathered light. `n` = the patch count; `lights` may be NULL
+ mesh at its direct-light points (each patch the area-weighted mean over its points): what
+ `radiosity solve --lights` feeds its gather, less the correction of each patch's first
+ bounce for where its rays land on its senders (the file's BOUNCE rows), which can make an
+ exitance negative and so is not in the C frame. `n` = the patch count; `lights` may be NULL
  when `light_count` is 0 (all zeros). Feed the result to rad_first_exitance.
  RAD_ERR_VALUE for a bad light (nothing written), RAD_ERR_NO_MESH for a file without a mesh
  when lights are given.

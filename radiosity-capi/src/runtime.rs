@@ -122,10 +122,10 @@ fn runtime_failure(e: radiosity_runtime::Error) -> Failure {
 }
 
 /// Per-patch direct irradiance from `lights`, with shadow rays against the file's full-detail
-/// mesh at its direct-light points (each patch the area-weighted mean over its points), plus,
-/// where the file has first-bounce rows (its BOUNCE section), the correction of each patch's
-/// first bounce for where its rays land on its senders: what `radiosity solve --lights` feeds
-/// its gather and adds to the gathered light. `n` = the patch count; `lights` may be NULL
+/// mesh at its direct-light points (each patch the area-weighted mean over its points): what
+/// `radiosity solve --lights` feeds its gather, less the correction of each patch's first
+/// bounce for where its rays land on its senders (the file's BOUNCE rows), which can make an
+/// exitance negative and so is not in the C frame. `n` = the patch count; `lights` may be NULL
 /// when `light_count` is 0 (all zeros). Feed the result to rad_first_exitance.
 /// RAD_ERR_VALUE for a bad light (nothing written), RAD_ERR_NO_MESH for a file without a mesh
 /// when lights are given.
@@ -148,7 +148,13 @@ pub unsafe extern "C" fn rad_scene_direct(
         check_n(scene, n, "direct")?;
         // SAFETY: the caller promises `light_count` readable lights at `lights`.
         let lights = unsafe { lights_in(lights, light_count) }?;
-        let h = scene.rt.direct(&lights).map_err(runtime_failure)?;
+        // The direct light alone: the C frame sends each patch's mean (its exitance is never
+        // negative), without the first bounce's correction (`BakedScene::direct`).
+        let h = scene
+            .rt
+            .direct_with_samples(&lights)
+            .map_err(runtime_failure)?
+            .0;
         // SAFETY: the caller promises `n` writable values at a non-NULL `direct`.
         let out = unsafe { slice_mut(direct, n, "direct") }?;
         out.copy_from_slice(bytemuck::cast_slice(&h));
@@ -233,17 +239,14 @@ pub unsafe extern "C" fn rad_scene_point_irradiance(
                 given_normal: normal,
             });
         }
-        // The frame's totals H = H_d + y (H_d with the first bounce's correction, as
-        // rad_scene_direct gives it), as the command line's frame has them; a hit's light
-        // beyond its own direct is y and that correction.
-        let (direct, at) = scene
+        // The frame's totals H = H_d + y, as the C frame has them (rad_scene_direct's H_d).
+        let direct = scene
             .rt
             .direct_with_samples(&lights)
-            .map_err(runtime_failure)?;
-        let bounce = scene.rt.first_bounce(&direct, &at);
-        let beyond: Vec<Rgb> = y.iter().zip(&bounce).map(|(y, d)| *y + *d).collect();
-        let h: Vec<Rgb> = direct.iter().zip(&beyond).map(|(d, b)| *d + *b).collect();
-        let answers = radiosity_runtime::points::answer(&scene.rt, &beyond, &h, &lights, &queries)
+            .map_err(runtime_failure)?
+            .0;
+        let h: Vec<Rgb> = direct.iter().zip(&y).map(|(d, y)| *d + *y).collect();
+        let answers = radiosity_runtime::points::answer(&scene.rt, &y, &h, &lights, &queries)
             .map_err(runtime_failure)?;
         // SAFETY: the caller promises `count` writable values at each, non-NULL (checked).
         let (out, st) = unsafe {

@@ -156,8 +156,15 @@ impl BakedScene {
     /// [`BakedScene::direct_with_samples`]'s.
     pub fn direct(&self, lights: &[Light]) -> crate::Result<Vec<Rgb>> {
         let (direct, at) = self.direct_with_samples(lights)?;
-        let bounce = self.first_bounce(&direct, &at);
-        Ok(direct.iter().zip(&bounce).map(|(d, b)| *d + *b).collect())
+        Ok(self.sent(&direct, &at))
+    }
+
+    /// `H_d + Δ`: the patches' direct irradiance and each sample's
+    /// ([`BakedScene::direct_with_samples`]) made into what the frame sends on
+    /// ([`BakedScene::direct`]).
+    pub fn sent(&self, direct: &[Rgb], at_samples: &[Rgb]) -> Vec<Rgb> {
+        let bounce = self.first_bounce(direct, at_samples);
+        direct.iter().zip(&bounce).map(|(d, b)| *d + *b).collect()
     }
 
     /// Each patch's correction of its first bounce, `Δ` ([`radiosity_core::first_bounce`]),

@@ -150,7 +150,7 @@ fn a_half_transparent_sheet_passes_half_the_sun_and_its_share_of_the_bounce() {
         irradiance: Rgb::splat(1.0),
     }];
     let (direct, at_samples) = rt.direct_with_samples(&lights).unwrap();
-    let f = reference_frame(&rt.file, &direct);
+    let f = reference_frame(&rt.file, &rt.sent(&direct, &at_samples));
     let got =
         radiosity_runtime::objects::per_object(&rt.file, &f.h, &f.b, &direct, &at_samples, None);
     let direct_only = radiosity_runtime::objects::per_object(

@@ -31,7 +31,7 @@ fn sunlit(quads: &[Quad], d: Vec3) -> Vec<(String, f64)> {
         irradiance: Rgb::splat(1.0),
     }];
     let (direct, at_samples) = rt.direct_with_samples(&lights).unwrap();
-    let f = reference_frame(file, &direct);
+    let f = reference_frame(file, &rt.sent(&direct, &at_samples));
     assert!(
         f.y.iter().all(|v| *v == Rgb::ZERO),
         "no light travels between surfaces"

@@ -69,7 +69,7 @@ fn pavilion(dir: &std::path::Path) -> Scene {
 fn per_object(rt: &BakedScene, lights: &[Light]) -> Vec<(String, f64)> {
     let file = &rt.file;
     let (direct, at_samples) = rt.direct_with_samples(lights).unwrap();
-    let f = reference_frame(file, &direct);
+    let f = reference_frame(file, &rt.sent(&direct, &at_samples));
     radiosity_runtime::objects::per_object(
         file,
         &f.h,

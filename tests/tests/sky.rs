@@ -50,7 +50,7 @@ fn baked(scene: &Scene, sky: bool) -> BakedScene {
 fn per_object(rt: &BakedScene, lights: &[Light]) -> Vec<(String, [f64; 3])> {
     let file = &rt.file;
     let (direct, at_samples) = rt.direct_with_samples(lights).unwrap();
-    let f = reference_frame(file, &direct);
+    let f = reference_frame(file, &rt.sent(&direct, &at_samples));
     radiosity_runtime::objects::per_object(
         file,
         &f.h,

@@ -119,6 +119,7 @@ pub(super) fn report(
             probes: file.probes.as_ref().map_or(0, |p| p.to_bytes().len()),
             sky: file.sky.as_ref().map_or(0, |s| s.to_bytes().len()),
             parts: file.parts.as_ref().map_or(0, |p| p.to_bytes().len()),
+            bounce: file.bounce.as_ref().map_or(0, |b| b.to_bytes().len()),
         },
         rays_cast: system.rays_cast,
         form_factors: system.form_factors,

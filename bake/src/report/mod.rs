@@ -33,6 +33,8 @@ pub struct Bytes {
     pub sky: usize,
     /// The PARTS section (0 where no patch holds parts of several objects).
     pub parts: usize,
+    /// The BOUNCE section (0 where no patch sees another).
+    pub bounce: usize,
 }
 
 /// What the bake did and measured: the `bake --json` object (`docs/contract.md`), also stored in the
