@@ -98,19 +98,21 @@ fn write_bake(
             .map_or("n/a".into(), |e| format!("{:.2}%", 100.0 * e))
     );
     let dense = 4.0 * 3.0 * (r.patches as f64).powi(2);
-    let without_probes = (bytes.len() - probe_report.bytes) as f64;
+    let rows = r.bytes.bounce;
+    let matrix = (bytes.len() - probe_report.bytes - rows) as f64;
     outln!(
-        "file: {} ({:.2} MB; without its probes {:.2} MB, a dense f32 RGB matrix would be {:.1} MB, {:.1}x more)",
+        "file: {} ({:.2} MB; without its probes and first-bounce rows {:.2} MB, a dense f32 RGB matrix would be {:.1} MB, {:.1}x more)",
         rad.display(),
         bytes.len() as f64 / 1e6,
-        without_probes / 1e6,
+        matrix / 1e6,
         dense / 1e6,
-        dense / without_probes
+        dense / matrix
     );
     outln!(
-        "probes: {} ({:.2} MB of the file)",
+        "probes: {} ({:.2} MB of the file); first-bounce rows: {:.2} MB of the file",
         probe_report.placed,
-        probe_report.bytes as f64 / 1e6
+        probe_report.bytes as f64 / 1e6,
+        rows as f64 / 1e6
     );
     Ok(())
 }

@@ -21,26 +21,21 @@ use rayon::prelude::*;
 /// of one sender, and an object's figure averages it over its patches.
 pub(crate) const BOUNCE_RAYS: u32 = 1024;
 
-/// One patch's first-bounce row ([`bounce_rows`]).
-#[derive(Clone, Debug)]
-pub(crate) struct BounceRow {
-    /// The weight of one count: one over the patch's rays that start exposed.
-    pub(crate) each: f64,
-    /// `(patch, sample, count)`: the rays whose first hit is nearest to direct-light sample
-    /// `sample` (its index among the hit patch's samples) of `patch`, in increasing
-    /// `(patch, sample)` order.
-    pub(crate) entries: Vec<(u32, u32, u16)>,
-}
+/// One patch's first-bounce row ([`bounce_rows`]): the weight of one ray (one over the
+/// patch's rays that start exposed), and `(patch, sample, count)`, the rays whose first hit is
+/// nearest to direct-light sample `sample` (its index among the hit patch's samples) of
+/// `patch`, in increasing `(patch, sample)` order.
+pub(crate) type BounceRow = (f64, Vec<(u32, u32, u16)>);
 
 /// Per patch (simplification order), the row of [`BOUNCE_RAYS`] rays from its pieces, for
 /// the patches in `live` (`None` for the rest, and for a patch no ray of which starts
-/// exposed); `samples[j]` are patch `j`'s direct-light samples `(position, object)` as the
+/// exposed); `samples[j]` are patch `j`'s direct-light samples `(position, object, area)` as the
 /// runtime mesh holds them. Deterministic: each patch's stream is seeded by its index.
 pub(crate) fn bounce_rows(
     patches: &Patches,
     occ: &Occluders,
     live: &[usize],
-    samples: &[Vec<(glam::DVec3, u32)>],
+    samples: &[Vec<(glam::DVec3, u32, f64)>],
     seed: u64,
 ) -> Vec<Option<BounceRow>> {
     let caster = RowCaster::new(patches, occ, samples);
@@ -63,10 +58,7 @@ pub(crate) fn bounce_rows(
             let mut rng =
                 SplitMix64(seed ^ 0xb0_0c3e ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
             let cast = caster.cast(&pieces, BOUNCE_RAYS, &mut rng)?;
-            Some(BounceRow {
-                each: cast.each,
-                entries: cast.entries,
-            })
+            Some((cast.each, cast.entries))
         })
         .collect()
 }

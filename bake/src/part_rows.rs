@@ -42,7 +42,7 @@ pub(crate) struct PartRow {
 /// Per patch (simplification order), for each of its shared objects (`shared[i]`, in that
 /// order) with a row, the [`PartRow`] of [`PART_RAYS`] cosine-weighted rays from the object's
 /// part of the patch; empty for a patch of one object. `samples[j]` are patch `j`'s
-/// direct-light samples `(position, object)` as the runtime mesh holds them: a hit counts to
+/// direct-light samples `(position, object, area)` as the runtime mesh holds them: a hit counts to
 /// the nearest sample of the hit's object on the hit patch, else the nearest of any. Rays that
 /// start buried (their first hit a back face) are not counted: the row is the mean over the
 /// part's exposed surface. Deterministic: each part's stream is seeded by its patch and
@@ -51,7 +51,7 @@ pub(crate) fn part_rows(
     patches: &Patches,
     occ: &Occluders,
     shared: &[Vec<(u32, f64)>],
-    samples: &[Vec<(glam::DVec3, u32)>],
+    samples: &[Vec<(glam::DVec3, u32, f64)>],
     seed: u64,
 ) -> Vec<Vec<PartRow>> {
     let caster = RowCaster::new(patches, occ, samples);
@@ -100,13 +100,13 @@ pub(crate) struct Cast {
 
 /// Casts gather rows from pieces of surface: stratified cosine-weighted rays, each first hit
 /// counted to the nearest direct-light sample of the hit's object on the hit patch, else the
-/// nearest of any (`samples[j]`: patch `j`'s samples `(position, object)` as the runtime mesh
+/// nearest of any (`samples[j]`: patch `j`'s samples `(position, object, area)` as the runtime mesh
 /// holds them). Rays that start buried (their first hit a back face) are not counted: a row is
 /// the mean over the exposed surface.
 pub(crate) struct RowCaster<'a> {
     patches: &'a Patches,
     occ: &'a Occluders,
-    samples: &'a [Vec<(glam::DVec3, u32)>],
+    samples: &'a [Vec<(glam::DVec3, u32, f64)>],
     owners: Owners,
     far: f64,
 }
@@ -115,7 +115,7 @@ impl<'a> RowCaster<'a> {
     pub(crate) fn new(
         patches: &'a Patches,
         occ: &'a Occluders,
-        samples: &'a [Vec<(glam::DVec3, u32)>],
+        samples: &'a [Vec<(glam::DVec3, u32, f64)>],
     ) -> Self {
         RowCaster {
             patches,

@@ -6,8 +6,10 @@
 //! that reaches the far wall), a receiver that sees only the shaded part of it is sent the
 //! sunlit mean, and the error is carried on through every later bounce. A patch's row names
 //! the direct-light samples of the mesh ([`crate::mesh::Mesh`]'s samples) that its
-//! cosine-weighted rays met first (each ray counts to the sample of the hit patch nearest to the
-//! hit), and gives the correction of its first bounce for where those rays land:
+//! cosine-weighted rays met first (each ray counts to the sample of the hit patch nearest to
+//! the hit), each weighted by its rays' share of the patch's rays (scaled as the closure
+//! scaled the patch's row), and gives the correction of its first bounce for where those rays
+//! land:
 //!
 //! `Δ_i = Σ_e w_e · ρ_j(e) ∘ (H_d(s_e) − H_d,j(e))`
 //!
@@ -22,28 +24,28 @@
 //! | bytes | content |
 //! |---|---|
 //! | 0..16 | `P: u32`, `E: u32`, two zero `u32` |
-//! | 4·P | `f32` weight of one count of each patch: `1 / rays`, times the closure's scaling of its row |
+//! | 4·P | `f32` unit of each patch's weights, finite and not negative |
 //! | 4·(P+1) | `u32` start of each patch's entries, from 0 to `E`, not decreasing |
 //! | 4·E | `u32` mesh sample of each entry, increasing within a row |
-//! | 2·E | `u16` count of each entry, 1 to [`crate::parts::MAX_COUNT`] |
+//! | 2·E | binary16 weight of each entry in its patch's unit, finite and positive: the share of the patch's rays that land nearest that sample, scaled as the closure scaled the patch's row of F |
 
-use crate::parts::MAX_COUNT;
+use crate::half::{f16_is_finite, f16_to_f32};
 use crate::pod_bytes::{cast, u32_at};
 use crate::{Patch, RadError, Rgb, SectionKind};
 use alloc::borrow::Cow;
 use alloc::vec::Vec;
 
-/// The BOUNCE section: per patch, its entries `(sample, count)` and the weight of one count.
+/// The BOUNCE section: per patch, its entries `(sample, weight)` and the unit of its weights.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct BounceRows<'a> {
-    /// The weight of one count, per patch.
+    /// The unit of each patch's weights.
     pub scale: Cow<'a, [f32]>,
     /// Where each patch's entries start (`patches + 1`, the last `E`).
     pub starts: Cow<'a, [u32]>,
     /// The mesh sample of each entry.
     pub samples: Cow<'a, [u32]>,
-    /// The count of each entry.
-    pub counts: Cow<'a, [u16]>,
+    /// The weight of each entry in its patch's unit (binary16 bits).
+    pub weights: Cow<'a, [u16]>,
 }
 
 impl<'a> BounceRows<'a> {
@@ -53,8 +55,8 @@ impl<'a> BounceRows<'a> {
         let scale = self.scale[p];
         self.samples[range.clone()]
             .iter()
-            .zip(&self.counts[range])
-            .map(move |(&s, &c)| (s, f32::from(c) * scale))
+            .zip(&self.weights[range])
+            .map(move |(&s, &w)| (s, f16_to_f32(w) * scale))
     }
 
     /// The section's bytes.
@@ -68,7 +70,7 @@ impl<'a> BounceRows<'a> {
         out.extend_from_slice(bytemuck::cast_slice(&self.scale));
         out.extend_from_slice(bytemuck::cast_slice(&self.starts));
         out.extend_from_slice(bytemuck::cast_slice(&self.samples));
-        out.extend_from_slice(bytemuck::cast_slice(&self.counts));
+        out.extend_from_slice(bytemuck::cast_slice(&self.weights));
         out
     }
 
@@ -103,14 +105,14 @@ impl<'a> BounceRows<'a> {
             scale: cast(&bytes[16..a]),
             starts: cast(&bytes[a..b]),
             samples: cast(&bytes[b..c]),
-            counts: cast(&bytes[c..]),
+            weights: cast(&bytes[c..]),
         })
     }
 
     /// Checks the section against a file of `patches` patches and `samples` mesh samples: one
     /// row a patch, each scale finite and not negative, starts from 0 to the entries not
-    /// decreasing, each row's samples increasing and within range, counts from 1 to
-    /// [`MAX_COUNT`].
+    /// decreasing, each row's samples increasing and within range, weights finite and
+    /// positive.
     pub fn validate(&self, patches: usize, samples: usize) -> Result<(), RadError> {
         let bad = |index: usize, reason| RadError::Invalid {
             section: SectionKind::Bounce,
@@ -124,7 +126,7 @@ impl<'a> BounceRows<'a> {
                 found: self.scale.len() as u64,
             });
         }
-        if self.starts.len() != patches + 1 || self.samples.len() != self.counts.len() {
+        if self.starts.len() != patches + 1 || self.samples.len() != self.weights.len() {
             return Err(bad(0, "row starts or entry arrays of the wrong length"));
         }
         let e = self.samples.len();
@@ -148,8 +150,9 @@ impl<'a> BounceRows<'a> {
                     return Err(bad(at, "samples of a row not increasing"));
                 }
                 prev = Some(s);
-                if !(1..=MAX_COUNT).contains(&self.counts[at]) {
-                    return Err(bad(at, "count outside 1 to 4096"));
+                let w = self.weights[at];
+                if !(f16_is_finite(w) && f16_to_f32(w) > 0.0) {
+                    return Err(bad(at, "weight not finite and positive"));
                 }
             }
         }
@@ -162,7 +165,7 @@ impl<'a> BounceRows<'a> {
             scale: Cow::Owned(self.scale.into_owned()),
             starts: Cow::Owned(self.starts.into_owned()),
             samples: Cow::Owned(self.samples.into_owned()),
-            counts: Cow::Owned(self.counts.into_owned()),
+            weights: Cow::Owned(self.weights.into_owned()),
         }
     }
 }
@@ -188,19 +191,18 @@ pub fn first_bounce(
         rows.scale.len() == n && direct.len() == n && out.len() == n && sample_rows.len() == n + 1,
         "one row per patch"
     );
+    // Each sample's patch, once: a row's samples run across the whole file.
+    let mut owner: Vec<u32> = Vec::with_capacity(at_samples.len());
+    for (j, w) in sample_rows.windows(2).enumerate() {
+        owner.extend(core::iter::repeat_n(
+            j as u32,
+            w[1].saturating_sub(w[0]) as usize,
+        ));
+    }
     for (i, o) in out.iter_mut().enumerate() {
         let mut acc = Rgb::ZERO;
-        let mut j = 0usize;
-        let mut first = true;
         for (s, w) in rows.row(i) {
-            if first {
-                // The first sample's patch by bisection, then onwards: a row's samples increase.
-                j = sample_rows.partition_point(|&r| r <= s).saturating_sub(1);
-                first = false;
-            }
-            while sample_rows[j + 1] <= s {
-                j += 1;
-            }
+            let j = owner[s as usize] as usize;
             acc += patches[j].reflectance * (at_samples[s as usize] - direct[j]) * w;
         }
         *o = acc;
@@ -216,7 +218,11 @@ mod tests {
             scale: Cow::Owned(alloc::vec![0.25, 0.5, 0.125]),
             starts: Cow::Owned(alloc::vec![0, 2, 2, 5]),
             samples: Cow::Owned(alloc::vec![2, 3, 0, 1, 3]),
-            counts: Cow::Owned(alloc::vec![1, 3, 2, 8, 1]),
+            weights: Cow::Owned(
+                [1.0, 3.0, 2.0, 8.0, 1.0]
+                    .map(crate::half::f32_to_f16)
+                    .to_vec(),
+            ),
         }
     }
 
@@ -263,7 +269,7 @@ mod tests {
             scale: Cow::Owned(alloc::vec![0.1, 0.1, 0.0]),
             starts: Cow::Owned(alloc::vec![0, 1, 4, 4]),
             samples: Cow::Owned(alloc::vec![0, 0, 1, 2]),
-            counts: Cow::Owned(alloc::vec![2, 3, 3, 4]),
+            weights: Cow::Owned([2.0, 3.0, 3.0, 4.0].map(crate::half::f32_to_f16).to_vec()),
         };
         rows.validate(3, 3).unwrap();
         let mut out = [Rgb::splat(9.0); 3];
@@ -301,10 +307,13 @@ mod tests {
         r.samples.to_mut()[1] = 2;
         assert_eq!(reason(&r), "samples of a row not increasing");
         let mut r = sample();
-        r.counts.to_mut()[0] = 0;
-        assert_eq!(reason(&r), "count outside 1 to 4096");
+        r.weights.to_mut()[0] = 0;
+        assert_eq!(reason(&r), "weight not finite and positive");
         let mut r = sample();
-        r.counts.to_mut().pop();
+        r.weights.to_mut()[0] = 0x7c00; // +∞
+        assert_eq!(reason(&r), "weight not finite and positive");
+        let mut r = sample();
+        r.weights.to_mut().pop();
         assert_eq!(reason(&r), "row starts or entry arrays of the wrong length");
         let mut bytes = sample().to_bytes();
         bytes.pop();

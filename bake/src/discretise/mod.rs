@@ -82,10 +82,10 @@ pub struct Discretised {
     /// ([`crate::part_rows`]), their entries' patches renumbered to live indices and their
     /// weights scaled as the closure scaled the patch's row.
     pub(crate) part_rows: Vec<Vec<crate::part_rows::PartRow>>,
-    /// Per patch (simplification order), its first-bounce row ([`crate::bounce_rows`]), its
-    /// entries' patches renumbered to live indices and its weight scaled as the closure scaled
-    /// its row; `None` for a dropped patch, or for all where no patch sees another.
-    pub(crate) bounce_rows: Vec<Option<crate::bounce_rows::BounceRow>>,
+    /// Per patch (simplification order), its first-bounce row ([`crate::bounce_rows`]) as
+    /// `(live patch, sample, weight)` entries; `None` for a dropped patch, or for all where no
+    /// patch sees another.
+    pub(crate) bounce_rows: Vec<Option<Vec<(u32, u32, f64)>>>,
     /// Shadow rays cast for the form factors.
     pub rays_cast: u64,
     /// The form-factor settings used.

@@ -13,6 +13,8 @@ use glam::DVec3;
 pub(crate) struct Owners {
     /// `(triangle, piece)` sorted by triangle.
     by_triangle: Vec<(u32, u32)>,
+    /// Each piece's bounding sphere (its vertices' mean, the farthest vertex's distance).
+    sphere: Vec<(DVec3, f64)>,
     /// Patch of each piece.
     patch_of: Vec<u32>,
 }
@@ -30,29 +32,48 @@ impl Owners {
             .map(|(k, p)| (p.triangle, k as u32))
             .collect();
         by_triangle.sort_unstable();
+        let sphere = patches
+            .pieces
+            .iter()
+            .map(|p| {
+                let v = p.polygon.vertices();
+                let c = v.iter().copied().sum::<DVec3>() / v.len().max(1) as f64;
+                let r = v.iter().map(|q| q.distance(c)).fold(0.0, f64::max);
+                (c, r)
+            })
+            .collect();
         Self {
             by_triangle,
+            sphere,
             patch_of,
         }
     }
 
-    /// The patch of the piece of `triangle` nearest to `x` (a point on that triangle).
+    /// The patch of the piece of `triangle` nearest to `x` (a point on that triangle). A
+    /// large triangle is cut into many pieces: those whose bounding sphere lies farther than
+    /// the nearest so far are passed over, and a piece holding `x` ends the search.
     pub(crate) fn patch_at(&self, pieces: &[Piece], triangle: u32, x: DVec3) -> Option<usize> {
         let start = self.by_triangle.partition_point(|e| e.0 < triangle);
-        self.by_triangle[start..]
+        let mut best: Option<(f64, u32)> = None;
+        for e in self.by_triangle[start..]
             .iter()
             .take_while(|e| e.0 == triangle)
-            .map(|e| {
-                let p = &pieces[e.1 as usize];
-                let d = crate::geometry::polygon::point_polygon_distance(
-                    x,
-                    p.polygon.vertices(),
-                    p.normal,
-                );
-                (d, e.1)
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(_, k)| self.patch_of[k as usize] as usize)
+        {
+            let (c, r) = self.sphere[e.1 as usize];
+            if best.is_some_and(|(d, _)| x.distance(c) - r >= d) {
+                continue;
+            }
+            let p = &pieces[e.1 as usize];
+            let d =
+                crate::geometry::polygon::point_polygon_distance(x, p.polygon.vertices(), p.normal);
+            if best.is_none_or(|(b, _)| d < b) {
+                best = Some((d, e.1));
+            }
+            if d <= 0.0 {
+                break;
+            }
+        }
+        best.map(|(_, k)| self.patch_of[k as usize] as usize)
     }
 }
 

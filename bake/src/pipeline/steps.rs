@@ -112,30 +112,38 @@ fn bounce_rows_section(
     let file_of = file_numbers(perm);
     let mut scale = Vec::with_capacity(perm.len());
     let mut starts = Vec::with_capacity(perm.len() + 1);
-    let (mut samples, mut counts) = (Vec::new(), Vec::new());
-    let mut entries: Vec<(u32, u16)> = Vec::new();
+    let (mut samples, mut weights) = (Vec::new(), Vec::new());
+    let mut entries: Vec<(u32, f64)> = Vec::new();
     starts.push(0u32);
     for &at in perm {
         entries.clear();
-        let row = system.bounce_rows[system.live[at as usize]].as_ref();
-        if let Some(row) = row {
+        if let Some(row) = &system.bounce_rows[system.live[at as usize]] {
             entries.extend(
-                row.entries
-                    .iter()
-                    .map(|&(j, k, c)| (mesh.sample_rows[file_of[j as usize] as usize] + k, c)),
+                row.iter()
+                    .map(|&(j, k, w)| (mesh.sample_rows[file_of[j as usize] as usize] + k, w)),
             );
-            entries.sort_unstable();
+            entries.sort_unstable_by_key(|e| e.0);
         }
-        scale.push(row.map_or(0.0, |r| r.each as f32));
-        samples.extend(entries.iter().map(|e| e.0));
-        counts.extend(entries.iter().map(|e| e.1));
+        // The largest weight stored as 1024 in binary16: 11 significant bits on every entry
+        // down to 2⁻²⁴ of it.
+        let most = entries.iter().map(|e| e.1).fold(0.0, f64::max);
+        let unit = if most > 0.0 { most / 1024.0 } else { 1.0 };
+        scale.push(unit as f32);
+        for &(sample, w) in &entries {
+            // A weight below binary16's least (2⁻²⁴ of the unit) is left out.
+            let h = radiosity_core::half::f32_to_f16((w / unit) as f32);
+            if radiosity_core::half::f16_to_f32(h) > 0.0 {
+                samples.push(sample);
+                weights.push(h);
+            }
+        }
         starts.push(samples.len() as u32);
     }
     Some(radiosity_core::BounceRows {
         scale: Cow::Owned(scale),
         starts: Cow::Owned(starts),
         samples: Cow::Owned(samples),
-        counts: Cow::Owned(counts),
+        weights: Cow::Owned(weights),
     })
 }
 

@@ -444,7 +444,12 @@ fn first_bounce_rows_round_trip_and_bad_ones_are_refused_with_their_index() {
     let file = sample_file(37, 3, Format::Bc1, 16);
     let bytes = file.to_bytes().unwrap();
     let parsed = RadFile::parse(&bytes).unwrap();
-    assert!(parsed.bounce.as_ref().is_some_and(|b| !b.samples.is_empty()));
+    assert!(
+        parsed
+            .bounce
+            .as_ref()
+            .is_some_and(|b| !b.samples.is_empty())
+    );
     assert_eq!(parsed.bounce, file.bounce);
     // The first patch's weight (f32 at byte 16): NaN, negative.
     for v in [f32::NAN, -1.0] {
@@ -473,13 +478,13 @@ fn first_bounce_rows_round_trip_and_bad_ones_are_refused_with_their_index() {
         })
     ));
     let mut bad = file.clone();
-    bad.bounce.as_mut().unwrap().counts.to_mut()[1] = 0;
+    bad.bounce.as_mut().unwrap().weights.to_mut()[1] = 0;
     assert!(matches!(
         bad.to_bytes(),
         Err(RadError::Invalid {
             section: SectionKind::Bounce,
             index: 1,
-            reason: "count outside 1 to 4096"
+            reason: "weight not finite and positive"
         })
     ));
     // One row a patch, and the mesh its entries name.
