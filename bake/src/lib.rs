@@ -14,7 +14,7 @@
 //! - The discretisation: [`simplify`] (scene → patches), [`form_factor`] (the burial survey
 //!   and F, dense or as sparse rows), `exposure` (buried surface taken out of the patches),
 //!   `closure` (whether light leaves the scene, and F corrected to match),
-//!   [`shadow_points`], `dark_patches`, `part_rows`, [`systems`] (a level's cut), and
+//!   [`shadow_points`], `dark_patches`, `part_rows`, `bounce_rows`, [`systems`] (a level's cut), and
 //!   [`discretise`] which runs them.
 //! - The matrix: [`transfer`] (`M = Σ (F^C)^b F`), [`encode`] (BC1/BC4, u8-log, f16, f32),
 //!   [`order`] (patch renumbering before compression, with estimated errors).
@@ -63,8 +63,10 @@ pub mod shadow_points;
 pub(crate) mod dark_patches;
 
 /// Each object's own gather row in the patches it shares.
-pub(crate) mod bounce_rows;
 pub(crate) mod part_rows;
+
+/// Each patch's first bounce gathered where its rays land (cast as part rows are).
+pub(crate) mod bounce_rows;
 
 pub mod systems;
 
