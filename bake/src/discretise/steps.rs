@@ -442,7 +442,7 @@ pub(super) fn part_rows(
 }
 
 /// Every live patch's first-bounce row ([`crate::bounce_rows`]) as weights: sample `k` of a
-/// sender it keeps ([`keep_uneven`]) weighs its `c_k` rays' share of the patch's rays, scaled as
+/// sender it keeps (`bounce_rows::keep_uneven`) weighs its `c_k` rays' share of the patch's rays, scaled as
 /// the closure scaled the patch's row of F. Entries `(live patch, sample, weight)`; `None` for
 /// the dropped patches and where no patch sees another (the transfer is zero: no bounce to
 /// correct). Casts through the checks' ray tree, built here where nothing occludes the form
@@ -472,8 +472,7 @@ pub(super) fn bounce_rows(
         .into_iter()
         .enumerate()
         .map(|(i, row)| {
-            row.map(|(each, mut r)| {
-                keep_uneven(&mut r, &samples);
+            row.map(|(each, r)| {
                 let each = each * closure_scale(c, i);
                 r.into_iter()
                     .filter(|e| live_at[e.0 as usize] != u32::MAX)
@@ -496,49 +495,6 @@ pub(super) fn bounce_rows(
     );
     rows
 }
-
-/// Keeps a row's entries on each sender whose hits its samples share more unevenly than
-/// chance alone would: where `C` rays land on a sender in proportion to its samples' areas
-/// (expected `e_k = C·a_k/A` on sample `k`), its entries correct nothing on average, whatever
-/// the light (the patch's mean is the same area-weighted mean), and add only noise and bytes.
-/// A sender is kept where its counts' `χ² = Σ (c_k − e_k)²/e_k` exceeds its `K − 1` degrees
-/// of freedom (the mean χ² of an even sender), with at least [`UNEVEN_HITS`] hits. On the house
-/// this keeps 61% of the entries and 4.10% of the 3.97% error without the ground; three
-/// standard deviations above it kept 27% and let the error grow to 5.17%
-/// (`docs/decisions/first-bounce-rows.md`).
-fn keep_uneven(entries: &mut Vec<(u32, u32, u16)>, samples: &[Vec<(DVec3, u32, f64)>]) {
-    let mut kept = Vec::with_capacity(entries.len());
-    for run in entries.chunk_by(|a, b| a.0 == b.0) {
-        let of = &samples[run[0].0 as usize];
-        let hits: f64 = run.iter().map(|e| f64::from(e.2)).sum();
-        let area: f64 = of.iter().map(|s| s.2).sum();
-        let dof = of.len().saturating_sub(1) as f64;
-        if dof == 0.0 || hits < UNEVEN_HITS || !(area > 0.0) {
-            continue;
-        }
-        // Σ (c − e)²/e over every sample = Σ c²/e over those hit − C.
-        let chi2 = run
-            .iter()
-            .map(|e| {
-                let expected = hits * of[e.1 as usize].2 / area;
-                let c = f64::from(e.2);
-                if expected > 0.0 {
-                    c * c / expected
-                } else {
-                    0.0
-                }
-            })
-            .sum::<f64>()
-            - hits;
-        if chi2 > dof {
-            kept.extend_from_slice(run);
-        }
-    }
-    *entries = kept;
-}
-
-/// Fewer hits on a sender than this say nothing of how they share it ([`keep_uneven`]).
-const UNEVEN_HITS: f64 = 4.0;
 
 /// Each patch's live index (`u32::MAX` for a dropped one).
 fn live_numbers(c: &Corrected) -> Vec<u32> {
