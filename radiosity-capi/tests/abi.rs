@@ -178,9 +178,10 @@ fn gathers_and_corner_light_equal_the_crates() {
 fn bad_input_is_refused_with_a_message() {
     let mut file = sample_file(40, 1, Format::Bc4, 16);
     file.mesh = None;
-    // Part rows name the mesh's samples, coverage its triangles: a file without a mesh
-    // has neither.
+    // Part and first-bounce rows name the mesh's samples, coverage its triangles: a file
+    // without a mesh has none of them.
     file.parts = None;
+    file.bounce = None;
     file.coverage = None;
     let n = file.n();
     let scene = scene_of(&file);

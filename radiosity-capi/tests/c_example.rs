@@ -306,9 +306,10 @@ fn c_example_on_sample_files_with_and_without_a_mesh() {
     check_probes(&stdout, &with_mesh);
     let mut grey = sample_file(40, 1, Format::Bc4, 16);
     grey.mesh = None;
-    // Part rows name the mesh's samples, coverage its triangles: a file without a mesh
-    // has neither.
+    // Part and first-bounce rows name the mesh's samples, coverage its triangles: a file
+    // without a mesh has none of them.
     grey.parts = None;
+    grey.bounce = None;
     grey.coverage = None;
     let stdout = run_example(&exe, dir.path(), "grey.rad", &grey);
     assert!(stdout.contains("scene\t40\t2\t0\n"), "{stdout}");
